@@ -1,0 +1,42 @@
+# Every target installs what it needs into .venv from nothing.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+# torch is pinned by the constraints file for every pip call, so nothing can
+# pull a CUDA build of it.
+export PIP_CONSTRAINT := $(CURDIR)/requirements/constraints.txt
+PIP := $(BIN)/python -m pip --disable-pip-version-check
+STAMP := $(VENV)/.installed
+NPROC := $(shell nproc 2>/dev/null || echo 2)
+
+.PHONY: install test test-slow demo lint bench clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+
+$(STAMP): $(BIN)/python pyproject.toml requirements/constraints.txt
+	$(PIP) install --upgrade pip setuptools wheel
+	$(PIP) install "torch==2.13.0"
+	$(PIP) install -e ".[dev,differentiation]"
+	touch $(STAMP)
+
+install: $(STAMP)
+
+test: $(STAMP)
+	OMP_NUM_THREADS=1 MPLBACKEND=Agg $(BIN)/python -m pytest -n $(NPROC) -m "not slow" tests
+
+test-slow: $(STAMP)
+	OMP_NUM_THREADS=1 MPLBACKEND=Agg $(BIN)/python -m pytest -m slow tests
+
+demo: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/python examples/demo_stick_slip.py
+
+lint: $(STAMP)
+	$(BIN)/ruff check sklearn_pycc tests examples asv_benchmarks
+
+bench: $(STAMP)
+	$(PIP) install -e ".[bench]"
+	$(BIN)/python asv_benchmarks/compare.py
+
+clean:
+	rm -rf $(VENV) build *.egg-info .pytest_cache

@@ -1,0 +1,31 @@
+"""sklearn-pycc: hypothesis-driven discovery of differential equations with characteristic curves.
+
+Write a structural skeleton as text, with unknown one-dimensional curves
+``f1, f2, ...`` and scalars ``a1, a2, ...``, and fit it with a scikit-learn
+estimator.
+"""
+
+from . import datasets
+from .estimators import CCRegressor, PolyCCRegressor
+from .exceptions import (
+    GaugeWarning,
+    IdentifiabilityError,
+    RankDeficiencyWarning,
+    SimulationError,
+    SkeletonError,
+)
+from .skeleton import Skeleton
+
+__version__ = "0.1.0.dev0"
+
+__all__ = [
+    "CCRegressor",
+    "GaugeWarning",
+    "IdentifiabilityError",
+    "PolyCCRegressor",
+    "RankDeficiencyWarning",
+    "SimulationError",
+    "Skeleton",
+    "SkeletonError",
+    "datasets",
+]

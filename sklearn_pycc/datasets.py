@@ -1,0 +1,716 @@
+"""Benchmark systems with known characteristic curves, simulated on demand.
+
+Each ``make_*`` function simulates one system of ordinary differential
+equations whose hidden curves are known, and returns a
+:class:`pandas.DataFrame` with the columns ``t``, the states, the inputs and
+the exact (noise-free) derivatives ``NAME_dot``, evaluated from the
+right-hand side on the trajectory. Gaussian measurement noise may be added
+at a given signal-to-noise ratio to chosen columns.
+
+With ``return_truth=True`` the functions also return a
+:class:`~sklearn.utils.Bunch` describing the ground truth: the functional
+skeleton, the true curves, the true parameters, the input signals and the
+initial state.
+
+The systems follow the families of the method's papers:
+
+- :func:`make_stick_slip`: the seed paper's Duffing oscillator with
+  stick-slip friction;
+- :func:`make_duffing`: a forced chaotic Duffing oscillator;
+- :func:`make_van_der_pol`: a forced van der Pol oscillator in Liénard form;
+- :func:`make_first_order`: a first-order nonlinear RC or RL circuit,
+  written unsolved for the derivative;
+- :func:`make_two_dof`: two oscillators joined by a nonlinear spring.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Callable, Mapping, Sequence
+from functools import partial
+
+import numpy as np
+import pandas as pd
+from sklearn.utils import Bunch
+
+from .skeleton import Skeleton
+
+__all__ = [
+    "make_duffing",
+    "make_first_order",
+    "make_stick_slip",
+    "make_two_dof",
+    "make_van_der_pol",
+]
+
+_RTOL = 1e-10
+_ATOL = 1e-12
+_TIME = "t"
+_FIRST_ORDER_KINDS = ("rc", "rl")
+
+
+# -- true curves and input signals (module level, so that they pickle) --------
+def _linear_cubic(x, linear: float, cubic: float):
+    """``linear * x + cubic * x**3``."""
+    return linear * x + cubic * x**3
+
+
+def _viscous_coulomb(v, damping: float, friction: float, steepness: float):
+    """Viscous plus smoothed Coulomb friction ``damping * v + friction * tanh(steepness * v)``."""
+    return damping * v + friction * np.tanh(steepness * v)
+
+
+def _van_der_pol_damping(x, mu: float):
+    """Liénard damping of the van der Pol oscillator, ``mu * (x**2 - 1)``."""
+    return mu * (x * x - 1.0)
+
+
+def _rc_capacitance(v):
+    """Voltage-dependent capacitance ``1 + 0.5 v**2 / (1 + v**2)``, in [1, 1.5)."""
+    v2 = v * v
+    return 1.0 + 0.5 * v2 / (1.0 + v2)
+
+
+def _rl_inductance(i):
+    """Saturating inductance ``1.5 / (1 + i**2) + 0.3``, in (0.3, 1.8]."""
+    return 1.5 / (1.0 + i * i) + 0.3
+
+
+def _cosine(t, amplitude: float, omega: float):
+    """``amplitude * cos(omega * t)``."""
+    return amplitude * np.cos(omega * t)
+
+
+def _sine(t, amplitude: float, omega: float):
+    """``amplitude * sin(omega * t)``."""
+    return amplitude * np.sin(omega * t)
+
+
+# -- validation ---------------------------------------------------------------
+def _check_n_samples(n_samples) -> int:
+    if (not isinstance(n_samples, numbers.Integral) or isinstance(n_samples, bool)
+            or n_samples < 2):
+        raise ValueError(f"n_samples must be an integer >= 2, got {n_samples!r}")
+    return int(n_samples)
+
+
+def _check_t_span(t_span) -> tuple[float, float]:
+    if isinstance(t_span, (str, bytes)):
+        raise ValueError(f"t_span must be a pair (t_start, t_end) of floats, got {t_span!r}")
+    try:
+        values = [float(v) for v in t_span]
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"t_span must be a pair (t_start, t_end) of floats, got {t_span!r}") from None
+    if len(values) != 2:
+        raise ValueError(
+            f"t_span must be a pair (t_start, t_end) of floats, got {len(values)} values")
+    start, end = values
+    if not (math.isfinite(start) and math.isfinite(end)):
+        raise ValueError(f"t_span must hold finite times, got {t_span!r}")
+    if not start < end:
+        raise ValueError(f"t_span must be increasing (t_start < t_end), got {t_span!r}")
+    return start, end
+
+
+def _check_real(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be a finite float, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite float, got {value!r}")
+    return value
+
+
+def _check_noise(noise) -> float | None:
+    if noise is None:
+        return None
+    if isinstance(noise, bool) or not isinstance(noise, numbers.Real):
+        raise ValueError(
+            f"noise must be None or a finite signal-to-noise ratio in dB, got {noise!r}")
+    noise = float(noise)
+    if not math.isfinite(noise):
+        raise ValueError(
+            f"noise must be None or a finite signal-to-noise ratio in dB, got {noise!r}")
+    return noise
+
+
+def _check_noise_columns(noise_columns, columns: Sequence[str],
+                         states: Sequence[str]) -> list[str]:
+    if noise_columns is None:
+        return list(states)
+    if isinstance(noise_columns, str):
+        noise_columns = [noise_columns]
+    try:
+        chosen = list(noise_columns)
+    except TypeError:
+        raise ValueError(
+            f"noise_columns must be None or a list of column names, got {noise_columns!r}"
+        ) from None
+    allowed = [c for c in columns if c != _TIME]
+    for name in chosen:
+        if name == _TIME:
+            raise ValueError("noise_columns cannot include the time column 't'")
+        if name not in allowed:
+            raise ValueError(
+                f"noise_columns names {name!r}, which is not a column of the data set; "
+                f"choose among {', '.join(map(repr, allowed))}")
+    # keep the first occurrence of each name, in the order given
+    return list(dict.fromkeys(chosen))
+
+
+def _check_random_state(random_state) -> np.random.Generator:
+    try:
+        return np.random.default_rng(random_state)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"random_state must be None, an integer or a numpy Generator, got {random_state!r}"
+        ) from exc
+
+
+# -- noise ----------------------------------------------------------------------
+def _add_noise(frame: pd.DataFrame, snr_db: float, columns: Sequence[str],
+               rng: np.random.Generator) -> pd.DataFrame:
+    """Add white Gaussian noise at a signal-to-noise ratio to some columns.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The noise-free data; it is not modified.
+    snr_db : float
+        Signal-to-noise ratio in decibels. For each column the noise has
+        standard deviation ``rms(column) / 10**(snr_db / 20)`` with
+        ``rms = sqrt(mean(column**2))``.
+    columns : sequence of str
+        Columns to corrupt, noise drawn in this order.
+    rng : numpy.random.Generator
+        Source of the noise.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy of ``frame`` with noise added to ``columns``.
+
+    """
+    noisy = frame.copy()
+    scale = 10.0 ** (snr_db / 20.0)
+    for name in columns:
+        values = noisy[name].to_numpy(dtype=float)
+        rms = float(np.sqrt(np.mean(values**2)))
+        sigma = rms / scale
+        noisy[name] = values + rng.normal(0.0, sigma, size=values.shape)
+    return noisy
+
+
+# -- shared driver --------------------------------------------------------------
+def _generate(
+    *,
+    equations: list[str],
+    functions: Mapping[str, Callable],
+    inputs: Mapping[str, Callable],
+    y0,
+    n_samples,
+    t_span,
+    noise,
+    noise_columns,
+    random_state,
+    return_truth: bool,
+    params: Mapping[str, float] | None = None,
+    parametric_equations: list[str] | None = None,
+):
+    """Validate, simulate, add noise and package the result of a ``make_*`` function."""
+    n_samples = _check_n_samples(n_samples)
+    start, end = _check_t_span(t_span)
+    noise = _check_noise(noise)
+    skeleton = Skeleton(equations)
+    columns = [_TIME, *skeleton.states, *skeleton.inputs, *skeleton.derivatives]
+    chosen = _check_noise_columns(noise_columns, columns, skeleton.states)
+    rng = _check_random_state(random_state)
+    try:
+        y0 = tuple(float(v) for v in y0)
+    except (TypeError, ValueError):
+        raise ValueError(f"y0 must be a sequence of floats, got {y0!r}") from None
+    if len(y0) != len(skeleton.states):
+        raise ValueError(
+            f"y0 must hold {len(skeleton.states)} values, one per state "
+            f"({', '.join(skeleton.states)}), got {len(y0)}")
+    if not all(math.isfinite(v) for v in y0):
+        raise ValueError(f"y0 must hold finite values, got {y0!r}")
+
+    t = np.linspace(start, end, n_samples)
+    frame = skeleton.simulate(t, y0, functions=functions, inputs=inputs, rtol=_RTOL,
+                              atol=_ATOL, return_derivatives=True)
+    frame = frame[columns].reset_index(drop=True)
+    if noise is not None and chosen:
+        frame = _add_noise(frame, noise, chosen, rng)
+    if not return_truth:
+        return frame
+    truth = Bunch(
+        equations=list(equations),
+        functions=dict(functions),
+        params=dict(params or {}),
+        parametric_equations=(list(parametric_equations)
+                              if parametric_equations is not None else None),
+        inputs=dict(inputs),
+        y0=y0,
+    )
+    return frame, truth
+
+
+_SECOND_ORDER = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]
+
+
+# -- public generators ------------------------------------------------------------
+def make_stick_slip(
+    n_samples: int = 1000,
+    t_span: tuple[float, float] = (0.0, 20.0),
+    *,
+    noise: float | None = None,
+    noise_columns: Sequence[str] | None = None,
+    random_state: int | np.random.Generator | None = None,
+    alpha: float = 1.0,
+    beta: float = 0.2,
+    delta: float = 0.1,
+    mu: float = 0.5,
+    steepness: float = 500.0,
+    amplitude: float = 1.0,
+    omega: float = 1.0,
+    y0: Sequence[float] = (0.0, 0.0),
+    return_truth: bool = False,
+) -> pd.DataFrame | tuple[pd.DataFrame, Bunch]:
+    """Forced Duffing oscillator with stick-slip friction (the seed paper's system).
+
+    The system is::
+
+        x1_dot = x2
+        x2_dot = F_ext - f1(x2) - f2(x1)
+
+    with friction ``f1(v) = delta*v + mu*tanh(steepness*v)``, spring
+    ``f2(x) = alpha*x + beta*x**3`` and input ``F_ext = amplitude*cos(omega*t)``.
+    Its parametric form is
+    ``x2_dot = F_ext - a1 x2 - a2 tanh(a3 x2) - a4 x1 - a5 x1^3`` with
+    ``a1=delta, a2=mu, a3=steepness, a4=alpha, a5=beta``.
+
+    Parameters
+    ----------
+    n_samples : int, default=1000
+        Number of equally spaced samples, at least 2.
+    t_span : tuple of float, default=(0.0, 20.0)
+        Start and end times.
+    noise : float, optional
+        Signal-to-noise ratio in dB of Gaussian noise added to
+        ``noise_columns``; None for noise-free data.
+    noise_columns : list of str, optional
+        Columns receiving noise (any column but ``t``); default the states.
+    random_state : int, numpy.random.Generator or None
+        Seed of the noise.
+    alpha, beta : float
+        Linear and cubic stiffness of the spring.
+    delta : float
+        Viscous damping.
+    mu : float
+        Coulomb friction level.
+    steepness : float
+        Slope of the ``tanh`` smoothing the friction at zero velocity.
+    amplitude, omega : float
+        Amplitude and angular frequency of the forcing.
+    y0 : tuple of float, default=(0.0, 0.0)
+        Initial position and velocity.
+    return_truth : bool, default=False
+        Also return the ground truth.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        Columns ``t, x1, x2, F_ext, x1_dot, x2_dot``; derivatives are exact.
+    truth : sklearn.utils.Bunch
+        Only when ``return_truth``: ``equations``, ``functions``, ``params``
+        (``a1`` to ``a5``), ``parametric_equations``, ``inputs`` and ``y0``.
+
+    Raises
+    ------
+    ValueError
+        If an argument is invalid; the message names it.
+    SimulationError
+        If the trajectory diverges.
+
+    Examples
+    --------
+    >>> from sklearn_pycc.datasets import make_stick_slip
+    >>> frame = make_stick_slip(n_samples=200)
+    >>> list(frame.columns)
+    ['t', 'x1', 'x2', 'F_ext', 'x1_dot', 'x2_dot']
+
+    """
+    alpha, beta = _check_real("alpha", alpha), _check_real("beta", beta)
+    delta, mu = _check_real("delta", delta), _check_real("mu", mu)
+    steepness = _check_real("steepness", steepness)
+    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
+    return _generate(
+        equations=list(_SECOND_ORDER),
+        functions={
+            "f1": partial(_viscous_coulomb, damping=delta, friction=mu, steepness=steepness),
+            "f2": partial(_linear_cubic, linear=alpha, cubic=beta),
+        },
+        inputs={"F_ext": partial(_cosine, amplitude=amplitude, omega=omega)},
+        params={"a1": delta, "a2": mu, "a3": steepness, "a4": alpha, "a5": beta},
+        parametric_equations=[
+            "x1_dot = x2",
+            "x2_dot = F_ext - a1 x2 - a2 tanh(a3 x2) - a4 x1 - a5 x1^3",
+        ],
+        y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
+        random_state=random_state, return_truth=return_truth,
+    )
+
+
+def make_duffing(
+    n_samples: int = 2000,
+    t_span: tuple[float, float] = (0.0, 100.0),
+    *,
+    noise: float | None = None,
+    noise_columns: Sequence[str] | None = None,
+    random_state: int | np.random.Generator | None = None,
+    alpha: float = -1.05,
+    beta: float = 1.02,
+    delta: float = 0.3,
+    amplitude: float = 0.5,
+    omega: float = 1.2,
+    y0: Sequence[float] = (1.0, 0.0),
+    return_truth: bool = False,
+) -> pd.DataFrame | tuple[pd.DataFrame, Bunch]:
+    """Forced Duffing oscillator, chaotic with the default values.
+
+    The system is::
+
+        x1_dot = x2
+        x2_dot = F_ext - f1(x2) - f2(x1)
+
+    with damping ``f1(v) = delta*v``, double-well spring
+    ``f2(x) = alpha*x + beta*x**3`` and ``F_ext = amplitude*cos(omega*t)``.
+
+    Parameters
+    ----------
+    n_samples : int, default=2000
+        Number of equally spaced samples, at least 2.
+    t_span : tuple of float, default=(0.0, 100.0)
+        Start and end times.
+    noise : float, optional
+        Signal-to-noise ratio in dB of Gaussian noise added to
+        ``noise_columns``; None for noise-free data.
+    noise_columns : list of str, optional
+        Columns receiving noise (any column but ``t``); default the states.
+    random_state : int, numpy.random.Generator or None
+        Seed of the noise.
+    alpha, beta : float
+        Linear and cubic stiffness (``alpha < 0`` gives two wells).
+    delta : float
+        Viscous damping.
+    amplitude, omega : float
+        Amplitude and angular frequency of the forcing.
+    y0 : tuple of float, default=(1.0, 0.0)
+        Initial position and velocity.
+    return_truth : bool, default=False
+        Also return the ground truth.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        Columns ``t, x1, x2, F_ext, x1_dot, x2_dot``; derivatives are exact.
+    truth : sklearn.utils.Bunch
+        Only when ``return_truth``: ``equations``, ``functions``, ``params``
+        (empty), ``parametric_equations`` (None), ``inputs`` and ``y0``.
+
+    Raises
+    ------
+    ValueError
+        If an argument is invalid; the message names it.
+    SimulationError
+        If the trajectory diverges.
+
+    """
+    alpha, beta = _check_real("alpha", alpha), _check_real("beta", beta)
+    delta = _check_real("delta", delta)
+    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
+    return _generate(
+        equations=list(_SECOND_ORDER),
+        functions={
+            "f1": partial(_linear_cubic, linear=delta, cubic=0.0),
+            "f2": partial(_linear_cubic, linear=alpha, cubic=beta),
+        },
+        inputs={"F_ext": partial(_cosine, amplitude=amplitude, omega=omega)},
+        y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
+        random_state=random_state, return_truth=return_truth,
+    )
+
+
+def make_van_der_pol(
+    n_samples: int = 2000,
+    t_span: tuple[float, float] = (0.0, 60.0),
+    *,
+    noise: float | None = None,
+    noise_columns: Sequence[str] | None = None,
+    random_state: int | np.random.Generator | None = None,
+    mu: float = 1.0,
+    amplitude: float = 1.2,
+    omega: float = 0.9,
+    y0: Sequence[float] = (1.0, 0.0),
+    return_truth: bool = False,
+) -> pd.DataFrame | tuple[pd.DataFrame, Bunch]:
+    """Forced van der Pol oscillator in Liénard form.
+
+    The system is::
+
+        x1_dot = x2
+        x2_dot = F_ext - f1(x1) x2 - f2(x1)
+
+    with position-dependent damping ``f1(x) = mu*(x**2 - 1)``, linear spring
+    ``f2(x) = x`` and ``F_ext = amplitude*cos(omega*t)``.
+
+    Parameters
+    ----------
+    n_samples : int, default=2000
+        Number of equally spaced samples, at least 2.
+    t_span : tuple of float, default=(0.0, 60.0)
+        Start and end times.
+    noise : float, optional
+        Signal-to-noise ratio in dB of Gaussian noise added to
+        ``noise_columns``; None for noise-free data.
+    noise_columns : list of str, optional
+        Columns receiving noise (any column but ``t``); default the states.
+    random_state : int, numpy.random.Generator or None
+        Seed of the noise.
+    mu : float
+        Strength of the nonlinear damping.
+    amplitude, omega : float
+        Amplitude and angular frequency of the forcing.
+    y0 : tuple of float, default=(1.0, 0.0)
+        Initial position and velocity.
+    return_truth : bool, default=False
+        Also return the ground truth.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        Columns ``t, x1, x2, F_ext, x1_dot, x2_dot``; derivatives are exact.
+    truth : sklearn.utils.Bunch
+        Only when ``return_truth``: ``equations``, ``functions``, ``params``
+        (empty), ``parametric_equations`` (None), ``inputs`` and ``y0``.
+
+    Raises
+    ------
+    ValueError
+        If an argument is invalid; the message names it.
+    SimulationError
+        If the trajectory diverges.
+
+    """
+    mu = _check_real("mu", mu)
+    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
+    return _generate(
+        equations=["x1_dot = x2", "x2_dot = F_ext - f1(x1) x2 - f2(x1)"],
+        functions={
+            "f1": partial(_van_der_pol_damping, mu=mu),
+            "f2": partial(_linear_cubic, linear=1.0, cubic=0.0),
+        },
+        inputs={"F_ext": partial(_cosine, amplitude=amplitude, omega=omega)},
+        y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
+        random_state=random_state, return_truth=return_truth,
+    )
+
+
+def make_first_order(
+    n_samples: int = 1000,
+    t_span: tuple[float, float] = (0.0, 20.0),
+    *,
+    kind: str = "rc",
+    noise: float | None = None,
+    noise_columns: Sequence[str] | None = None,
+    random_state: int | np.random.Generator | None = None,
+    amplitude: float = 1.5,
+    omega: float = 0.5,
+    y0: Sequence[float] = (0.0,),
+    return_truth: bool = False,
+) -> pd.DataFrame | tuple[pd.DataFrame, Bunch]:
+    """First-order nonlinear circuit, written unsolved for the derivative.
+
+    The skeleton is ``F_ext = f1(x1) + f2(x1) x1_dot`` with
+    ``F_ext = amplitude*sin(omega*t)``; it is simulated by solving for
+    ``x1_dot``.
+
+    ``kind="rc"``
+        Nonlinear RC parallel circuit driven by a current source: ``x1`` is
+        the voltage, ``f1(v) = v + 0.3 v**3`` the current of the nonlinear
+        conductance and ``f2(v) = 1 + 0.5 v**2 / (1 + v**2)`` the
+        voltage-dependent capacitance.
+    ``kind="rl"``
+        Nonlinear RL series circuit driven by a voltage source: ``x1`` is the
+        current, ``f1(i) = 0.8 i + 0.2 i**3`` the voltage of the nonlinear
+        resistor and ``f2(i) = 1.5 / (1 + i**2) + 0.3`` the saturating
+        inductance.
+
+    Both ``f2`` are strictly positive, so the equation can always be solved.
+
+    Parameters
+    ----------
+    n_samples : int, default=1000
+        Number of equally spaced samples, at least 2.
+    t_span : tuple of float, default=(0.0, 20.0)
+        Start and end times.
+    kind : {"rc", "rl"}, default="rc"
+        Which circuit.
+    noise : float, optional
+        Signal-to-noise ratio in dB of Gaussian noise added to
+        ``noise_columns``; None for noise-free data.
+    noise_columns : list of str, optional
+        Columns receiving noise (any column but ``t``); default the state.
+    random_state : int, numpy.random.Generator or None
+        Seed of the noise.
+    amplitude, omega : float
+        Amplitude and angular frequency of the source.
+    y0 : tuple of float, default=(0.0,)
+        Initial voltage (RC) or current (RL).
+    return_truth : bool, default=False
+        Also return the ground truth.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        Columns ``t, x1, F_ext, x1_dot``; the derivative is exact.
+    truth : sklearn.utils.Bunch
+        Only when ``return_truth``: ``equations``, ``functions``, ``params``
+        (empty), ``parametric_equations`` (None), ``inputs`` and ``y0``.
+
+    Raises
+    ------
+    ValueError
+        If an argument is invalid (``kind`` included); the message names it.
+    SimulationError
+        If the trajectory diverges.
+
+    """
+    if kind == "rc":
+        functions = {
+            "f1": partial(_linear_cubic, linear=1.0, cubic=0.3),
+            "f2": _rc_capacitance,
+        }
+    elif kind == "rl":
+        functions = {
+            "f1": partial(_linear_cubic, linear=0.8, cubic=0.2),
+            "f2": _rl_inductance,
+        }
+    else:
+        raise ValueError(
+            f"kind must be one of {', '.join(map(repr, _FIRST_ORDER_KINDS))}, got {kind!r}")
+    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
+    return _generate(
+        equations=["F_ext = f1(x1) + f2(x1) x1_dot"],
+        functions=functions,
+        inputs={"F_ext": partial(_sine, amplitude=amplitude, omega=omega)},
+        y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
+        random_state=random_state, return_truth=return_truth,
+    )
+
+
+def make_two_dof(
+    n_samples: int = 2000,
+    t_span: tuple[float, float] = (0.0, 50.0),
+    *,
+    noise: float | None = None,
+    noise_columns: Sequence[str] | None = None,
+    random_state: int | np.random.Generator | None = None,
+    amplitude: float = 1.0,
+    omega: float = 0.8,
+    damping1: float = 0.2,
+    stiffness1: float = 1.0,
+    coupling: float = 0.5,
+    coupling_cubic: float = 0.3,
+    damping2: float = 0.15,
+    stiffness2: float = 1.2,
+    y0: Sequence[float] = (0.5, -0.3, 0.0, 0.0),
+    return_truth: bool = False,
+) -> pd.DataFrame | tuple[pd.DataFrame, Bunch]:
+    """Two oscillators joined by a nonlinear spring, the first one forced.
+
+    The system is::
+
+        x1_dot = x3
+        x2_dot = x4
+        x3_dot = F_ext - f1(x3) - f2(x1) - f3(x1 - x2)
+        x4_dot = - f4(x4) - f5(x2) + f3(x1 - x2)
+
+    with positions ``x1, x2``, velocities ``x3, x4``, dampings
+    ``f1(v) = damping1*v`` and ``f4(v) = damping2*v``, springs to the ground
+    ``f2(x) = stiffness1*x`` and ``f5(x) = stiffness2*x``, coupling spring
+    ``f3(d) = coupling*d + coupling_cubic*d**3`` acting on both masses with
+    opposite signs, and ``F_ext = amplitude*cos(omega*t)``. Every curve
+    passes through the origin.
+
+    Parameters
+    ----------
+    n_samples : int, default=2000
+        Number of equally spaced samples, at least 2.
+    t_span : tuple of float, default=(0.0, 50.0)
+        Start and end times.
+    noise : float, optional
+        Signal-to-noise ratio in dB of Gaussian noise added to
+        ``noise_columns``; None for noise-free data.
+    noise_columns : list of str, optional
+        Columns receiving noise (any column but ``t``); default the states.
+    random_state : int, numpy.random.Generator or None
+        Seed of the noise.
+    amplitude, omega : float
+        Amplitude and angular frequency of the force on the first mass.
+    damping1, stiffness1 : float
+        Damping and ground stiffness of the first mass.
+    coupling, coupling_cubic : float
+        Linear and cubic stiffness of the coupling spring.
+    damping2, stiffness2 : float
+        Damping and ground stiffness of the second mass.
+    y0 : tuple of float, default=(0.5, -0.3, 0.0, 0.0)
+        Initial positions and velocities ``(x1, x2, x3, x4)``.
+    return_truth : bool, default=False
+        Also return the ground truth.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        Columns ``t, x1, x2, x3, x4, F_ext, x1_dot, x2_dot, x3_dot, x4_dot``;
+        derivatives are exact.
+    truth : sklearn.utils.Bunch
+        Only when ``return_truth``: ``equations``, ``functions``, ``params``
+        (empty), ``parametric_equations`` (None), ``inputs`` and ``y0``.
+
+    Raises
+    ------
+    ValueError
+        If an argument is invalid; the message names it.
+    SimulationError
+        If the trajectory diverges.
+
+    """
+    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
+    damping1 = _check_real("damping1", damping1)
+    stiffness1 = _check_real("stiffness1", stiffness1)
+    coupling = _check_real("coupling", coupling)
+    coupling_cubic = _check_real("coupling_cubic", coupling_cubic)
+    damping2 = _check_real("damping2", damping2)
+    stiffness2 = _check_real("stiffness2", stiffness2)
+    return _generate(
+        equations=[
+            "x1_dot = x3",
+            "x2_dot = x4",
+            "x3_dot = F_ext - f1(x3) - f2(x1) - f3(x1 - x2)",
+            "x4_dot = - f4(x4) - f5(x2) + f3(x1 - x2)",
+        ],
+        functions={
+            "f1": partial(_linear_cubic, linear=damping1, cubic=0.0),
+            "f2": partial(_linear_cubic, linear=stiffness1, cubic=0.0),
+            "f3": partial(_linear_cubic, linear=coupling, cubic=coupling_cubic),
+            "f4": partial(_linear_cubic, linear=damping2, cubic=0.0),
+            "f5": partial(_linear_cubic, linear=stiffness2, cubic=0.0),
+        },
+        inputs={"F_ext": partial(_cosine, amplitude=amplitude, omega=omega)},
+        y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
+        random_state=random_state, return_truth=return_truth,
+    )

@@ -1,0 +1,6 @@
+"""Estimators: the shared :class:`CCRegressor` base and one module per backend."""
+
+from .base import CCRegressor
+from .poly import PolyCCRegressor
+
+__all__ = ["CCRegressor", "PolyCCRegressor"]

@@ -1,0 +1,143 @@
+"""Linear bases for characteristic curves and the fitted curve objects.
+
+A basis maps the curve's own argument ``x`` to ``u = (x - center) / half_width``
+on ``[-1, 1]`` and expands in orthogonal polynomials of ``u``. With a parity
+constraint the map has no shift (``center = 0``, symmetric range) and only
+odd or even degrees are used, so ``f(-x) = -f(x)`` (or ``f(x)``) holds exactly
+in ``x`` itself.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.polynomial import chebyshev, legendre
+from numpy.polynomial import polynomial as power
+
+__all__ = ["BASES", "PolyBasis", "PolyCurve", "ZeroCurve"]
+
+#: name -> (vandermonde(u, degree), to_power_series(coefficients))
+BASES = {
+    "legendre": (legendre.legvander, legendre.leg2poly),
+    "chebyshev": (chebyshev.chebvander, chebyshev.cheb2poly),
+    "power": (power.polyvander, lambda c: np.asarray(c, dtype=float)),
+}
+
+
+class PolyBasis:
+    """Polynomial basis of one curve over the range of its argument.
+
+    Parameters
+    ----------
+    lo, hi : float
+        Range of the argument on the training data.
+    degree : int
+        Highest polynomial degree.
+    parity : {None, "odd", "even"}
+        Keep only odd or even degrees (exact symmetry about ``x = 0``).
+    kind : {"legendre", "chebyshev", "power"}
+        Polynomial family in the scaled variable.
+    """
+
+    def __init__(self, lo: float, hi: float, degree: int, parity: str | None = None,
+                 kind: str = "legendre") -> None:
+        if parity is None:
+            center = 0.5 * (lo + hi)
+            half = 0.5 * (hi - lo)
+        else:
+            center = 0.0
+            half = max(abs(lo), abs(hi))
+        if not np.isfinite(half) or half <= 0:
+            half = max(1.0, abs(center))
+        self.lo, self.hi = float(lo), float(hi)
+        self.center, self.half = float(center), float(half)
+        self.degree = int(degree)
+        self.parity = parity
+        self.kind = kind
+        degrees = np.arange(self.degree + 1)
+        if parity == "odd":
+            degrees = degrees[degrees % 2 == 1]
+        elif parity == "even":
+            degrees = degrees[degrees % 2 == 0]
+        self.degrees = degrees
+
+    @property
+    def size(self) -> int:
+        """Number of coefficients."""
+        return len(self.degrees)
+
+    def design(self, x: np.ndarray) -> np.ndarray:
+        """Basis functions evaluated at ``x``: shape ``(len(x), size)``."""
+        u = (np.asarray(x, dtype=float) - self.center) / self.half
+        vander = BASES[self.kind][0](u, self.degree)
+        return vander[:, self.degrees]
+
+    def curve(self, coefficients: np.ndarray) -> PolyCurve:
+        """The fitted curve for ``coefficients`` (one per basis function)."""
+        full = np.zeros(self.degree + 1)
+        full[self.degrees] = coefficients
+        series = BASES[self.kind][1](full)
+        return PolyCurve(series, self.center, self.half, (self.lo, self.hi))
+
+
+class PolyCurve:
+    """A fitted polynomial curve, evaluated by Horner's rule.
+
+    Works on floats (fast, for ODE right-hand sides) and on numpy arrays.
+
+    Attributes
+    ----------
+    series : ndarray
+        Power-series coefficients in the scaled variable ``u``.
+    center, half : float
+        ``u = (x - center) / half``.
+    domain : tuple of float
+        Argument range seen in training.
+    """
+
+    def __init__(self, series: np.ndarray, center: float, half: float,
+                 domain: tuple[float, float]) -> None:
+        self.series = np.asarray(series, dtype=float)
+        self.center = float(center)
+        self.half = float(half)
+        self.domain = (float(domain[0]), float(domain[1]))
+        self._coefs = [float(c) for c in self.series[::-1]]
+        self._inv = 1.0 / self.half
+
+    def __call__(self, x):
+        u = (x - self.center) * self._inv
+        coefs = self._coefs
+        acc = coefs[0]
+        for c in coefs[1:]:
+            acc = acc * u + c
+        if isinstance(x, np.ndarray) and not isinstance(acc, np.ndarray):
+            return np.full(x.shape, acc)
+        return acc
+
+    def polynomial(self) -> np.polynomial.Polynomial:
+        """The curve as a power series in its own argument ``x``."""
+        u = np.polynomial.Polynomial([-self.center / self.half, 1.0 / self.half])
+        return np.polynomial.Polynomial(self.series)(u)
+
+    def __getstate__(self) -> dict:
+        return {"series": self.series, "center": self.center, "half": self.half,
+                "domain": self.domain}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(state["series"], state["center"], state["half"], state["domain"])
+
+    def __repr__(self) -> str:
+        return f"PolyCurve(degree={len(self.series) - 1}, domain={self.domain})"
+
+
+class ZeroCurve:
+    """The zero function (a curve pinned to zero by the gauge)."""
+
+    domain = (0.0, 0.0)
+
+    def __call__(self, x):
+        if isinstance(x, np.ndarray):
+            return np.zeros(x.shape)
+        return 0.0
+
+    def __repr__(self) -> str:
+        return "ZeroCurve()"

@@ -1,0 +1,145 @@
+"""Turn an estimator's hyperparameters into a checked, gauged fitting problem."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+from ..exceptions import GaugeWarning, IdentifiabilityError, SkeletonError
+from ..skeleton import Skeleton
+from ..skeleton.constraints import Constraint, parse_constraints
+from ..skeleton.equations import Equation
+from ..skeleton.nodes import Node, Unknown, walk
+from ._validation import FitData
+
+__all__ = ["GAUGES", "Problem", "build_skeleton", "gauge_skeleton"]
+
+GAUGES = ("auto", "warn", "raise")
+
+
+def _freeze_constraints(constraints) -> tuple:
+    return parse_constraints(constraints)
+
+
+@lru_cache(maxsize=256)
+def _cached_skeleton(equations: tuple, constraints: tuple) -> Skeleton:
+    return Skeleton(list(equations), list(constraints))
+
+
+def build_skeleton(equations, constraints) -> Skeleton:
+    """Parse (with a cache) the ``equations`` and ``constraints`` hyperparameters."""
+    if equations is None:
+        raise SkeletonError(
+            "no skeleton given: pass equations=[...], e.g. "
+            "['x1_dot = x2', 'x2_dot = F_ext - f1(x2) - f2(x1)']")
+    if isinstance(equations, Skeleton):
+        base = equations
+        if constraints is None:
+            return base
+        return Skeleton(base, constraints)
+    if isinstance(equations, str):
+        raise SkeletonError(
+            "equations must be a list of strings, one per state, not a single string")
+    try:
+        key = tuple(equations)
+        hash(key)
+    except TypeError:
+        return Skeleton(equations, constraints)
+    return _cached_skeleton(key, _freeze_constraints(constraints))
+
+
+@lru_cache(maxsize=256)
+def _cached_report(skeleton: Skeleton):
+    return skeleton.identifiability()
+
+
+@dataclass
+class Problem:
+    """Everything a backend needs to fit the unknowns of a skeleton.
+
+    Attributes
+    ----------
+    skeleton : Skeleton
+        The user's skeleton with its constraints.
+    constraints : dict
+        Curve -> effective constraints (the user's plus the gauge's point values).
+    fixed_params : dict
+        Parameters pinned by the gauge, with their values.
+    zeroed : set
+        Curves pinned to zero by the gauge.
+    data : FitData
+        Columns of X plus the measured derivatives.
+    y : ndarray
+        Measured derivatives, ``(n_samples, n_states)`` in equation order.
+    """
+
+    skeleton: Skeleton
+    constraints: dict[str, list[Constraint]]
+    fixed_params: dict[str, float]
+    zeroed: set[str]
+    data: FitData
+    y: np.ndarray
+    gauge: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def equations(self) -> list[Equation]:
+        """Classified equations."""
+        return self.skeleton.parsed
+
+    @property
+    def free_functions(self) -> list[str]:
+        """Curves to fit."""
+        return [f for f in self.skeleton.functions if f not in self.zeroed]
+
+    @property
+    def free_params(self) -> list[str]:
+        """Parameters to fit."""
+        return [a for a in self.skeleton.params if a not in self.fixed_params]
+
+    def arguments(self, function: str) -> list[Node]:
+        """Every argument expression ``function`` is applied to."""
+        out: list[Node] = []
+        for eq in self.equations:
+            for node in walk(eq.residual):
+                if isinstance(node, Unknown) and node.name == function and node.arg not in out:
+                    out.append(node.arg)
+        return out
+
+    def parity(self, function: str) -> str | None:
+        """``"odd"``, ``"even"`` or None."""
+        kinds = {c.kind for c in self.constraints[function]}
+        return "odd" if "odd" in kinds else "even" if "even" in kinds else None
+
+    def points(self, function: str) -> list[tuple[float, float]]:
+        """Point values ``(at, value)`` the curve must pass through."""
+        return [(c.at, c.value) for c in self.constraints[function] if c.kind == "value"]
+
+
+def gauge_skeleton(skeleton: Skeleton, gauge: str):
+    """Apply the gauge policy; return ``(constraints, fixed_params, zeroed, gauge_dict)``."""
+    if gauge not in GAUGES:
+        raise ValueError(f"gauge must be one of {GAUGES}, got {gauge!r}")
+    constraints = {f: list(skeleton.constraints_of(f)) for f in skeleton.functions}
+    fixed: dict[str, float] = {}
+    zeroed: set[str] = set()
+    report = _cached_report(skeleton)
+    if report.identifiable:
+        return constraints, fixed, zeroed, {}
+    if gauge == "raise":
+        raise IdentifiabilityError(
+            f"{report}\nAdd the constraints above, or use gauge='auto' to pin them automatically.")
+    if gauge == "warn":
+        warnings.warn(f"{report}\nFitting without pinning (gauge='warn').", GaugeWarning,
+                      stacklevel=4)
+        return constraints, fixed, zeroed, {}
+    for fix in report.fixes:
+        if fix.kind == "curve_value":
+            constraints[fix.name].append(fix.as_constraint())
+        elif fix.kind == "curve_zero":
+            zeroed.add(fix.name)
+        else:
+            fixed[fix.name] = fix.value
+    return constraints, fixed, zeroed, report.gauge()

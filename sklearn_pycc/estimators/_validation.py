@@ -1,0 +1,143 @@
+"""Input validation shared by every estimator: columns by name, culprits named."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+from sklearn.utils.validation import check_array, validate_data
+
+__all__ = ["TIME", "TRAJECTORY", "FitData", "read_X", "read_y"]
+
+TIME = "t"
+TRAJECTORY = "trajectory"
+
+
+class FitData:
+    """Named float64 columns of one data set (never the user's arrays themselves)."""
+
+    def __init__(self, columns: dict[str, np.ndarray], n_samples: int,
+                 trajectory: np.ndarray | None = None) -> None:
+        self.columns = columns
+        self.n_samples = n_samples
+        self.trajectory = trajectory
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.columns
+
+
+def _first_bad(values: np.ndarray) -> int:
+    return int(np.flatnonzero(~np.isfinite(values))[0])
+
+
+def _finite_column(values: np.ndarray, what: str) -> None:
+    if not np.isfinite(values).all():
+        i = _first_bad(values)
+        kind = "NaN" if np.isnan(values[i]) else "infinity"
+        raise ValueError(f"{what} contains {kind} at row {i}; remove or fill it before fitting")
+
+
+def _numeric(series: pd.Series, what: str) -> np.ndarray:
+    try:
+        values = series.to_numpy(dtype=np.float64, copy=True)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} is not numeric (dtype {series.dtype})") from None
+    return values
+
+
+def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X") -> FitData:
+    """Validate ``X`` and return the float64 columns the skeleton reads.
+
+    A DataFrame is read by column name; an array's columns are called
+    ``x0, x1, ...``. Columns the skeleton does not use are left alone.
+    ``t`` and ``trajectory`` are read when present.
+    """
+    if isinstance(X, pd.DataFrame):
+        validate_data(estimator, X, reset=reset, skip_check_array=True)
+        if len(X) == 0:
+            raise ValueError(f"{who} has 0 samples; at least one is required")
+        names = [str(c) for c in X.columns]
+        columns: dict[str, np.ndarray] = {}
+        for name in needed:
+            if name not in names:
+                raise ValueError(
+                    f"{who} has no column {name!r}, which the skeleton uses; "
+                    f"{who} has columns {names}")
+            matches = [c for c in X.columns if str(c) == name]
+            if len(matches) > 1:
+                raise ValueError(f"{who} has more than one column named {name!r}")
+            values = _numeric(X[matches[0]], f"{who} column {name!r}")
+            _finite_column(values, f"{who} column {name!r}")
+            columns[name] = values
+        if TIME in names and TIME not in columns:
+            values = _numeric(X[TIME], f"{who} column 't'")
+            _finite_column(values, f"{who} column 't'")
+            columns[TIME] = values
+        trajectory = X[TRAJECTORY].to_numpy(copy=True) if TRAJECTORY in names else None
+        return FitData(columns, len(X), trajectory)
+    array = validate_data(estimator, X, reset=reset, dtype=np.float64,
+                          ensure_all_finite=False, ensure_2d=True, copy=True)
+    names = [f"x{j}" for j in range(array.shape[1])]
+    columns = {}
+    for name in needed:
+        if name not in names:
+            raise ValueError(
+                f"{who} has no column {name!r}, which the skeleton uses. Pass a DataFrame "
+                f"with named columns (an array's {array.shape[1]} columns are called "
+                f"{', '.join(names[:4])}{', ...' if len(names) > 4 else ''})")
+        values = array[:, names.index(name)]
+        _finite_column(values, f"{who} column {name!r}")
+        columns[name] = values
+    return FitData(columns, array.shape[0])
+
+
+def read_y(y, derivatives: Sequence[str], n_samples: int) -> np.ndarray:
+    """Validate the measured derivatives; return ``(n_samples, n_states)`` in equation order.
+
+    A DataFrame is matched by column name (``x1_dot``, ...); an array's
+    columns are taken in the order of the equations.
+    """
+    derivatives = list(derivatives)
+    if isinstance(y, pd.DataFrame):
+        names = [str(c) for c in y.columns]
+        missing = [d for d in derivatives if d not in names]
+        extra = [c for c in names if c not in derivatives]
+        if missing or extra:
+            parts = []
+            if missing:
+                parts.append(f"missing {missing}")
+            if extra:
+                parts.append(f"unexpected {extra}")
+            raise ValueError(
+                f"y columns do not match the skeleton's derivatives {derivatives}: "
+                + "; ".join(parts))
+        if len(set(names)) != len(names):
+            raise ValueError("y has duplicated column names")
+        values = np.column_stack([_numeric(y[d], f"y column {d!r}") for d in derivatives])
+    elif isinstance(y, pd.Series):
+        if len(derivatives) != 1:
+            raise ValueError(
+                f"y is a single series but the skeleton has {len(derivatives)} derivatives "
+                f"{derivatives}; pass a DataFrame with these columns")
+        if y.name is not None and str(y.name) != derivatives[0]:
+            raise ValueError(
+                f"y is named {y.name!r} but the skeleton's derivative is {derivatives[0]!r}")
+        values = _numeric(y, "y")[:, None]
+    else:
+        values = check_array(y, dtype=np.float64, ensure_2d=False, ensure_all_finite=False,
+                             input_name="y", copy=True)
+        if values.ndim == 1:
+            values = values[:, None]
+        if values.ndim != 2 or values.shape[1] != len(derivatives):
+            raise ValueError(
+                f"y has {values.shape[1] if values.ndim == 2 else values.shape} columns but the "
+                f"skeleton has {len(derivatives)} derivatives {derivatives}")
+    if len(values) != n_samples:
+        raise ValueError(f"X has {n_samples} rows but y has {len(values)}")
+    for j, d in enumerate(derivatives):
+        _finite_column(values[:, j], f"y column {d!r}")
+    return values

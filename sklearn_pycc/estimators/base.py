@@ -1,0 +1,369 @@
+"""The shared base of every backend: :class:`CCRegressor`."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.metrics import r2_score
+from sklearn.utils.validation import check_is_fitted
+
+from ..skeleton import Skeleton
+from ..skeleton.compiler import compile_expression
+from ..skeleton.nodes import Symbol, Unknown, walk
+from ..skeleton.printer import to_text
+from ..skeleton.skeleton import simulate_system
+from ..skeleton.system import CompiledSystem
+from ._setup import Problem, build_skeleton, gauge_skeleton
+from ._validation import FitData, read_X, read_y
+
+__all__ = ["CCRegressor"]
+
+
+class EquationsView(list):
+    """The ``equations`` hyperparameter as seen on an estimator.
+
+    It is the list of equations as given, and calling it writes out the
+    fitted model: ``model.equations()``.
+    """
+
+    def __init__(self, raw, estimator) -> None:
+        if raw is None:
+            items = []
+        elif isinstance(raw, Skeleton):
+            items = list(raw.equations)
+        elif isinstance(raw, str):
+            items = [raw]
+        else:
+            try:
+                items = list(raw)
+            except TypeError:
+                items = [raw]
+        super().__init__(items)
+        self._estimator = estimator
+
+    def __call__(self, precision: int = 6) -> list[str]:
+        """The fitted model written out.
+
+        Parameters
+        ----------
+        precision : int, default=6
+            Significant digits of the numbers.
+
+        Returns
+        -------
+        list of str
+            One line per equation with the fitted parameters substituted,
+            then one line per curve with its fitted expression.
+        """
+        return self._estimator.equations_text(precision)
+
+
+class _EquationsParameter:
+    """Data descriptor storing the raw hyperparameter and returning an :class:`EquationsView`."""
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:
+            return self
+        return EquationsView(obj.__dict__.get("equations"), obj)
+
+    def __set__(self, obj, value) -> None:
+        obj.__dict__["equations"] = value
+
+
+class CCRegressor(RegressorMixin, BaseEstimator):
+    """Base class of the characteristic-curve estimators.
+
+    A backend only decides how an unknown curve ``f_i`` is represented and
+    fitted (:meth:`_fit_problem`); parsing, constraints, the gauge,
+    prediction, scoring and simulation live here.
+
+    Parameters
+    ----------
+    equations : list of str or Skeleton
+        The structural skeleton, e.g.
+        ``["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]``.
+    constraints : list of str or dict, optional
+        Prior knowledge: ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"`` or
+        ``{"constraint": "f1 odd"}``.
+    gauge : {"auto", "warn", "raise"}, default="auto"
+        What to do when the skeleton is not identifiable: pin the ambiguity
+        and record it in ``gauge_``, only warn, or raise.
+
+    Attributes
+    ----------
+    skeleton_ : Skeleton
+        The parsed skeleton with its constraints.
+    params_ : dict
+        Fitted (and gauge-fixed) parameters ``{"a1": value, ...}``.
+    functions_ : dict
+        Fitted curves ``{"f1": callable, ...}``, vectorised over numpy arrays.
+    gauge_ : dict
+        ``{pin: reason}`` for what was pinned to make the skeleton identifiable.
+    curve_ranges_ : dict
+        Range of each curve's argument over the training data.
+    n_features_in_ : int
+        Number of columns of ``X`` seen in ``fit``.
+    feature_names_in_ : ndarray
+        Column names of ``X`` when it was a DataFrame.
+    """
+
+    equations = _EquationsParameter()
+
+    def __init__(self, equations=None, constraints=None, gauge: str = "auto") -> None:
+        self.equations = equations
+        self.constraints = constraints
+        self.gauge = gauge
+
+    # -- to be provided by a backend ---------------------------------------
+    def _fit_problem(self, problem: Problem) -> tuple[dict[str, Callable], dict[str, float]]:
+        """Fit the free curves and parameters; return ``(functions, params)``."""
+        raise NotImplementedError(
+            "CCRegressor is the shared base class: use PolyCCRegressor, NeuralCCRegressor "
+            "or SymbolicCCRegressor")
+
+    def _curve_text(self, name: str, variable: str, precision: int) -> str:
+        """Text of a fitted curve as a function of ``variable``."""
+        return f"<{type(self.functions_[name]).__name__}>"
+
+    # -- scikit-learn plumbing -------------------------------------------------
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        tags.target_tags.single_output = True
+        tags.input_tags.allow_nan = False
+        return tags
+
+    def get_params(self, deep: bool = True) -> dict:
+        """Get parameters for this estimator (``equations`` exactly as given)."""
+        params = super().get_params(deep=deep)
+        params["equations"] = self.__dict__.get("equations")
+        return params
+
+    def __getstate__(self) -> dict:
+        state = super().__getstate__()
+        state.pop("_compiled", None)
+        return state
+
+    # -- fitting ---------------------------------------------------------------
+    def _problem(self, X, y) -> Problem:
+        skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
+        constraints, fixed, zeroed, gauge = gauge_skeleton(skeleton, self.gauge)
+        needed = skeleton.variables
+        data = read_X(self, X, needed, reset=True)
+        if y is None:
+            raise ValueError(
+                f"{type(self).__name__}.fit needs y, the measured derivatives "
+                f"{skeleton.derivatives}")
+        targets = read_y(y, skeleton.derivatives, data.n_samples)
+        columns = dict(data.columns)
+        for j, name in enumerate(skeleton.derivatives):
+            columns[name] = targets[:, j]
+        full = FitData(columns, data.n_samples, data.trajectory)
+        return Problem(skeleton, constraints, fixed, zeroed, full, targets, gauge)
+
+    def fit(self, X, y=None):
+        """Fit the unknown curves and parameters of the skeleton.
+
+        Parameters
+        ----------
+        X : DataFrame of shape (n_samples, n_columns)
+            States and inputs by name (``t`` and ``trajectory`` optional). An
+            array's columns are called ``x0, x1, ...``.
+        y : DataFrame or array of shape (n_samples, n_states)
+            Measured derivatives: columns ``NAME_dot`` (a DataFrame is matched
+            by name, an array is taken in the order of the equations).
+
+        Returns
+        -------
+        self : CCRegressor
+            The fitted estimator.
+        """
+        problem = self._problem(X, y)
+        functions, params = self._fit_problem(problem)
+        self._store(problem, functions, params)
+        return self
+
+    def _store(self, problem: Problem, functions: Mapping, params: Mapping) -> None:
+        skeleton = problem.skeleton
+        self.skeleton_ = skeleton
+        self.gauge_ = dict(problem.gauge)
+        all_params = {**problem.fixed_params, **{k: float(v) for k, v in params.items()}}
+        self.params_ = {a: float(all_params[a]) for a in skeleton.params}
+        self.functions_ = {f: functions[f] for f in skeleton.functions}
+        self.curve_ranges_ = self._argument_ranges(problem)
+        self._compiled = None
+
+    def _argument_ranges(self, problem: Problem) -> dict[str, tuple[float, float]]:
+        names = list(problem.data.columns)
+        slots = {name: i for i, name in enumerate(names)}
+        env = [problem.data[name] for name in names]
+        ranges = {}
+        for f in problem.skeleton.functions:
+            lo, hi = np.inf, -np.inf
+            for arg in problem.arguments(f):
+                values = compile_expression(arg, slots, self.params_, self.functions_)(env)
+                values = np.broadcast_to(np.asarray(values, dtype=float),
+                                         (problem.data.n_samples,))
+                finite = values[np.isfinite(values)]
+                if finite.size:
+                    lo, hi = min(lo, float(finite.min())), max(hi, float(finite.max()))
+            ranges[f] = (lo, hi) if np.isfinite(lo) else (0.0, 0.0)
+        return ranges
+
+    # -- using a fitted model --------------------------------------------------
+    def _system(self) -> CompiledSystem:
+        check_is_fitted(self, "functions_")
+        compiled = getattr(self, "_compiled", None)
+        if compiled is None:
+            compiled = self.skeleton_.compile(self.functions_, self.params_)
+            self._compiled = compiled
+        return compiled
+
+    def predict(self, X) -> np.ndarray:
+        """Derivatives predicted by the fitted model.
+
+        Parameters
+        ----------
+        X : DataFrame of shape (n_samples, n_columns)
+            States and inputs by name.
+
+        Returns
+        -------
+        ndarray of shape (n_samples, n_states)
+            One column per equation, in the order of ``equations``.
+        """
+        system = self._system()
+        data = read_X(self, X, self.skeleton_.variables, reset=False)
+        pred = system.evaluate(data.columns, data.n_samples)
+        if len(self.skeleton_.derivatives) == 1 and not isinstance(X, pd.DataFrame):
+            return pred[:, 0]
+        return pred
+
+    def score(self, X, y, sample_weight=None) -> float:
+        """Coefficient of determination R² of the predicted derivatives.
+
+        ``y`` is matched to the equations by name when it is a DataFrame.
+        """
+        check_is_fitted(self, "functions_")
+        pred = np.asarray(self.predict(X)).reshape(len(X), -1) if hasattr(X, "__len__") \
+            else self.predict(X)
+        truth = read_y(y, self.skeleton_.derivatives, pred.shape[0])
+        return float(r2_score(truth, pred, sample_weight=sample_weight))
+
+    def simulate(
+        self,
+        t,
+        y0,
+        inputs: Mapping | None = None,
+        *,
+        method: str = "LSODA",
+        rtol: float = 1e-6,
+        atol: float = 1e-8,
+        return_derivatives: bool = False,
+        **solver_options,
+    ) -> pd.DataFrame:
+        """Simulate the fitted model.
+
+        Parameters
+        ----------
+        t : array-like
+            Strictly increasing output times.
+        y0 : array-like or dict
+            Initial state, in the order of the equations or by state name.
+        inputs : dict, optional
+            Input name -> callable of ``t``, array sampled on ``t``, or constant.
+        method : str, default="LSODA"
+            SciPy solver: LSODA, RK45, RK23, DOP853, Radau or BDF.
+        rtol, atol : float
+            Solver tolerances.
+        return_derivatives : bool
+            Add the inputs and the ``NAME_dot`` columns along the trajectory.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``t`` and the states.
+
+        Raises
+        ------
+        SimulationError
+            When the model diverges or the solver fails; it carries the time
+            reached and the partial trajectory.
+        """
+        system = self._system()
+        if isinstance(y0, Mapping):
+            states = self.skeleton_.states
+            unknown = [k for k in y0 if k not in states]
+            if unknown:
+                raise ValueError(f"y0 names {unknown[0]!r}, which is not a state of {states}")
+            missing = [s for s in states if s not in y0]
+            if missing:
+                raise ValueError(f"y0 has no value for the state {missing[0]!r}")
+            y0 = [y0[s] for s in states]
+        return simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
+                               return_derivatives=return_derivatives, **solver_options)
+
+    # -- reading a fitted model ------------------------------------------------
+    def _variable(self, name: str) -> str:
+        texts = {to_text(arg) for eq in self.skeleton_.parsed for node in walk(eq.residual)
+                 if isinstance(node, Unknown) and node.name == name for arg in [node.arg]}
+        if len(texts) == 1:
+            text = texts.pop()
+            args = [node.arg for eq in self.skeleton_.parsed for node in walk(eq.residual)
+                    if isinstance(node, Unknown) and node.name == name]
+            if isinstance(args[0], Symbol):
+                return text
+        return "u"
+
+    def equations_text(self, precision: int = 6) -> list[str]:
+        """The fitted model written out (see :meth:`equations`)."""
+        check_is_fitted(self, "functions_")
+        lines = []
+        for eq in self.skeleton_.parsed:
+            lhs = to_text(eq.lhs, self.params_, precision)
+            rhs = to_text(eq.rhs, self.params_, precision)
+            lines.append(f"{lhs} = {rhs}")
+        for name in self.skeleton_.functions:
+            variable = self._variable(name)
+            body = self._curve_text(name, variable, precision)
+            line = f"{name}({variable}) = {body}"
+            if variable == "u":
+                args = sorted({to_text(a) for a in self._arguments(name)})
+                line += f"  with u = {' or '.join(args)}"
+            lines.append(line)
+        return lines
+
+    def _arguments(self, name: str):
+        return [node.arg for eq in self.skeleton_.parsed for node in walk(eq.residual)
+                if isinstance(node, Unknown) and node.name == name]
+
+    def cc_curves(self, n: int = 200) -> dict[str, pd.DataFrame]:
+        """Each fitted curve on ``n`` points over the range of its argument in training.
+
+        Returns
+        -------
+        dict of str -> DataFrame
+            ``{"f1": DataFrame(columns=["x", "f1"]), ...}`` (the paper's
+            ``evals``); ``frame.attrs["argument"]`` holds the argument's text.
+        """
+        check_is_fitted(self, "functions_")
+        if int(n) < 2:
+            raise ValueError(f"n must be at least 2, got {n}")
+        out = {}
+        for name, curve in self.functions_.items():
+            lo, hi = self.curve_ranges_[name]
+            x = np.linspace(lo, hi, int(n))
+            values = np.broadcast_to(np.asarray(curve(x), dtype=float), x.shape)
+            frame = pd.DataFrame({"x": x, name: np.array(values)})
+            frame.attrs["argument"] = " or ".join(sorted({to_text(a)
+                                                          for a in self._arguments(name)}))
+            out[name] = frame
+        return out
+
+    @property
+    def n_states_(self) -> int:
+        """Number of states (equations)."""
+        return len(self.skeleton_.states)

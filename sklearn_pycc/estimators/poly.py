@@ -1,0 +1,338 @@
+"""Polynomial backend: curves as linear-basis expansions, parameters by variable projection."""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+from numbers import Integral
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
+from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
+from ._linear import curve_arguments, linearize, split_parameters
+from ._lstsq import constrained_lstsq
+from ._setup import Problem
+from .base import CCRegressor
+
+__all__ = ["PolyCCRegressor"]
+
+# grid of starting magnitudes for nonlinear parameters: +-10^k
+_LOG_GRID = np.arange(-2.0, 4.01, 0.5)
+
+
+class _Design:
+    """Weighted linear system of a fit, rebuilt for each value of the nonlinear parameters."""
+
+    def __init__(self, problem: Problem, linear: list[str], nonlinear: list[str],
+                 degrees: Mapping[str, int], basis: str) -> None:
+        self.problem = problem
+        self.linear = linear
+        self.nonlinear = nonlinear
+        self.degrees = degrees
+        self.basis = basis
+        self.curves = problem.free_functions
+        self.data = problem.data.columns
+        self.n = problem.data.n_samples
+        eqs = problem.equations
+        self.residuals = [eq.residual for eq in eqs]
+        # only equations with something to fit take part
+        self.active = []
+        for i, node in enumerate(self.residuals):
+            from ..skeleton.nodes import Param, Unknown, walk
+
+            names = {x.name for x in walk(node) if isinstance(x, (Param, Unknown))}
+            if names & (set(linear) | set(nonlinear) | set(self.curves)):
+                self.active.append(i)
+        self.weights = {}
+
+    def bases(self, values: Mapping[str, float]) -> dict[str, PolyBasis]:
+        ranges: dict[str, list[np.ndarray]] = {}
+        for i in self.active:
+            for name, args in curve_arguments(self.residuals[i], self.data, self.n,
+                                              values).items():
+                ranges.setdefault(name, []).extend(args)
+        out = {}
+        for name in self.curves:
+            args = np.concatenate(ranges.get(name, [np.zeros(1)]))
+            finite = args[np.isfinite(args)]
+            lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (-1.0, 1.0)
+            out[name] = PolyBasis(lo, hi, self.degrees[name], self.problem.parity(name),
+                                  self.basis)
+        return out
+
+    def layout(self, bases: Mapping[str, PolyBasis]) -> list[tuple[str, int]]:
+        return [(a, 1) for a in self.linear] + [(f, bases[f].size) for f in self.curves]
+
+    def assemble(self, values: Mapping[str, float]):
+        """Return ``A, b, C, d, layout, bases`` for fixed nonlinear/pinned parameter values."""
+        bases = self.bases(values)
+        layout = self.layout(bases)
+        offsets, p = {}, 0
+        for name, size in layout:
+            offsets[name] = (p, p + size)
+            p += size
+        rows_A, rows_b = [], []
+        linear = set(self.linear)
+        zeroed = self.problem.zeroed
+        for i in self.active:
+            form = linearize(self.residuals[i], self.data, self.n, values, bases, linear, zeroed)
+            b = np.broadcast_to(np.asarray(form.const, dtype=float), (self.n,))
+            if i not in self.weights:
+                scale = float(np.sqrt(np.mean(b * b)))
+                self.weights[i] = 1.0 / scale if np.isfinite(scale) and scale > 0 else 1.0
+            w = self.weights[i]
+            A = np.zeros((self.n, p))
+            for name, block in form.blocks.items():
+                lo, hi = offsets[name]
+                A[:, lo:hi] += block
+            rows_A.append(A * w)
+            rows_b.append(b * w)
+        A = np.vstack(rows_A) if rows_A else np.zeros((0, p))
+        b = np.concatenate(rows_b) if rows_b else np.zeros(0)
+        C_rows, d = [], []
+        for f in self.curves:
+            for at, value in self.problem.points(f):
+                row = np.zeros(p)
+                lo, hi = offsets[f]
+                row[lo:hi] = bases[f].design(np.array([at]))[0]
+                C_rows.append(row)
+                d.append(value)
+        C = np.array(C_rows) if C_rows else None
+        return A, b, C, (np.array(d) if d else None), layout, bases
+
+
+class PolyCCRegressor(CCRegressor):
+    """Characteristic curves as polynomial (linear-basis) expansions.
+
+    Each unknown curve ``f_i`` is expanded in orthogonal polynomials over the
+    range of its argument; parameters ``a_i`` that enter linearly are solved
+    jointly with the curve coefficients by one least-squares problem over
+    all equations, with constraints as exact linear equalities. Parameters
+    that enter nonlinearly (``a3`` in ``a2 tanh(a3 x2)``) are found by
+    variable projection: an outer nonlinear least-squares search, started
+    from a grid of magnitudes, over the residual of the inner linear fit.
+
+    Parameters
+    ----------
+    equations : list of str or Skeleton
+        The structural skeleton.
+    constraints : list of str or dict, optional
+        ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, ...
+    degree : int or dict, default=7
+        Polynomial degree of every curve, or ``{"f1": 9, "f2": 3}``.
+    basis : {"legendre", "chebyshev", "power"}, default="legendre"
+        Polynomial family in the argument scaled to ``[-1, 1]``.
+    alpha : float, default=0.0
+        Ridge penalty on the (scaled) coefficients.
+    param_init : dict, optional
+        Starting values of nonlinear parameters; the others start from a grid.
+    gauge : {"auto", "warn", "raise"}, default="auto"
+        See :class:`CCRegressor`.
+    random_state : int, RandomState or None
+        Seeds the multi-start search when there are three or more nonlinear
+        parameters.
+
+    Attributes
+    ----------
+    coefficients_ : dict
+        Basis coefficients of each curve.
+    nonlinear_params_ : list of str
+        Parameters found by variable projection.
+    cost_ : float
+        Final weighted sum of squared equation residuals.
+
+    Examples
+    --------
+    >>> from sklearn_pycc import PolyCCRegressor, datasets
+    >>> df = datasets.make_duffing(n_samples=500)
+    >>> model = PolyCCRegressor(
+    ...     equations=["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
+    ...     constraints=["f1 odd", "f2 odd"], degree=3)
+    >>> _ = model.fit(df[["x1", "x2", "F_ext"]], df[["x1_dot", "x2_dot"]])
+    >>> round(model.score(df[["x1", "x2", "F_ext"]], df[["x1_dot", "x2_dot"]]), 6)
+    1.0
+    """
+
+    def __init__(self, equations=None, constraints=None, degree=7, basis: str = "legendre",
+                 alpha: float = 0.0, param_init: Mapping | None = None, gauge: str = "auto",
+                 random_state=None) -> None:
+        super().__init__(equations=equations, constraints=constraints, gauge=gauge)
+        self.degree = degree
+        self.basis = basis
+        self.alpha = alpha
+        self.param_init = param_init
+        self.random_state = random_state
+
+    def _degrees(self, functions: list[str]) -> dict[str, int]:
+        def check(value, name) -> int:
+            if not isinstance(value, Integral) or isinstance(value, bool) or value < 0:
+                raise ValueError(f"degree of {name} must be a non-negative integer, got {value!r}")
+            return int(value)
+
+        if isinstance(self.degree, Mapping):
+            unknown = [k for k in self.degree if k not in functions]
+            if unknown:
+                raise ValueError(f"degree names {unknown[0]!r}, which is not a curve of the "
+                                 f"skeleton ({', '.join(functions) or 'none'})")
+            return {f: check(self.degree.get(f, 7), f) for f in functions}
+        return {f: check(self.degree, "every curve") for f in functions}
+
+    def _check_params(self) -> None:
+        if self.basis not in BASES:
+            raise ValueError(f"basis must be one of {sorted(BASES)}, got {self.basis!r}")
+        if not np.isfinite(self.alpha) or self.alpha < 0:
+            raise ValueError(f"alpha must be a non-negative number, got {self.alpha!r}")
+
+    def _fit_problem(self, problem: Problem):
+        self._check_params()
+        degrees = self._degrees(problem.free_functions)
+        residuals = [(eq.index, eq.text, eq.residual) for eq in problem.equations]
+        linear, nonlinear = split_parameters(residuals, problem.free_params, type(self).__name__)
+        design = _Design(problem, linear, nonlinear, degrees, self.basis)
+        fixed = dict(problem.fixed_params)
+        init = dict(self.param_init or {})
+        bad = [k for k in init if k not in problem.skeleton.params]
+        if bad:
+            raise ValueError(f"param_init names {bad[0]!r}, which is not a parameter of the "
+                             f"skeleton ({', '.join(problem.skeleton.params) or 'none'})")
+
+        def solve(theta: np.ndarray):
+            values = {**fixed, **dict(zip(nonlinear, theta))}
+            A, b, C, d, layout, bases = design.assemble(values)
+            return constrained_lstsq(A, b, C, d, self.alpha), layout, bases, values
+
+        theta = self._search(solve, nonlinear, init) if nonlinear else np.zeros(0)
+        result, layout, bases, values = solve(theta)
+        self._report_rank(result, layout)
+        params = {a: v for a, v in values.items() if a in nonlinear}
+        functions, coefficients = {}, {}
+        offset = 0
+        for name, size in layout:
+            chunk = result.x[offset:offset + size]
+            offset += size
+            if name in bases:
+                coefficients[name] = chunk.copy()
+                functions[name] = bases[name].curve(chunk)
+            else:
+                params[name] = float(chunk[0])
+        for name in problem.zeroed:
+            functions[name] = ZeroCurve()
+            coefficients[name] = np.zeros(0)
+        self.coefficients_ = coefficients
+        self.nonlinear_params_ = list(nonlinear)
+        self.cost_ = float(result.residual @ result.residual)
+        return functions, params
+
+    # -- nonlinear parameters: variable projection with a multi-start --------------
+    def _search(self, solve, names: list[str], init: Mapping[str, float]) -> np.ndarray:
+        m = len(names)
+
+        def residual(theta):
+            r = solve(theta)[0].residual
+            return r if np.isfinite(r).all() else np.full_like(r, 1e150)
+
+        def cost(theta) -> float:
+            try:
+                r = solve(theta)[0].residual
+            except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+                return np.inf
+            c = float(r @ r)
+            return c if np.isfinite(c) else np.inf
+
+        free = [k for k, name in enumerate(names) if name not in init]
+        base = np.array([float(init.get(name, 1.0)) for name in names])
+        starts = [base]
+        if free:
+            grid = np.concatenate([-(10.0 ** _LOG_GRID), 10.0 ** _LOG_GRID])
+            if len(free) <= 2:
+                mesh = np.meshgrid(*[grid] * len(free), indexing="ij")
+                combos = np.column_stack([g.ravel() for g in mesh])
+            else:
+                rng = np.random.default_rng(_seed(self.random_state))
+                combos = rng.choice(grid, size=(256, len(free)))
+            for combo in combos:
+                start = base.copy()
+                start[free] = combo
+                starts.append(start)
+        costs = np.array([cost(s) for s in starts])
+        order = np.argsort(costs)
+        best_theta, best_cost = starts[order[0]], costs[order[0]]
+        tried = 0
+        for k in order:
+            if tried == 3 or not np.isfinite(costs[k]):
+                break
+            tried += 1
+            start = starts[k]
+            sign = np.where(start < 0, -1.0, 1.0)
+            s0 = np.log(np.maximum(np.abs(start), 1e-12))
+
+            def fun(s, sign=sign):
+                return residual(sign * np.exp(np.clip(s, -700, 700)))
+
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    sol = least_squares(fun, s0, method="trf", xtol=1e-12, ftol=1e-14,
+                                        gtol=1e-14, max_nfev=200 * (m + 1))
+            except (np.linalg.LinAlgError, ValueError):
+                continue
+            theta = sign * np.exp(sol.x)
+            c = cost(theta)
+            if c < best_cost:
+                best_theta, best_cost = theta, c
+        if not np.isfinite(best_cost):
+            raise ValueError(
+                f"no value of the nonlinear parameters {names} gives a finite residual; "
+                "give starting values with param_init")
+        return best_theta
+
+    def _report_rank(self, result, layout) -> None:
+        null = result.null_directions
+        if null.shape[1] == 0:
+            return
+        names, offset = [], 0
+        weight = np.abs(null).max(axis=1)
+        for name, size in layout:
+            if weight[offset:offset + size].max() > 1e-8 * weight.max():
+                names.append(name)
+            offset += size
+        message = (f"the design is rank deficient on these data ({null.shape[1]} direction"
+                   f"{'s' if null.shape[1] > 1 else ''} undetermined): "
+                   f"{', '.join(names)} cannot be separated by the data. Lower the degree, "
+                   "add constraints, or measure a wider range.")
+        if self.gauge == "raise":
+            raise IdentifiabilityError(message)
+        warnings.warn(message, RankDeficiencyWarning, stacklevel=4)
+
+    def _curve_text(self, name: str, variable: str, precision: int) -> str:
+        curve = self.functions_[name]
+        if isinstance(curve, ZeroCurve):
+            return "0"
+        if not isinstance(curve, PolyCurve):
+            return super()._curve_text(name, variable, precision)
+        coefs = curve.polynomial().coef
+        biggest = float(np.max(np.abs(coefs))) if coefs.size else 0.0
+        terms = []
+        for k, c in enumerate(coefs):
+            if c == 0 or abs(c) < 1e-12 * biggest:
+                continue
+            mag = f"{abs(c):.{precision}g}"
+            power = "" if k == 0 else variable if k == 1 else f"{variable}^{k}"
+            body = mag if k == 0 else f"{mag}*{power}"
+            terms.append((c < 0, body))
+        if not terms:
+            return "0"
+        text = ("-" if terms[0][0] else "") + terms[0][1]
+        for negative, body in terms[1:]:
+            text += f" {'-' if negative else '+'} {body}"
+        return text
+
+
+def _seed(random_state) -> int | None:
+    if random_state is None or isinstance(random_state, (int, np.integer)):
+        return random_state
+    if isinstance(random_state, np.random.RandomState):
+        return int(random_state.randint(0, 2**31 - 1))
+    return None

@@ -1,0 +1,25 @@
+"""Skeleton language: parsing, constraints, compilation and identifiability analysis.
+
+This subpackage knows nothing of estimators.
+"""
+
+from .constraints import Constraint, parse_constraints
+from .nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
+from .parser import parse_equation, parse_expression
+from .skeleton import Skeleton
+
+__all__ = [
+    "Apply",
+    "BinOp",
+    "Constraint",
+    "Neg",
+    "Node",
+    "Number",
+    "Param",
+    "Skeleton",
+    "Symbol",
+    "Unknown",
+    "parse_constraints",
+    "parse_equation",
+    "parse_expression",
+]

@@ -1,0 +1,198 @@
+"""Classification of parsed equations: which derivative each one defines."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..exceptions import SkeletonError
+from .nodes import BinOp, Node, Param, Symbol, Unknown, walk
+
+__all__ = ["DOT", "Equation", "classify", "derivative_of", "state_of"]
+
+DOT = "_dot"
+TIME = "t"
+RESERVED_COLUMNS = ("trajectory",)
+
+
+def state_of(name: str) -> str | None:
+    """``"x1_dot" -> "x1"``; None for a name that is not a derivative."""
+    if name.endswith(DOT) and len(name) > len(DOT):
+        return name[: -len(DOT)]
+    return None
+
+
+def derivative_of(state: str) -> str:
+    """``"x1" -> "x1_dot"``."""
+    return state + DOT
+
+
+@dataclass(frozen=True)
+class Equation:
+    """One parsed equation.
+
+    Attributes
+    ----------
+    index : int
+        Position in the user's list.
+    text : str
+        The text as written.
+    lhs, rhs : Node
+        Parsed sides.
+    derivative : str
+        The derivative it determines, e.g. ``"x2_dot"``.
+    explicit : bool
+        True for ``NAME_dot = rhs`` with ``rhs`` free of that derivative;
+        False for an equation to be solved for ``derivative`` (e.g. the
+        first-order family ``F_ext = f1(x1) + f2(x1) x1_dot``).
+    """
+
+    index: int
+    text: str
+    lhs: Node
+    rhs: Node
+    derivative: str
+    explicit: bool
+
+    @property
+    def state(self) -> str:
+        """The state whose derivative this equation determines."""
+        return state_of(self.derivative)
+
+    @property
+    def expression(self) -> Node:
+        """The right-hand side (explicit) or the residual ``lhs - rhs`` (implicit)."""
+        if self.explicit:
+            return self.rhs
+        return BinOp("-", self.lhs, self.rhs)
+
+    @property
+    def residual(self) -> Node:
+        """``lhs - rhs``: zero when the equation holds."""
+        return BinOp("-", self.lhs, self.rhs)
+
+    def symbols(self) -> set[str]:
+        """Every data variable named in the equation."""
+        return {n.name for side in (self.lhs, self.rhs) for n in walk(side)
+                if isinstance(n, Symbol)}
+
+    def derivatives_used(self) -> set[str]:
+        """Derivatives named anywhere in the equation except a bare explicit left side."""
+        nodes = [self.rhs] if self.explicit else [self.lhs, self.rhs]
+        return {n.name for side in nodes for n in walk(side)
+                if isinstance(n, Symbol) and state_of(n.name) is not None}
+
+
+def _positions(node: Node, name: str) -> int:
+    for n in walk(node):
+        if isinstance(n, Symbol) and n.name == name:
+            return n.pos
+    return -1
+
+
+def classify(parsed: list[tuple[str, Node, Node]]) -> list[Equation]:
+    """Decide which derivative each equation determines and check the system.
+
+    Raises
+    ------
+    SkeletonError
+        For duplicate left-hand sides, derivatives no equation defines,
+        equations with nothing or too much to solve for, reserved names, and
+        equations that depend on each other's derivatives in a cycle.
+    """
+    explicit: dict[str, int] = {}
+    for index, (text, lhs, rhs) in enumerate(parsed):
+        for node in (*walk(lhs), *walk(rhs)):
+            if isinstance(node, Symbol) and node.name in RESERVED_COLUMNS:
+                raise SkeletonError(
+                    f"{node.name!r} is the experiment label column and cannot appear "
+                    "in an equation", equation=index, position=node.pos, text=text)
+            if isinstance(node, Symbol) and state_of(node.name) == TIME:
+                raise SkeletonError("'t' is time and has no derivative", equation=index,
+                                    position=node.pos, text=text)
+        if isinstance(lhs, Symbol) and state_of(lhs.name) is not None:
+            in_rhs = any(isinstance(n, Symbol) and n.name == lhs.name for n in walk(rhs))
+            if not in_rhs:
+                if lhs.name in explicit:
+                    first = explicit[lhs.name]
+                    raise SkeletonError(
+                        f"duplicate left-hand side {lhs.name} (already defined by "
+                        f"equations[{first}])", equation=index, position=lhs.pos, text=text)
+                explicit[lhs.name] = index
+
+    equations: list[Equation] = []
+    defined: dict[str, int] = dict(explicit)
+    for index, (text, lhs, rhs) in enumerate(parsed):
+        if explicit.get(getattr(lhs, "name", None)) == index:
+            equations.append(Equation(index, text, lhs, rhs, lhs.name, True))
+            continue
+        used = []
+        for side in (lhs, rhs):
+            for n in walk(side):
+                if isinstance(n, Symbol) and state_of(n.name) and n.name not in used:
+                    used.append(n.name)
+        free = [d for d in used if d not in explicit]
+        if not free:
+            if not used:
+                raise SkeletonError(
+                    "no derivative to solve for: write 'NAME_dot = ...' or an equation "
+                    "containing one NAME_dot", equation=index, position=0, text=text)
+            raise SkeletonError(
+                f"every derivative here ({', '.join(used)}) is already defined by another "
+                "equation, so this equation determines nothing", equation=index, position=0,
+                text=text)
+        if len(free) > 1:
+            raise SkeletonError(
+                f"{' and '.join(free)} both appear here and no other equation defines "
+                "them: write one equation per derivative", equation=index,
+                position=_positions(rhs, free[1]) if _positions(rhs, free[1]) >= 0
+                else _positions(lhs, free[1]), text=text)
+        if free[0] in defined:
+            raise SkeletonError(
+                f"{free[0]} is determined twice (also by equations[{defined[free[0]]}])",
+                equation=index, position=0, text=text)
+        defined[free[0]] = index
+        equations.append(Equation(index, text, lhs, rhs, free[0], False))
+
+    for eq in equations:
+        for name in eq.derivatives_used():
+            if name not in defined:
+                pos = _positions(eq.rhs, name)
+                state = state_of(name)
+                raise SkeletonError(
+                    f"{name} is used but no equation defines it: the state {state} needs "
+                    f"its own '{name} = ...' equation", equation=eq.index,
+                    position=pos if pos >= 0 else 0, text=eq.text)
+    return equations
+
+
+def evaluation_order(equations: list[Equation]) -> list[int]:
+    """Order in which derivatives can be computed (each after those it uses)."""
+    by_derivative = {eq.derivative: i for i, eq in enumerate(equations)}
+    order: list[int] = []
+    state = [0] * len(equations)  # 0 new, 1 visiting, 2 done
+
+    def visit(i: int) -> None:
+        if state[i] == 2:
+            return
+        if state[i] == 1:
+            eq = equations[i]
+            raise SkeletonError(
+                f"the equations depend on each other's derivatives in a cycle through "
+                f"{eq.derivative}", equation=eq.index, position=0, text=eq.text)
+        state[i] = 1
+        for name in sorted(equations[i].derivatives_used()):
+            if name != equations[i].derivative:
+                visit(by_derivative[name])
+        state[i] = 2
+        order.append(i)
+
+    for i in range(len(equations)):
+        visit(i)
+    return order
+
+
+def unknown_names(node: Node) -> tuple[set[str], set[str]]:
+    """Names of the curves and parameters in ``node``."""
+    curves = {n.name for n in walk(node) if isinstance(n, Unknown)}
+    params = {n.name for n in walk(node) if isinstance(n, Param)}
+    return curves, params

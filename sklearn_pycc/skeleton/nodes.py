@@ -1,0 +1,112 @@
+"""Expression trees produced by the skeleton parser.
+
+Nodes are immutable and compare structurally (the source position is kept
+for error messages but ignored by ``==`` and ``hash``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+
+__all__ = [
+    "Apply",
+    "BinOp",
+    "Neg",
+    "Node",
+    "Number",
+    "Param",
+    "Symbol",
+    "Unknown",
+    "walk",
+]
+
+
+@dataclass(frozen=True)
+class Node:
+    """Base class of every expression node."""
+
+    def children(self) -> tuple[Node, ...]:
+        """Return the direct sub-expressions."""
+        return ()
+
+
+@dataclass(frozen=True)
+class Number(Node):
+    """A numeric literal."""
+
+    value: float
+    pos: int = field(default=-1, compare=False)
+
+
+@dataclass(frozen=True)
+class Symbol(Node):
+    """A data variable: a state, an input, a derivative ``NAME_dot`` or ``t``."""
+
+    name: str
+    pos: int = field(default=-1, compare=False)
+
+
+@dataclass(frozen=True)
+class Param(Node):
+    """An unknown scalar ``a<digits>``."""
+
+    name: str
+    pos: int = field(default=-1, compare=False)
+
+
+@dataclass(frozen=True)
+class Unknown(Node):
+    """An unknown one-dimensional characteristic curve ``f<digits>(arg)``."""
+
+    name: str
+    arg: Node
+    pos: int = field(default=-1, compare=False)
+
+    def children(self) -> tuple[Node, ...]:
+        return (self.arg,)
+
+
+@dataclass(frozen=True)
+class Apply(Node):
+    """A known elementary function such as ``tanh(arg)``."""
+
+    func: str
+    arg: Node
+    pos: int = field(default=-1, compare=False)
+
+    def children(self) -> tuple[Node, ...]:
+        return (self.arg,)
+
+
+@dataclass(frozen=True)
+class Neg(Node):
+    """Unary minus."""
+
+    operand: Node
+    pos: int = field(default=-1, compare=False)
+
+    def children(self) -> tuple[Node, ...]:
+        return (self.operand,)
+
+
+@dataclass(frozen=True)
+class BinOp(Node):
+    """A binary operation; ``op`` is one of ``+ - * / ^``."""
+
+    op: str
+    left: Node
+    right: Node
+    pos: int = field(default=-1, compare=False)
+
+    def children(self) -> tuple[Node, ...]:
+        return (self.left, self.right)
+
+
+def walk(node: Node) -> Iterator[Node]:
+    """Yield ``node`` and all its descendants, depth first."""
+    stack = [node]
+    while stack:
+        current = stack.pop()
+        yield current
+        stack.extend(reversed(current.children()))

@@ -1,0 +1,227 @@
+"""Recursive-descent parser of the skeleton language.
+
+Grammar (implicit multiplication binds like ``*``; ``^`` and ``**`` are
+right associative and bind tighter than unary minus)::
+
+    equation := expr "=" expr
+    expr     := term (("+" | "-") term)*
+    term     := unary (("*" | "/") unary | unary)*
+    unary    := ("-" | "+") unary | power
+    power    := primary (("^" | "**") unary)?
+    primary  := NUMBER | NAME | NAME "(" expr ")" | "(" expr ")"
+"""
+
+from __future__ import annotations
+
+from ..exceptions import SkeletonError
+from .functions import CONSTANTS, ELEMENTARY, is_param_name, is_unknown_name
+from .lexer import Token, tokenize
+from .nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
+
+__all__ = ["parse_equation", "parse_expression"]
+
+
+class _Parser:
+    def __init__(self, text: str, index: int | None, kind: str) -> None:
+        self.text = text
+        self.index = index
+        self.kind = kind
+        self.tokens = tokenize(text, index, kind)
+        self.i = 0
+
+    # -- helpers -----------------------------------------------------------
+    @property
+    def tok(self) -> Token:
+        return self.tokens[self.i]
+
+    def error(self, message: str, pos: int) -> SkeletonError:
+        return SkeletonError(
+            message, equation=self.index, position=pos, text=self.text, kind=self.kind
+        )
+
+    def advance(self) -> Token:
+        tok = self.tokens[self.i]
+        self.i += 1
+        return tok
+
+    def is_op(self, *ops: str) -> bool:
+        return self.tok.kind == "OP" and self.tok.text in ops
+
+    def expect_close(self, open_pos: int) -> None:
+        if self.is_op(")"):
+            self.advance()
+            return
+        if self.tok.kind == "END":
+            raise self.error("unbalanced parentheses: '(' is never closed", open_pos)
+        if self.is_op(","):
+            raise self.error("functions take exactly one argument", self.tok.pos)
+        raise self.error(f"expected ')' but found {self.tok.text!r}", self.tok.pos)
+
+    # -- grammar -------------------------------------------------------------
+    def equation(self) -> tuple[Node, Node]:
+        if self.tok.kind == "END":
+            raise self.error("empty equation", 0)
+        lhs = self.expr()
+        if not self.is_op("="):
+            if self.tok.kind == "END":
+                raise self.error("missing '=': write it as 'x1_dot = ...'", self.tok.pos)
+            raise self.unexpected()
+        eq_pos = self.advance().pos
+        if self.tok.kind == "END":
+            raise self.error("nothing after '='", eq_pos)
+        rhs = self.expr()
+        if self.is_op("="):
+            raise self.error("more than one '='", self.tok.pos)
+        if self.tok.kind != "END":
+            raise self.unexpected()
+        return lhs, rhs
+
+    def expression_only(self) -> Node:
+        if self.tok.kind == "END":
+            raise self.error("empty expression", 0)
+        node = self.expr()
+        if self.tok.kind != "END":
+            raise self.unexpected()
+        return node
+
+    def unexpected(self) -> SkeletonError:
+        tok = self.tok
+        if tok.kind == "OP" and tok.text == ")":
+            return self.error("unbalanced parentheses: ')' without '('", tok.pos)
+        if tok.kind == "END":
+            return self.error("unexpected end of the equation", tok.pos)
+        return self.error(f"unexpected {tok.text!r}", tok.pos)
+
+    def expr(self) -> Node:
+        node = self.term()
+        while self.is_op("+", "-"):
+            op = self.advance()
+            node = BinOp(op.text, node, self.term(), pos=op.pos)
+        return node
+
+    def starts_primary(self) -> bool:
+        tok = self.tok
+        return tok.kind in ("NAME", "NUMBER") or (tok.kind == "OP" and tok.text == "(")
+
+    def term(self) -> Node:
+        node = self.unary()
+        while True:
+            if self.is_op("*", "/"):
+                op = self.advance()
+                node = BinOp(op.text, node, self.unary(), pos=op.pos)
+            elif self.starts_primary():
+                if self.tok.kind == "NUMBER":
+                    raise self.error(
+                        "a number cannot follow another factor: missing operator?", self.tok.pos
+                    )
+                pos = self.tok.pos
+                node = BinOp("*", node, self.power(), pos=pos)
+            else:
+                return node
+
+    def unary(self) -> Node:
+        if self.is_op("-"):
+            op = self.advance()
+            return Neg(self.unary(), pos=op.pos)
+        if self.is_op("+"):
+            self.advance()
+            return self.unary()
+        return self.power()
+
+    def power(self) -> Node:
+        base = self.primary()
+        if self.is_op("^"):
+            op = self.advance()
+            return BinOp("^", base, self.unary(), pos=op.pos)
+        return base
+
+    def primary(self) -> Node:
+        tok = self.tok
+        if tok.kind == "NUMBER":
+            self.advance()
+            return Number(float(tok.text), pos=tok.pos)
+        if tok.kind == "NAME":
+            return self.name()
+        if self.is_op("("):
+            self.advance()
+            if self.is_op(")"):
+                raise self.error("empty parentheses", tok.pos)
+            node = self.expr()
+            self.expect_close(tok.pos)
+            return node
+        raise self.unexpected()
+
+    def call_argument(self, name_tok: Token) -> Node:
+        open_tok = self.advance()  # '('
+        if self.is_op(")"):
+            raise self.error(f"{name_tok.text}() needs an argument", open_tok.pos)
+        arg = self.expr()
+        self.expect_close(open_tok.pos)
+        return arg
+
+    def name(self) -> Node:
+        tok = self.advance()
+        name = tok.text
+        followed_by_paren = self.is_op("(")
+        if is_unknown_name(name):
+            if not followed_by_paren:
+                raise self.error(
+                    f"{name} is an unknown curve and needs an argument, e.g. {name}(x1)", tok.pos
+                )
+            return Unknown(name, self.call_argument(tok), pos=tok.pos)
+        if name in ELEMENTARY:
+            if not followed_by_paren:
+                raise self.error(f"{name} needs parentheses: {name}(...)", tok.pos)
+            return Apply(name, self.call_argument(tok), pos=tok.pos)
+        if followed_by_paren:
+            if name == "f":
+                raise self.error("'f' needs an index: write f1, f2, ...", tok.pos)
+            known = ", ".join(sorted(set(ELEMENTARY)))
+            raise self.error(
+                f"unknown function {name!r}; known functions: {known}; "
+                "unknown curves are written f1, f2, ...",
+                tok.pos,
+            )
+        if is_param_name(name):
+            return Param(name, pos=tok.pos)
+        if name in CONSTANTS:
+            return Number(CONSTANTS[name], pos=tok.pos)
+        return Symbol(name, pos=tok.pos)
+
+
+def parse_equation(
+    text: str, index: int | None = None, kind: str = "equations"
+) -> tuple[Node, Node]:
+    """Parse ``"lhs = rhs"`` into two expression trees.
+
+    Parameters
+    ----------
+    text : str
+        The equation.
+    index : int, optional
+        Its index in the user's list, for error messages.
+    kind : str
+        What the list is called in error messages.
+
+    Returns
+    -------
+    (Node, Node)
+        Left- and right-hand sides.
+
+    Raises
+    ------
+    SkeletonError
+        Naming the equation and the position of the problem.
+    """
+    if not isinstance(text, str):
+        raise SkeletonError(
+            f"each equation must be a string, got {type(text).__name__}", equation=index
+        )
+    return _Parser(text, index, kind).equation()
+
+
+def parse_expression(text: str, index: int | None = None, kind: str = "terms") -> Node:
+    """Parse a bare expression such as ``"a7 sign(x2)"``."""
+    if not isinstance(text, str):
+        raise SkeletonError(f"expected a string, got {type(text).__name__}", equation=index)
+    return _Parser(text, index, kind).expression_only()

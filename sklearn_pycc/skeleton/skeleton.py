@@ -1,0 +1,276 @@
+"""The :class:`Skeleton`: a parsed, checked system of equations with curves."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator, Mapping
+
+import numpy as np
+import pandas as pd
+
+from ..exceptions import SkeletonError
+from ..simulation import InputSignals, check_time_grid, integrate_system
+from .constraints import Constraint, check_constraints, parse_constraints
+from .equations import TIME, Equation, classify, state_of
+from .nodes import Param, Symbol, Unknown, walk
+from .parser import parse_equation
+from .system import CompiledSystem
+
+__all__ = ["Skeleton"]
+
+
+def _index_key(name: str) -> int:
+    return int(name[1:])
+
+
+class Skeleton:
+    """A structural skeleton: equations with unknown curves ``f_i`` and scalars ``a_i``.
+
+    Parameters
+    ----------
+    equations : list of str or Skeleton
+        One equation per state, e.g. ``["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]``.
+        A state is a name with a ``NAME_dot`` equation; ``t`` is time; any
+        other name is an input (a measured column). An equation may also be
+        written unsolved, as ``F_ext = f1(x1) + f2(x1) x1_dot``.
+    constraints : list of str or dict, optional
+        ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, or ``{"constraint": "f1 odd"}``.
+
+    Attributes
+    ----------
+    equations : tuple of str
+        The equations as written.
+    constraints : tuple of Constraint
+        Parsed constraints.
+    states, inputs, derivatives, functions, params : list of str
+        Names found in the equations; states and derivatives in the order of
+        the equations, curves and parameters by index.
+
+    Examples
+    --------
+    >>> sk = Skeleton(["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"], ["f1 odd"])
+    >>> sk.states, sk.inputs, sk.functions
+    (['x1', 'x2'], ['F_ext'], ['f1', 'f2'])
+    """
+
+    def __init__(self, equations, constraints: Iterable | None = None) -> None:
+        if isinstance(equations, Skeleton):
+            extra = parse_constraints(constraints)
+            constraints = (*equations.constraints,
+                           *[c for c in extra if c not in equations.constraints])
+            equations = equations.equations
+        if isinstance(equations, str):
+            raise SkeletonError(
+                "equations must be a list of strings, one per state, not a single string")
+        try:
+            texts = list(equations)
+        except TypeError:
+            raise SkeletonError(
+                f"equations must be a list of strings, got {type(equations).__name__}") from None
+        if not texts:
+            raise SkeletonError("the skeleton has no equations")
+        parsed = []
+        for index, text in enumerate(texts):
+            lhs, rhs = parse_equation(text, index)
+            parsed.append((text, lhs, rhs))
+        self.equations: tuple[str, ...] = tuple(texts)
+        self._equations: list[Equation] = classify(parsed)
+        self.derivatives = [eq.derivative for eq in self._equations]
+        self.states = [state_of(d) for d in self.derivatives]
+        functions: list[str] = []
+        params: list[str] = []
+        inputs: list[str] = []
+        uses_time = False
+        for eq in self._equations:
+            for node in (*walk(eq.lhs), *walk(eq.rhs)):
+                if isinstance(node, Unknown) and node.name not in functions:
+                    functions.append(node.name)
+                elif isinstance(node, Param) and node.name not in params:
+                    params.append(node.name)
+                elif isinstance(node, Symbol):
+                    name = node.name
+                    if name == TIME:
+                        uses_time = True
+                    elif (state_of(name) is None and name not in self.states
+                          and name not in inputs):
+                        inputs.append(name)
+        self.functions = sorted(functions, key=_index_key)
+        self.params = sorted(params, key=_index_key)
+        self.inputs = inputs
+        self.uses_time = uses_time
+        self.constraints: tuple[Constraint, ...] = parse_constraints(constraints)
+        check_constraints(self.constraints, self.functions)
+
+    # -- conveniences ---------------------------------------------------------
+    @property
+    def parsed(self) -> list[Equation]:
+        """The classified equations (parsed trees and the derivative each determines)."""
+        return list(self._equations)
+
+    @property
+    def variables(self) -> list[str]:
+        """Data columns the right-hand sides read: states and inputs (and ``t`` if used)."""
+        names = []
+        for eq in self._equations:
+            for node in (*walk(eq.lhs), *walk(eq.rhs)):
+                if (isinstance(node, Symbol) and state_of(node.name) is None
+                        and node.name not in names):
+                    names.append(node.name)
+        return names
+
+    def constraints_of(self, function: str) -> list[Constraint]:
+        """Constraints applying to one curve."""
+        return [c for c in self.constraints if c.function == function]
+
+    def with_constraints(self, constraints: Iterable | None) -> Skeleton:
+        """A new skeleton with the same equations and these constraints added."""
+        return Skeleton(self, constraints)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.equations)
+
+    def __len__(self) -> int:
+        return len(self.equations)
+
+    def __repr__(self) -> str:
+        eqs = ", ".join(repr(e) for e in self.equations)
+        if self.constraints:
+            cons = ", ".join(repr(str(c)) for c in self.constraints)
+            return f"Skeleton([{eqs}], constraints=[{cons}])"
+        return f"Skeleton([{eqs}])"
+
+    def __str__(self) -> str:
+        lines = list(self.equations)
+        if self.constraints:
+            lines.append("subject to: " + ", ".join(str(c) for c in self.constraints))
+        return "\n".join(lines)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Skeleton):
+            return NotImplemented
+        return self.equations == other.equations and set(self.constraints) == set(
+            other.constraints)
+
+    def __hash__(self) -> int:
+        return hash((self.equations, frozenset(self.constraints)))
+
+    def __getstate__(self) -> dict:
+        return {"equations": self.equations, "constraints": self.constraints}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(list(state["equations"]), list(state["constraints"]))
+
+    # -- analysis -------------------------------------------------------------
+    def identifiability(self):
+        """Structural identifiability analysis of the skeleton and its constraints.
+
+        Returns
+        -------
+        IdentifiabilityReport
+            Every ambiguity found, in words, with the constraint or fixed
+            value that removes it.
+        """
+        from .identifiability import analyse
+
+        return analyse(self)
+
+    # -- evaluation -------------------------------------------------------------
+    def _check_values(self, functions: Mapping | None, params: Mapping | None):
+        functions = dict(functions or {})
+        params = dict(params or {})
+        for kind, given, needed in (("curve", functions, self.functions),
+                                    ("parameter", params, self.params)):
+            missing = [n for n in needed if n not in given]
+            if missing:
+                raise ValueError(f"no value for the {kind} {missing[0]!r} of the skeleton")
+            unknown = [n for n in given if n not in needed]
+            if unknown:
+                raise ValueError(
+                    f"{unknown[0]!r} is not a {kind} of the skeleton (it has "
+                    f"{', '.join(needed) or 'none'})")
+        for name, fn in functions.items():
+            if not callable(fn):
+                raise TypeError(f"the curve {name!r} must be callable, got {type(fn).__name__}")
+        params = {k: float(v) for k, v in params.items()}
+        return functions, params
+
+    def compile(self, functions: Mapping[str, Callable] | None = None,
+                params: Mapping[str, float] | None = None) -> CompiledSystem:
+        """Compile the right-hand side with given curves and parameter values."""
+        functions, params = self._check_values(functions, params)
+        return CompiledSystem(self._equations, self.states, self.inputs, params, functions)
+
+    def simulate(
+        self,
+        t,
+        y0,
+        functions: Mapping[str, Callable] | None = None,
+        params: Mapping[str, float] | None = None,
+        inputs: Mapping | None = None,
+        *,
+        method: str = "LSODA",
+        rtol: float = 1e-6,
+        atol: float = 1e-8,
+        return_derivatives: bool = False,
+        **solver_options,
+    ) -> pd.DataFrame:
+        """Simulate the skeleton with given curves and parameters (the paper's ``Theoretical``).
+
+        Parameters
+        ----------
+        t : array-like
+            Strictly increasing output times; integration runs from ``t[0]`` to ``t[-1]``.
+        y0 : array-like
+            Initial state, in the order of :attr:`states`.
+        functions : dict, optional
+            Curve name -> callable (e.g. ``{"f1": lambda v: 0.1 * v}``).
+        params : dict, optional
+            Parameter name -> value.
+        inputs : dict, optional
+            Input name -> callable of ``t``, array sampled on ``t``, or constant.
+        method, rtol, atol :
+            Passed to the SciPy solver (LSODA by default).
+        return_derivatives : bool
+            Also return the ``NAME_dot`` columns evaluated on the trajectory.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``t``, the states (and the inputs and derivatives when
+            ``return_derivatives``).
+
+        Raises
+        ------
+        SimulationError
+            If the trajectory diverges or the solver fails.
+        """
+        system = self.compile(functions, params)
+        return simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
+                               return_derivatives=return_derivatives, **solver_options)
+
+
+def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method="LSODA", rtol=1e-6,
+                    atol=1e-8, return_derivatives=False, **solver_options) -> pd.DataFrame:
+    """Simulate a compiled system (shared by :class:`Skeleton` and the estimators)."""
+    t = check_time_grid(t)
+    y0 = np.asarray(y0, dtype=float)
+    if y0.ndim != 1 or len(y0) != len(system.states):
+        raise ValueError(
+            f"y0 must hold {len(system.states)} values, one per state "
+            f"({', '.join(system.states)}), got shape {y0.shape}")
+    if not np.isfinite(y0).all():
+        raise ValueError("y0 contains NaN or infinity")
+    signals = InputSignals(system.inputs, inputs, t)
+    rhs = system.make_rhs(signals.at)
+    frame = integrate_system(rhs, t, y0, system.states, method=method, rtol=rtol, atol=atol,
+                             **solver_options)
+    if return_derivatives:
+        data = {name: frame[name].to_numpy() for name in system.states}
+        values = signals.on(t)
+        for name, v in zip(system.inputs, values):
+            data[name] = v
+            frame[name] = v
+        data[TIME] = t
+        derivs = system.evaluate(data, len(t))
+        for j, name in enumerate(system.derivatives):
+            frame[name] = derivs[:, j]
+    return frame

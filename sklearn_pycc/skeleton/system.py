@@ -1,0 +1,122 @@
+"""A skeleton with known curves and parameters, compiled for evaluation."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from ..exceptions import SkeletonError
+from ..simulation import Diverged
+from .compiler import compile_expression, degree_in
+from .equations import TIME, Equation, evaluation_order
+
+__all__ = ["CompiledSystem"]
+
+
+class CompiledSystem:
+    """Right-hand side of a skeleton, compiled once with fixed curves and parameters.
+
+    The variable environment is laid out as ``[states..., inputs..., t,
+    derivatives...]``. Implicit equations, linear in the derivative they
+    determine, are solved as ``d = -e(0) / (e(1) - e(0))`` where ``e`` is the
+    residual with ``d`` set to 0 and 1.
+
+    Parameters
+    ----------
+    equations : list of Equation
+        Classified equations of a skeleton.
+    states, inputs : list of str
+        Slot order.
+    params : mapping
+        Values of every parameter.
+    functions : mapping
+        Callables of every curve (vectorised over numpy arrays).
+    """
+
+    def __init__(
+        self,
+        equations: list[Equation],
+        states: list[str],
+        inputs: list[str],
+        params: Mapping[str, float],
+        functions: Mapping[str, Callable],
+    ) -> None:
+        self.states = list(states)
+        self.inputs = list(inputs)
+        self.derivatives = [eq.derivative for eq in equations]
+        names = [*self.states, *self.inputs, TIME, *self.derivatives]
+        self.slots = {name: i for i, name in enumerate(names)}
+        self.n_env = len(names)
+        self._plan_scalar = []
+        self._plan_array = []
+        for i in evaluation_order(equations):
+            eq = equations[i]
+            slot = self.slots[eq.derivative]
+            if not eq.explicit and degree_in(eq.residual, eq.derivative) != 1:
+                raise SkeletonError(
+                    f"cannot solve for {eq.derivative}: it does not enter the equation "
+                    "linearly, so the model can be fitted as written but not simulated",
+                    equation=eq.index, position=0, text=eq.text)
+            node = eq.expression
+            scalar = compile_expression(node, self.slots, params, functions, mode="scalar")
+            array = compile_expression(node, self.slots, params, functions, mode="array")
+            self._plan_scalar.append((slot, scalar, eq.explicit))
+            self._plan_array.append((slot, array, eq.explicit))
+        first = len(self.states) + len(self.inputs) + 1
+        self._derivative_slots = list(range(first, first + len(self.derivatives)))
+        # the state order of the output follows the equations; map to slots
+        self._output_slots = [self.slots[d] for d in self.derivatives]
+
+    # -- vectorised evaluation ----------------------------------------------
+    def evaluate(self, data: Mapping[str, np.ndarray], n: int) -> np.ndarray:
+        """Derivatives on data columns (states, inputs, ``t``); shape ``(n, n_states)``."""
+        env: list = [None] * self.n_env
+        for name, slot in self.slots.items():
+            if name in data:
+                env[slot] = np.asarray(data[name], dtype=float)
+        with np.errstate(all="ignore"):
+            for slot, fn, explicit in self._plan_array:
+                if explicit:
+                    env[slot] = np.broadcast_to(np.asarray(fn(env), dtype=float), (n,))
+                else:
+                    env[slot] = np.zeros(n)
+                    e0 = np.broadcast_to(np.asarray(fn(env), dtype=float), (n,))
+                    env[slot] = np.ones(n)
+                    e1 = np.broadcast_to(np.asarray(fn(env), dtype=float), (n,))
+                    env[slot] = -e0 / (e1 - e0)
+        return np.column_stack([env[s] for s in self._output_slots])
+
+    # -- scalar right-hand side for ODE solvers ----------------------------
+    def make_rhs(self, input_at: Callable[[float], list[float]]) -> Callable:
+        """Return ``rhs(t, y)`` for a SciPy solver; inputs come from ``input_at(t)``."""
+        plan = self._plan_scalar
+        outputs = self._output_slots
+        n_deriv = len(self.derivatives)
+        isfinite = math.isfinite
+        has_inputs = bool(self.inputs)
+
+        def rhs(t, y):
+            t = float(t)
+            env = y.tolist()
+            if has_inputs:
+                env.extend(input_at(t))
+            env.append(t)
+            env.extend([0.0] * n_deriv)
+            for slot, fn, explicit in plan:
+                if explicit:
+                    env[slot] = fn(env)
+                else:
+                    env[slot] = 0.0
+                    e0 = fn(env)
+                    env[slot] = 1.0
+                    e1 = fn(env)
+                    env[slot] = -e0 / (e1 - e0)
+            out = [env[s] for s in outputs]
+            for v in out:
+                if not isfinite(v):
+                    raise Diverged(f"the right-hand side is {v} at t={t:.6g}")
+            return out
+
+        return rhs
