@@ -52,12 +52,17 @@ def _numeric(series: pd.Series, what: str) -> np.ndarray:
 def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X") -> FitData:
     """Validate ``X`` and return the float64 columns the skeleton reads.
 
-    A DataFrame is read by column name; an array's columns are called
+    A DataFrame is read by column name; an array's columns (and those of a
+    DataFrame whose column names are not all strings) are called
     ``x0, x1, ...``. Columns the skeleton does not use are left alone.
     ``t`` and ``trajectory`` are read when present.
     """
-    if isinstance(X, pd.DataFrame):
-        validate_data(estimator, X, reset=reset, skip_check_array=True)
+    named = isinstance(X, pd.DataFrame) and all(isinstance(c, str) for c in X.columns)
+    if named:
+        fitted_names = getattr(estimator, "feature_names_in_", None)
+        if reset or fitted_names is None or list(fitted_names) == list(X.columns):
+            validate_data(estimator, X, reset=reset, skip_check_array=True)
+        # otherwise columns are matched by name below, whatever their order
         if len(X) == 0:
             raise ValueError(f"{who} has 0 samples; at least one is required")
         names = [str(c) for c in X.columns]
@@ -95,12 +100,14 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X") 
     return FitData(columns, array.shape[0])
 
 
-def read_y(y, derivatives: Sequence[str], n_samples: int) -> np.ndarray:
+def read_y(y, derivatives: Sequence[str], n_samples: int, *, with_ndim: bool = False):
     """Validate the measured derivatives; return ``(n_samples, n_states)`` in equation order.
 
     A DataFrame is matched by column name (``x1_dot``, ...); an array's
-    columns are taken in the order of the equations.
+    columns are taken in the order of the equations. With ``with_ndim``,
+    return ``(values, ndim)`` where ``ndim`` is that of the ``y`` given.
     """
+    ndim = 2
     derivatives = list(derivatives)
     if isinstance(y, pd.DataFrame):
         names = [str(c) for c in y.columns]
@@ -127,10 +134,12 @@ def read_y(y, derivatives: Sequence[str], n_samples: int) -> np.ndarray:
             raise ValueError(
                 f"y is named {y.name!r} but the skeleton's derivative is {derivatives[0]!r}")
         values = _numeric(y, "y")[:, None]
+        ndim = 1
     else:
         values = check_array(y, dtype=np.float64, ensure_2d=False, ensure_all_finite=False,
                              input_name="y", copy=True)
         if values.ndim == 1:
+            ndim = 1
             values = values[:, None]
         if values.ndim != 2 or values.shape[1] != len(derivatives):
             raise ValueError(
@@ -140,4 +149,4 @@ def read_y(y, derivatives: Sequence[str], n_samples: int) -> np.ndarray:
         raise ValueError(f"X has {n_samples} rows but y has {len(values)}")
     for j, d in enumerate(derivatives):
         _finite_column(values[:, j], f"y column {d!r}")
-    return values
+    return (values, ndim) if with_ndim else values

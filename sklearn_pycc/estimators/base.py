@@ -155,13 +155,14 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         data = read_X(self, X, needed, reset=True)
         if y is None:
             raise ValueError(
-                f"{type(self).__name__}.fit needs y, the measured derivatives "
-                f"{skeleton.derivatives}")
-        targets = read_y(y, skeleton.derivatives, data.n_samples)
+                f"{type(self).__name__} requires y to be passed, but the target y is None: "
+                f"give the measured derivatives {skeleton.derivatives}")
+        targets, ndim = read_y(y, skeleton.derivatives, data.n_samples, with_ndim=True)
         columns = dict(data.columns)
         for j, name in enumerate(skeleton.derivatives):
             columns[name] = targets[:, j]
         full = FitData(columns, data.n_samples, data.trajectory)
+        self._y_1d = ndim == 1
         return Problem(skeleton, constraints, fixed, zeroed, full, targets, gauge)
 
     def fit(self, X, y=None):
@@ -194,7 +195,8 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         self.params_ = {a: float(all_params[a]) for a in skeleton.params}
         self.functions_ = {f: functions[f] for f in skeleton.functions}
         self.curve_ranges_ = self._argument_ranges(problem)
-        self._compiled = None
+        self._compiled = skeleton.compile(self.functions_, self.params_) if self._solvable() \
+            else None
 
     def _argument_ranges(self, problem: Problem) -> dict[str, tuple[float, float]]:
         names = list(problem.data.columns)
@@ -212,6 +214,12 @@ class CCRegressor(RegressorMixin, BaseEstimator):
                     lo, hi = min(lo, float(finite.min())), max(hi, float(finite.max()))
             ranges[f] = (lo, hi) if np.isfinite(lo) else (0.0, 0.0)
         return ranges
+
+    def _solvable(self) -> bool:
+        from ..skeleton.compiler import degree_in
+
+        return all(eq.explicit or degree_in(eq.residual, eq.derivative) == 1
+                   for eq in self.skeleton_.parsed)
 
     # -- using a fitted model --------------------------------------------------
     def _system(self) -> CompiledSystem:
@@ -233,12 +241,13 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         Returns
         -------
         ndarray of shape (n_samples, n_states)
-            One column per equation, in the order of ``equations``.
+            One column per equation, in the order of ``equations`` (1-D when
+            ``y`` was 1-D in ``fit``).
         """
         system = self._system()
         data = read_X(self, X, self.skeleton_.variables, reset=False)
         pred = system.evaluate(data.columns, data.n_samples)
-        if len(self.skeleton_.derivatives) == 1 and not isinstance(X, pd.DataFrame):
+        if self._y_1d:
             return pred[:, 0]
         return pred
 
@@ -248,8 +257,8 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         ``y`` is matched to the equations by name when it is a DataFrame.
         """
         check_is_fitted(self, "functions_")
-        pred = np.asarray(self.predict(X)).reshape(len(X), -1) if hasattr(X, "__len__") \
-            else self.predict(X)
+        pred = np.asarray(self.predict(X))
+        pred = pred[:, None] if pred.ndim == 1 else pred
         truth = read_y(y, self.skeleton_.derivatives, pred.shape[0])
         return float(r2_score(truth, pred, sample_weight=sample_weight))
 

@@ -1,0 +1,28 @@
+"""scikit-learn's own estimator checks over every estimator."""
+
+from sklearn.utils.estimator_checks import parametrize_with_checks
+
+from sklearn_pycc import PolyCCRegressor
+
+# Without column names, an array's columns are called x0, x1, ...; the check
+# instance's skeleton reads the first one, so it accepts any X the checks build.
+CHECK_EQUATIONS = ["z_dot = f1(x0)"]
+
+EXPECTED_FAILURES = {
+    "check_regressors_train": (
+        "the check instance's skeleton 'z_dot = f1(x0)' reads only the first of the "
+        "check's ten features, so its R^2 on that data is low by design"
+    ),
+    "check_regressor_multioutput": (
+        "the number of outputs is fixed by the skeleton (one per equation); the "
+        "check's five-column y does not match the one-equation check skeleton"
+    ),
+}
+
+
+@parametrize_with_checks(
+    [PolyCCRegressor(equations=CHECK_EQUATIONS, degree=3)],
+    expected_failed_checks=lambda est: EXPECTED_FAILURES,
+)
+def test_sklearn_compatible(estimator, check):
+    check(estimator)
