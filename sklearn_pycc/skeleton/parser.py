@@ -9,6 +9,10 @@ right associative and bind tighter than unary minus)::
     unary    := ("-" | "+") unary | power
     power    := primary (("^" | "**") unary)?
     primary  := NUMBER | NAME | NAME "(" expr ")" | "(" expr ")"
+
+A name directly followed by ``(`` is a call (``tanh(x)``, ``f1(x)``); a
+parameter or a variable followed by a space and ``(`` multiplies
+(``a1 (x + y)``).
 """
 
 from __future__ import annotations
@@ -173,6 +177,10 @@ class _Parser:
             if not followed_by_paren:
                 raise self.error(f"{name} needs parentheses: {name}(...)", tok.pos)
             return Apply(name, self.call_argument(tok), pos=tok.pos)
+        adjacent = followed_by_paren and self.tok.pos == tok.pos + len(name)
+        if is_param_name(name) or (followed_by_paren and not adjacent):
+            # "a1 (x + y)" and "x1 (x2)" multiply; only "name(" is a call
+            followed_by_paren = False
         if followed_by_paren:
             if name == "f":
                 raise self.error("'f' needs an index: write f1, f2, ...", tok.pos)

@@ -64,6 +64,12 @@ def to_text(
             prec = _PRECEDENCE[n.op]
             left, lp = render(n.left)
             right, rp = render(n.right)
+            if n.op == "*" and left in ("1", "-1"):
+                # a parameter fitted or pinned to +-1 multiplies nothing
+                if left == "1":
+                    return right, rp
+                neg = _PRECEDENCE["neg"]
+                return (f"-{right}" if rp > neg else f"-({right})"), neg
             if n.op == "^":
                 if lp <= prec:
                     left = f"({left})"
