@@ -34,9 +34,18 @@ demo: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check sklearn_pycc tests examples asv_benchmarks
 
+# compare.py: side-by-side timings against reference implementations (it
+# reports, never fails); then the asv suite, once (--quick), in .venv itself
+# ("existing" environment: nothing is built or downloaded). Results go to
+# asv_benchmarks/results (saved under the current commit); see them again
+# with `cd asv_benchmarks && ../.venv/bin/asv show`.
 bench: $(STAMP)
-	$(PIP) install -e ".[bench]"
+	$(PIP) install "asv>=0.6"
 	$(BIN)/python asv_benchmarks/compare.py
+	cd asv_benchmarks && $(CURDIR)/$(BIN)/asv machine --yes > /dev/null
+	cd asv_benchmarks && commit=$$(git rev-parse HEAD 2>/dev/null); \
+	  $(CURDIR)/$(BIN)/asv run -E existing:$(CURDIR)/$(BIN)/python --quick --show-stderr \
+	    $${commit:+--set-commit-hash $$commit}
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

@@ -386,3 +386,29 @@ def test_predict_checks_columns_and_fit_state(fitted):
 
     with pytest.raises(NotFittedError):
         PolyCCRegressor(equations=["x1_dot = f1(x1)"]).predict(X)
+
+
+def test_parameters_shared_by_two_equations():
+    frame, _ = datasets.make_two_dof(n_samples=1200, return_truth=True)
+    X, y = split(frame)
+    eqs = [
+        "x1_dot = x3",
+        "x2_dot = x4",
+        "x3_dot = F_ext - a1 x3 - a2 x1 - a3 (x1 - x2) - a6 (x1 - x2)^3",
+        "x4_dot = -a4 x4 - a5 x2 + a3 (x1 - x2) + a6 (x1 - x2)^3",
+    ]
+    model = PolyCCRegressor(equations=eqs).fit(X, y)
+    expected = {"a1": 0.2, "a2": 1.0, "a3": 0.5, "a4": 0.15, "a5": 1.2, "a6": 0.3}
+    for name, value in expected.items():
+        assert model.params_[name] == pytest.approx(value, rel=1e-8)
+
+
+def test_time_symbol_in_a_skeleton(duffing):
+    frame, _ = duffing
+    X, y = split(frame)
+    eqs = ["x1_dot = x2", "x2_dot = a1 cos(1.2 t) - f1(x2) - f2(x1)"]
+    model = PolyCCRegressor(equations=eqs, constraints=["f1 odd", "f2 odd"], degree=3)
+    model.fit(X.drop(columns="F_ext"), y)
+    assert model.params_["a1"] == pytest.approx(0.5, rel=1e-8)
+    sim = model.simulate(frame["t"][:300], [1.0, 0.0])
+    assert rmse(sim["x1"], frame["x1"][:300]) < 1e-4

@@ -9,6 +9,8 @@ in ``x`` itself.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from numpy.polynomial import chebyshev, legendre
 from numpy.polynomial import polynomial as power
@@ -21,6 +23,42 @@ BASES = {
     "chebyshev": (chebyshev.chebvander, chebyshev.cheb2poly),
     "power": (power.polyvander, lambda c: np.asarray(c, dtype=float)),
 }
+
+
+@lru_cache(maxsize=64)
+def _to_power(kind: str, degree: int) -> np.ndarray:
+    """Matrix mapping basis coefficients to power-series coefficients."""
+    convert = BASES[kind][1]
+    out = np.zeros((degree + 1, degree + 1))
+    for k in range(degree + 1):
+        unit = np.zeros(degree + 1)
+        unit[k] = 1.0
+        series = np.asarray(convert(unit), dtype=float)
+        out[: len(series), k] = series
+    out.setflags(write=False)
+    return out
+
+
+def _recurrence(kind: str, u: np.ndarray, degree: int) -> np.ndarray:
+    """Polynomials of degree ``0..degree`` at ``u``, one row each (contiguous rows)."""
+    out = np.empty((degree + 1, u.shape[0]))
+    out[0] = 1.0
+    if degree == 0:
+        return out
+    out[1] = u
+    for k in range(2, degree + 1):
+        if kind == "legendre":
+            # k P_k = (2k - 1) u P_{k-1} - (k - 1) P_{k-2}
+            np.multiply(out[k - 1], u, out=out[k])
+            out[k] *= (2 * k - 1) / k
+            out[k] -= ((k - 1) / k) * out[k - 2]
+        elif kind == "chebyshev":
+            np.multiply(out[k - 1], u, out=out[k])
+            out[k] *= 2.0
+            out[k] -= out[k - 2]
+        else:
+            np.multiply(out[k - 1], u, out=out[k])
+    return out
 
 
 class PolyBasis:
@@ -66,16 +104,14 @@ class PolyBasis:
         return len(self.degrees)
 
     def design(self, x: np.ndarray) -> np.ndarray:
-        """Basis functions evaluated at ``x``: shape ``(len(x), size)``."""
+        """Basis functions evaluated at ``x``: shape ``(len(x), size)``, column-major."""
         u = (np.asarray(x, dtype=float) - self.center) / self.half
-        vander = BASES[self.kind][0](u, self.degree)
-        return vander[:, self.degrees]
+        rows = _recurrence(self.kind, u, self.degree)
+        return rows[self.degrees].T
 
     def curve(self, coefficients: np.ndarray) -> PolyCurve:
         """The fitted curve for ``coefficients`` (one per basis function)."""
-        full = np.zeros(self.degree + 1)
-        full[self.degrees] = coefficients
-        series = BASES[self.kind][1](full)
+        series = _to_power(self.kind, self.degree)[:, self.degrees] @ np.asarray(coefficients)
         return PolyCurve(series, self.center, self.half, (self.lo, self.hi))
 
 

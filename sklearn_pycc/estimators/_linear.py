@@ -33,24 +33,39 @@ class NotAffine(Exception):
 
 
 class Affine:
-    """``const + sum(blocks[name] @ theta[name])`` on ``n`` samples."""
+    """``const + sum(blocks[name] @ theta[name])`` on ``n`` samples.
+
+    A block is kept as a list of ``(factor, array)`` terms, ``factor`` a
+    scalar or a per-sample vector, so that sums and scalings cost nothing
+    until :meth:`write` adds them once into the final design matrix.
+    """
 
     __slots__ = ("blocks", "const")
 
-    def __init__(self, const, blocks: dict[str, np.ndarray] | None = None) -> None:
+    def __init__(self, const, blocks: dict[str, list] | None = None) -> None:
         self.const = const
         self.blocks = blocks or {}
 
     def scaled(self, factor) -> Affine:
-        f = np.asarray(factor)
-        column = f[:, None] if f.ndim == 1 else f
-        return Affine(self.const * factor, {k: v * column for k, v in self.blocks.items()})
+        blocks = {k: [(f * factor, a) for f, a in terms] for k, terms in self.blocks.items()}
+        return Affine(self.const * factor, blocks)
 
     def plus(self, other: Affine, sign: float = 1.0) -> Affine:
         blocks = dict(self.blocks)
-        for k, v in other.blocks.items():
-            blocks[k] = blocks[k] + sign * v if k in blocks else sign * v
+        for k, terms in other.blocks.items():
+            moved = terms if sign == 1.0 else [(sign * f, a) for f, a in terms]
+            blocks[k] = blocks[k] + moved if k in blocks else moved
         return Affine(self.const + sign * other.const, blocks)
+
+    def write(self, name: str, out: np.ndarray, weight: float) -> None:
+        """Add ``weight`` times the block of ``name`` into ``out`` (rows x block columns)."""
+        for k, (factor, array) in enumerate(self.blocks[name]):
+            f = np.asarray(factor, dtype=float) * weight
+            f = f if f.ndim == 0 else f[:, None]
+            if k == 0:
+                np.multiply(array, f, out=out)  # ``out`` is a fresh slice of zeros
+            else:
+                out += array * f
 
 
 def _unknowns(node: Node) -> tuple[set[str], set[str]]:
@@ -167,7 +182,7 @@ def linearize(node: Node, data: Mapping[str, np.ndarray], n: int, values: Mappin
             return Affine(data[n_.name])
         if isinstance(n_, Param):
             if n_.name in linear:
-                return Affine(0.0, {n_.name: np.ones((n, 1))})
+                return Affine(0.0, {n_.name: [(1.0, np.ones((n, 1)))]})
             return Affine(values[n_.name])
         if isinstance(n_, Neg):
             return go(n_.operand).scaled(-1.0)
@@ -175,7 +190,7 @@ def linearize(node: Node, data: Mapping[str, np.ndarray], n: int, values: Mappin
             if n_.name in zeroed:
                 return Affine(0.0)
             arg = np.broadcast_to(np.asarray(go(n_.arg).const, dtype=float), (n,))
-            return Affine(0.0, {n_.name: bases[n_.name].design(arg)})
+            return Affine(0.0, {n_.name: [(1.0, bases[n_.name].design(arg))]})
         if isinstance(n_, Apply):
             return Affine(ELEMENTARY[n_.func][0](go(n_.arg).const))
         left, right = go(n_.left), go(n_.right)

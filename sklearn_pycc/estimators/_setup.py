@@ -12,7 +12,7 @@ from ..exceptions import GaugeWarning, IdentifiabilityError, SkeletonError
 from ..skeleton import Skeleton
 from ..skeleton.constraints import Constraint, parse_constraints
 from ..skeleton.equations import Equation
-from ..skeleton.nodes import Node, Unknown, walk
+from ..skeleton.nodes import Node
 from ._validation import FitData
 
 __all__ = ["GAUGES", "Problem", "build_skeleton", "gauge_skeleton"]
@@ -101,12 +101,7 @@ class Problem:
 
     def arguments(self, function: str) -> list[Node]:
         """Every argument expression ``function`` is applied to."""
-        out: list[Node] = []
-        for eq in self.equations:
-            for node in walk(eq.residual):
-                if isinstance(node, Unknown) and node.name == function and node.arg not in out:
-                    out.append(node.arg)
-        return out
+        return self.skeleton.curve_arguments(function)
 
     def parity(self, function: str) -> str | None:
         """``"odd"``, ``"even"`` or None."""

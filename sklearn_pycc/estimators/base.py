@@ -12,7 +12,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
-from ..skeleton.nodes import Symbol, Unknown, walk
+from ..skeleton.nodes import Symbol
 from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
@@ -317,14 +317,9 @@ class CCRegressor(RegressorMixin, BaseEstimator):
 
     # -- reading a fitted model ------------------------------------------------
     def _variable(self, name: str) -> str:
-        texts = {to_text(arg) for eq in self.skeleton_.parsed for node in walk(eq.residual)
-                 if isinstance(node, Unknown) and node.name == name for arg in [node.arg]}
-        if len(texts) == 1:
-            text = texts.pop()
-            args = [node.arg for eq in self.skeleton_.parsed for node in walk(eq.residual)
-                    if isinstance(node, Unknown) and node.name == name]
-            if isinstance(args[0], Symbol):
-                return text
+        args = self._arguments(name)
+        if len(args) == 1 and isinstance(args[0], Symbol):
+            return args[0].name
         return "u"
 
     def equations_text(self, precision: int = 6) -> list[str]:
@@ -346,8 +341,7 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         return lines
 
     def _arguments(self, name: str):
-        return [node.arg for eq in self.skeleton_.parsed for node in walk(eq.residual)
-                if isinstance(node, Unknown) and node.name == name]
+        return self.skeleton_.curve_arguments(name)
 
     def cc_curves(self, n: int = 200) -> dict[str, pd.DataFrame]:
         """Each fitted curve on ``n`` points over the range of its argument in training.

@@ -9,7 +9,9 @@ from numbers import Integral
 import numpy as np
 from scipy.optimize import least_squares
 
+from .._threads import blas_threads
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
+from ..skeleton.nodes import Param, Unknown, walk
 from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
 from ._linear import curve_arguments, linearize, split_parameters
 from ._lstsq import constrained_lstsq
@@ -38,12 +40,11 @@ class _Design:
         eqs = problem.equations
         self.residuals = [eq.residual for eq in eqs]
         # only equations with something to fit take part
+        unknown = set(linear) | set(nonlinear) | set(self.curves)
         self.active = []
         for i, node in enumerate(self.residuals):
-            from ..skeleton.nodes import Param, Unknown, walk
-
             names = {x.name for x in walk(node) if isinstance(x, (Param, Unknown))}
-            if names & (set(linear) | set(nonlinear) | set(self.curves)):
+            if names & unknown:
                 self.active.append(i)
         self.weights = {}
 
@@ -73,24 +74,23 @@ class _Design:
         for name, size in layout:
             offsets[name] = (p, p + size)
             p += size
-        rows_A, rows_b = [], []
         linear = set(self.linear)
         zeroed = self.problem.zeroed
-        for i in self.active:
-            form = linearize(self.residuals[i], self.data, self.n, values, bases, linear, zeroed)
-            b = np.broadcast_to(np.asarray(form.const, dtype=float), (self.n,))
+        n = self.n
+        A = np.zeros((n * len(self.active), p), order="F")
+        b = np.empty(n * len(self.active))
+        for row, i in enumerate(self.active):
+            form = linearize(self.residuals[i], self.data, n, values, bases, linear, zeroed)
+            const = np.broadcast_to(np.asarray(form.const, dtype=float), (n,))
             if i not in self.weights:
-                scale = float(np.sqrt(np.mean(b * b)))
+                scale = float(np.sqrt(np.mean(const * const)))
                 self.weights[i] = 1.0 / scale if np.isfinite(scale) and scale > 0 else 1.0
             w = self.weights[i]
-            A = np.zeros((self.n, p))
-            for name, block in form.blocks.items():
+            rows = slice(row * n, (row + 1) * n)
+            np.multiply(const, w, out=b[rows])
+            for name in form.blocks:
                 lo, hi = offsets[name]
-                A[:, lo:hi] += block
-            rows_A.append(A * w)
-            rows_b.append(b * w)
-        A = np.vstack(rows_A) if rows_A else np.zeros((0, p))
-        b = np.concatenate(rows_b) if rows_b else np.zeros(0)
+                form.write(name, A[rows, lo:hi], w)
         C_rows, d = [], []
         for f in self.curves:
             for at, value in self.problem.points(f):
@@ -201,10 +201,12 @@ class PolyCCRegressor(CCRegressor):
         def solve(theta: np.ndarray):
             values = {**fixed, **dict(zip(nonlinear, theta))}
             A, b, C, d, layout, bases = design.assemble(values)
-            return constrained_lstsq(A, b, C, d, self.alpha), layout, bases, values
+            return (constrained_lstsq(A, b, C, d, self.alpha, overwrite_a=True), layout, bases,
+                    values)
 
-        theta = self._search(solve, nonlinear, init) if nonlinear else np.zeros(0)
-        result, layout, bases, values = solve(theta)
+        with blas_threads(1):
+            theta = self._search(solve, nonlinear, init) if nonlinear else np.zeros(0)
+            result, layout, bases, values = solve(theta)
         self._report_rank(result, layout)
         params = {a: v for a, v in values.items() if a in nonlinear}
         functions, coefficients = {}, {}
@@ -222,7 +224,7 @@ class PolyCCRegressor(CCRegressor):
             coefficients[name] = np.zeros(0)
         self.coefficients_ = coefficients
         self.nonlinear_params_ = list(nonlinear)
-        self.cost_ = float(result.residual @ result.residual)
+        self.cost_ = result.cost
         return functions, params
 
     # -- nonlinear parameters: variable projection with a multi-start --------------
@@ -286,7 +288,7 @@ class PolyCCRegressor(CCRegressor):
             raise ValueError(
                 f"no value of the nonlinear parameters {names} gives a finite residual; "
                 "give starting values with param_init")
-        return best_theta
+        return _prefer_positive(best_theta, best_cost, cost)
 
     def _report_rank(self, result, layout) -> None:
         null = result.null_directions
@@ -328,6 +330,24 @@ class PolyCCRegressor(CCRegressor):
         for negative, body in terms[1:]:
             text += f" {'-' if negative else '+'} {body}"
         return text
+
+
+def _prefer_positive(theta: np.ndarray, best: float, cost) -> np.ndarray:
+    """Flip negative parameters whose sign the model cannot see.
+
+    ``a2 tanh(a3 x)`` equals ``(-a2) tanh(-a3 x)``: such discrete symmetries
+    leave the cost unchanged once the linear parameters are re-solved; the
+    positive representative is reported.
+    """
+    theta = theta.copy()
+    for k in np.flatnonzero(theta < 0):
+        trial = theta.copy()
+        trial[k] = -trial[k]
+        c = cost(trial)
+        # costs are of weighted residuals (each equation scaled to unit RMS)
+        if c <= best * (1 + 1e-9) + 1e-12:
+            theta, best = trial, min(best, c)
+    return theta
 
 
 def _seed(random_state) -> int | None:

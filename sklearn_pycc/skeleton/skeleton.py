@@ -117,6 +117,19 @@ class Skeleton:
                     names.append(node.name)
         return names
 
+    def curve_arguments(self, function: str) -> list:
+        """Distinct argument expressions ``function`` is applied to, in order of appearance."""
+        cache = self.__dict__.setdefault("_arguments_cache", {})
+        if function not in cache:
+            found = []
+            for eq in self._equations:
+                for node in walk(eq.residual):
+                    if isinstance(node, Unknown) and node.name == function \
+                            and node.arg not in found:
+                        found.append(node.arg)
+            cache[function] = found
+        return list(cache[function])
+
     def constraints_of(self, function: str) -> list[Constraint]:
         """Constraints applying to one curve."""
         return [c for c in self.constraints if c.function == function]

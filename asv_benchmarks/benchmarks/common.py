@@ -1,0 +1,131 @@
+"""Base classes shared by the benchmarks.
+
+The layout follows the idea of scikit-learn's asv suite: a benchmark class
+mixes :class:`Estimator` (what to measure on an estimator) with
+:class:`Benchmark` (how asv measures it) and only says how to build its
+data and its estimator for one combination of ``params``::
+
+    class PolyCC(Estimator, Benchmark):
+        param_names = ["case"]
+        params = (["a", "b"],)
+
+        def make_data(self, params):
+            return Bunch(X=..., y=...)
+
+        def make_estimator(self, params):
+            return PolyCCRegressor(...)
+
+Every estimator is fitted once, in ``setup_cache`` (asv runs it once per
+class and hands its pickled result to every benchmark), so ``time_predict``
+and the ``track_*`` methods do not pay for fitting.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+import warnings
+from abc import ABC, abstractmethod
+
+from sklearn.base import clone
+from threadpoolctl import threadpool_limits
+
+
+class Benchmark(ABC):
+    """How asv measures: wall-clock timer, few processes, short runs.
+
+    The machine the suite runs on is small and shared; every benchmark is
+    kept to well under a second per call and asv to one process.
+    """
+
+    timer = time.perf_counter
+    # BLAS/OpenMP threads while benchmarking (None: the libraries' own
+    # setting). On a small shared machine, waking worker threads for every
+    # small matrix call costs milliseconds at random; one thread measures
+    # the code rather than the scheduler.
+    blas_threads: int | None = 1
+    processes = 1
+    # (min_repeat, max_repeat, max_time in seconds) of each timing benchmark
+    repeat = (3, 10, 5.0)
+    sample_time = 0.05
+    warmup_time = 0.1
+    timeout = 120
+
+    @property
+    @abstractmethod
+    def params(self):
+        """Values of every parameter (a tuple of lists)."""
+
+
+class Estimator(ABC):
+    """Benchmarks of an estimator's ``fit``, ``predict`` and ``score``.
+
+    Subclasses define ``param_names``, ``params``, :meth:`make_data` and
+    :meth:`make_estimator`.
+    """
+
+    param_names: tuple | list = ()
+
+    @abstractmethod
+    def make_data(self, params):
+        """Data for one combination of ``params``: a Bunch with at least ``X`` and ``y``."""
+
+    @abstractmethod
+    def make_estimator(self, params):
+        """The (unfitted) estimator for one combination of ``params``."""
+
+    def skip(self, params) -> bool:
+        """True where a combination of ``params`` makes no sense (it is then skipped)."""
+        return False
+
+    def combinations(self):
+        """Every combination of ``params`` as a tuple, in asv's order."""
+        return list(itertools.product(*self.params))
+
+    def setup_cache(self):
+        """Fit every estimator once; asv pickles the result for all benchmarks."""
+        fitted = {}
+        for params in self.combinations():
+            if self.skip(params):
+                continue
+            data = self.make_data(params)
+            estimator = self.make_estimator(params)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                estimator.fit(data.X, data.y)
+            fitted[params] = (data, estimator)
+        return fitted
+
+    def setup(self, fitted, *params):
+        """Load the data and the fitted estimator of this combination of ``params``."""
+        if params not in fitted:
+            raise NotImplementedError(f"skipped: {params}")
+        if getattr(self, "blas_threads", None):
+            # the limit holds for the rest of this benchmark process
+            self._limits = threadpool_limits(limits=self.blas_threads)
+        self.data, self.estimator = fitted[params]
+        self.unfitted = clone(self.estimator)
+        # not timed: the first prediction after unpickling compiles the model,
+        # and the first fit in a process parses the skeleton (cached after)
+        self.estimator.predict(self.data.X[:2])
+        self._fit_fresh()
+
+    def _fit_fresh(self):
+        """Fit a fresh copy of the estimator (warnings such as rank deficiency muted)."""
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return clone(self.unfitted).fit(self.data.X, self.data.y)
+
+    def time_fit(self, fitted, *params):
+        self._fit_fresh()
+
+    def peakmem_fit(self, fitted, *params):
+        self._fit_fresh()
+
+    def time_predict(self, fitted, *params):
+        self.estimator.predict(self.data.X)
+
+    def track_train_score(self, fitted, *params):
+        return float(self.estimator.score(self.data.X, self.data.y))
+
+    track_train_score.unit = "R2"

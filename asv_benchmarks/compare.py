@@ -1,0 +1,302 @@
+"""Side-by-side timings of sklearn-pycc against bare reference implementations.
+
+Run from the repository root::
+
+    python asv_benchmarks/compare.py            # 7 repeats
+    python asv_benchmarks/compare.py --quick    # 3 repeats, shorter timings
+
+Each line times one of our operations and a reference doing the same work,
+in one run, interleaved (ours, reference, ours, reference, ...) so that the
+noise of a shared machine hits both alike. It prints the median of each in
+milliseconds, their ratio (ours / reference) and the goal for that ratio.
+The script reports; it never fails on a missed goal (exit code 0).
+
+BLAS runs on one thread by default (``--blas-threads 0`` leaves the
+libraries' own setting): on a small shared machine, waking OpenBLAS/OpenMP
+worker threads for every small matrix call costs milliseconds at random and
+drowns what is being compared.
+
+a, b. ``PolyCCRegressor.fit`` of the stick-slip functional skeleton against
+      ``numpy.linalg.lstsq`` on the same (weighted Legendre) design matrix
+      the estimator builds; only the ``lstsq`` call is timed.
+c.    ``PolyCCRegressor.fit`` against PySINDy (polynomial library of degree
+      3, control input, exact derivatives) on a forced Duffing oscillator.
+d.    ``simulate`` of the fitted parametric stick-slip model against
+      ``scipy.integrate.solve_ivp`` (LSODA) of the true equations written in
+      numpy, with the same tolerances and output times.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import math
+import platform
+import statistics
+import sys
+import time
+import traceback
+import warnings
+from collections.abc import Callable
+from contextlib import nullcontext
+from dataclasses import dataclass
+
+import numpy as np
+import scipy
+from scipy.integrate import solve_ivp
+
+import sklearn_pycc
+from sklearn_pycc import PolyCCRegressor, datasets
+from sklearn_pycc.estimators._linear import split_parameters
+from sklearn_pycc.estimators.poly import _Design
+
+FUNCTIONAL = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]
+X_COLUMNS = ["t", "x1", "x2", "F_ext"]
+Y_COLUMNS = ["x1_dot", "x2_dot"]
+# the tolerances CCRegressor.simulate uses by default
+SIM_RTOL, SIM_ATOL = 1e-6, 1e-8
+
+
+@dataclass
+class Case:
+    """One line of the table: two callables doing the same work."""
+
+    label: str
+    ours: Callable[[], object]
+    reference: Callable[[], object]
+    reference_name: str
+    goal: float
+    check: str = ""
+
+
+@dataclass
+class Result:
+    case: Case
+    ours: list[float]
+    reference: list[float]
+
+    @property
+    def ours_ms(self) -> float:
+        return 1e3 * statistics.median(self.ours)
+
+    @property
+    def reference_ms(self) -> float:
+        return 1e3 * statistics.median(self.reference)
+
+    @property
+    def ratio(self) -> float:
+        return self.ours_ms / self.reference_ms
+
+
+# -- timing ------------------------------------------------------------------------
+def _once(fn: Callable[[], object], number: int) -> float:
+    """Seconds per call of ``number`` back-to-back calls, garbage collector off."""
+    gc.collect()
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        start = time.perf_counter()
+        for _ in range(number):
+            fn()
+        return (time.perf_counter() - start) / number
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _calibrate(fn: Callable[[], object], target: float) -> int:
+    """Calls per timing so that one timing lasts about ``target`` seconds (after a warm-up)."""
+    fn()
+    one = _once(fn, 1)
+    return max(1, min(10_000, math.ceil(target / max(one, 1e-9))))
+
+
+def measure(case: Case, repeat: int, target: float) -> Result:
+    """Time ``case.ours`` and ``case.reference`` alternately, ``repeat`` times each."""
+    n_ours = _calibrate(case.ours, target)
+    n_ref = _calibrate(case.reference, target)
+    ours, reference = [], []
+    for _ in range(repeat):
+        ours.append(_once(case.ours, n_ours))
+        reference.append(_once(case.reference, n_ref))
+    return Result(case, ours, reference)
+
+
+# -- cases -------------------------------------------------------------------------
+def _stick_slip_model() -> PolyCCRegressor:
+    return PolyCCRegressor(equations=FUNCTIONAL, constraints=["f1 odd", "f2(0)=0"], degree=7)
+
+
+def _design(model: PolyCCRegressor, X, y):
+    """The weighted design ``A, b`` the estimator solves (``min ||A x + b||``), and ``C``."""
+    problem = model._problem(X, y)
+    degrees = model._degrees(problem.free_functions)
+    residuals = [(eq.index, eq.text, eq.residual) for eq in problem.equations]
+    linear, nonlinear = split_parameters(residuals, problem.free_params, "PolyCCRegressor")
+    if nonlinear:
+        raise RuntimeError("the design of a skeleton with nonlinear parameters is not fixed")
+    design = _Design(problem, linear, nonlinear, degrees, model.basis)
+    A, b, C, _d, _layout, _bases = design.assemble(dict(problem.fixed_params))
+    return A, b, C
+
+
+def case_lstsq(frame, label: str) -> Case:
+    X, y = frame[X_COLUMNS], frame[Y_COLUMNS]
+    model = _stick_slip_model()
+    A, b, C = _design(model, X, y)
+    rhs = -b
+
+    def ours():
+        return _stick_slip_model().fit(X, y)
+
+    def reference():
+        return np.linalg.lstsq(A, rhs, rcond=None)
+
+    fitted = ours()
+    coef = reference()[0]
+    r = A @ coef - rhs
+    n_constraints = 0 if C is None else len(C)
+    check = (f"A {A.shape[0]}x{A.shape[1]}, {n_constraints} constraint; "
+             f"RSS ours/lstsq {fitted.cost_ / float(r @ r):.4f}")
+    return Case(label, ours, reference, "numpy.linalg.lstsq", 3.0, check)
+
+
+def case_sindy(n_samples: int) -> Case:
+    import pysindy as ps
+
+    frame = datasets.make_duffing(n_samples=n_samples)
+    X, y = frame[X_COLUMNS], frame[Y_COLUMNS]
+    x = frame[["x1", "x2"]].to_numpy()
+    x_dot = frame[Y_COLUMNS].to_numpy()
+    u = frame[["F_ext"]].to_numpy()
+    t = frame["t"].to_numpy()
+
+    def ours():
+        return PolyCCRegressor(equations=FUNCTIONAL, constraints=["f1 odd", "f2 odd"],
+                               degree=3).fit(X, y)
+
+    def reference():
+        model = ps.SINDy(feature_library=ps.PolynomialLibrary(degree=3),
+                         optimizer=ps.STLSQ(threshold=0.05))
+        return model.fit(x, t=t, x_dot=x_dot, u=u)
+
+    err_ours = float(np.abs(ours().predict(X) - x_dot).max())
+    err_ref = float(np.abs(reference().predict(x, u=u) - x_dot).max())
+    check = f"max |x_dot error| ours {err_ours:.1e}, pysindy {err_ref:.1e}"
+    return Case(f"c. fit Duffing functional deg 3, n={n_samples}", ours, reference,
+                f"pysindy {ps.__version__} SINDy", 1.0, check)
+
+
+def _true_rhs(t, y):
+    return [y[1], np.cos(t) - 0.1 * y[1] - 0.5 * np.tanh(500 * y[1]) - y[0] - 0.2 * y[0] ** 3]
+
+
+def case_simulate() -> Case:
+    frame, truth = datasets.make_stick_slip(return_truth=True)
+    model = PolyCCRegressor(equations=truth.parametric_equations, random_state=0)
+    model.fit(frame[X_COLUMNS], frame[Y_COLUMNS])
+    t = frame["t"].to_numpy()
+    y0 = list(truth.y0)
+    inputs = {"F_ext": truth.inputs["F_ext"]}
+
+    def ours():
+        return model.simulate(t, y0=y0, inputs=inputs)
+
+    def reference():
+        return solve_ivp(_true_rhs, (t[0], t[-1]), y0, method="LSODA", t_eval=t,
+                         rtol=SIM_RTOL, atol=SIM_ATOL)
+
+    sim, ref = ours(), reference()
+    params = ", ".join(f"{k}={v:.6g}" for k, v in model.params_.items())
+    check = (f"max |x1 ours - x1 ref| {np.abs(sim['x1'].to_numpy() - ref.y[0]).max():.1e}; "
+             f"fitted {params}")
+    return Case(f"d. simulate stick-slip parametric, {len(t)} pts", ours, reference,
+                "solve_ivp LSODA, numpy rhs", 3.0, check)
+
+
+# -- report ------------------------------------------------------------------------
+def _blas() -> str:
+    try:
+        from threadpoolctl import threadpool_info
+    except ImportError:  # pragma: no cover - threadpoolctl comes with scikit-learn
+        return "unknown"
+    pools = [f"{p['internal_api']} ({p['num_threads']} threads)" for p in threadpool_info()]
+    return ", ".join(pools) or "none found"
+
+
+def print_table(results: list[Result]) -> None:
+    header = (f"{'case':<44} {'ours ms':>9} {'ref ms':>9} {'ratio':>8} {'goal':>7}  "
+              f"{'':<7} reference")
+    print(header)
+    print("-" * len(header))
+    for res in results:
+        met = "met" if res.ratio <= res.case.goal else "MISSED"
+        print(f"{res.case.label:<44} {res.ours_ms:>9.3f} {res.reference_ms:>9.3f} "
+              f"{res.ratio:>7.2f}x {'<= ' + format(res.case.goal, 'g') + 'x':>7}  {met:<7} "
+              f"{res.case.reference_name}")
+    print()
+    print("ratio = median ours / median reference; spread (min-max ms) and checks:")
+    for res in results:
+        print(f"  {res.case.label.split('.')[0]}. ours {1e3 * min(res.ours):.3f}-"
+              f"{1e3 * max(res.ours):.3f}, ref {1e3 * min(res.reference):.3f}-"
+              f"{1e3 * max(res.reference):.3f}; {res.case.check}")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeat", type=int, default=None,
+                        help="timings of each side per line (default 7, 3 with --quick)")
+    parser.add_argument("--quick", action="store_true",
+                        help="fewer repeats and shorter timings (a smoke run)")
+    parser.add_argument("--blas-threads", type=int, default=1,
+                        help="BLAS/OpenMP threads for the whole run (default 1; 0 leaves "
+                             "the libraries' own setting)")
+    args = parser.parse_args(argv)
+    repeat = args.repeat if args.repeat is not None else (3 if args.quick else 7)
+    repeat = max(1, repeat)
+    target = 0.02 if args.quick else 0.1
+
+    if args.blas_threads > 0:
+        from threadpoolctl import threadpool_limits
+        limits = threadpool_limits(limits=args.blas_threads)
+    else:
+        limits = nullcontext()
+
+    start = time.perf_counter()
+    with limits, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        print(f"sklearn-pycc {sklearn_pycc.__version__}, numpy {np.__version__}, "
+              f"scipy {scipy.__version__}, Python {platform.python_version()}")
+        print(f"BLAS: {_blas()}; repeat {repeat}, interleaved, time.perf_counter, "
+              f"~{target * 1e3:g} ms per timing")
+        print()
+        results, failures = [], []
+        builders = [
+            ("a", lambda: case_lstsq(datasets.make_stick_slip(n_samples=1000),
+                                     "a. fit stick-slip functional, n=1000")),
+            ("b", lambda: case_lstsq(datasets.make_stick_slip(n_samples=100_000,
+                                                              t_span=(0, 200)),
+                                     "b. fit stick-slip functional, n=100000")),
+            ("c", lambda: case_sindy(5000)),
+            ("d", case_simulate),
+        ]
+        for key, build in builders:
+            # one broken line must not hide the others
+            try:
+                results.append(measure(build(), repeat, target))
+            except Exception as exc:
+                failures.append(f"{key}. could not be measured: {type(exc).__name__}: {exc}")
+        print_table(results)
+        for line in failures:
+            print(line)
+    print(f"\ntotal {time.perf_counter() - start:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except Exception:  # it reports, it does not fail the build
+        traceback.print_exc()
+        print("compare.py could not finish (see above)", file=sys.stderr)
+    sys.exit(0)
