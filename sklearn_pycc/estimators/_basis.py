@@ -107,7 +107,9 @@ class PolyBasis:
         """Basis functions evaluated at ``x``: shape ``(len(x), size)``, column-major."""
         u = (np.asarray(x, dtype=float) - self.center) / self.half
         rows = _recurrence(self.kind, u, self.degree)
-        return rows[self.degrees].T
+        # odd, even or all degrees: a strided view, no copy
+        step = 1 if self.parity is None else 2
+        return rows[int(self.degrees[0]) if len(self.degrees) else 0::step].T
 
     def curve(self, coefficients: np.ndarray) -> PolyCurve:
         """The fitted curve for ``coefficients`` (one per basis function)."""
