@@ -412,3 +412,24 @@ def test_time_symbol_in_a_skeleton(duffing):
     assert model.params_["a1"] == pytest.approx(0.5, rel=1e-8)
     sim = model.simulate(frame["t"][:300], [1.0, 0.0])
     assert rmse(sim["x1"], frame["x1"][:300]) < 1e-4
+
+
+@pytest.mark.parametrize("kind", ["legendre", "chebyshev", "power"])
+@pytest.mark.parametrize("parity", [None, "odd", "even"])
+@pytest.mark.parametrize("degree", [0, 1, 2, 7, 8])
+def test_basis_matches_numpy_vandermonde_and_curve(kind, parity, degree):
+    from numpy.polynomial import chebyshev, legendre, polynomial
+
+    from sklearn_pycc.estimators._basis import PolyBasis
+
+    vander = {"legendre": legendre.legvander, "chebyshev": chebyshev.chebvander,
+              "power": polynomial.polyvander}[kind]
+    x = np.linspace(-2, 3, 50)
+    basis = PolyBasis(-2, 3, degree, parity, kind)
+    u = (x - basis.center) / basis.half
+    expected = vander(u, degree)[:, basis.degrees]
+    np.testing.assert_allclose(basis.design(x), expected, atol=1e-12)
+    coef = np.random.default_rng(degree).normal(size=basis.size)
+    np.testing.assert_allclose(basis.curve(coef)(x), expected @ coef, atol=1e-10)
+    np.testing.assert_allclose([basis.curve(coef)(float(v)) for v in x], expected @ coef,
+                               atol=1e-10)

@@ -106,10 +106,12 @@ class PolyBasis:
     def design(self, x: np.ndarray) -> np.ndarray:
         """Basis functions evaluated at ``x``: shape ``(len(x), size)``, column-major."""
         u = (np.asarray(x, dtype=float) - self.center) / self.half
+        if not len(self.degrees):
+            return np.empty((u.shape[0], 0))
         rows = _recurrence(self.kind, u, self.degree)
         # odd, even or all degrees: a strided view, no copy
         step = 1 if self.parity is None else 2
-        return rows[int(self.degrees[0]) if len(self.degrees) else 0::step].T
+        return rows[int(self.degrees[0])::step].T
 
     def curve(self, coefficients: np.ndarray) -> PolyCurve:
         """The fitted curve for ``coefficients`` (one per basis function)."""
