@@ -495,7 +495,7 @@ def test_non_string_equation_direct_parse():
 
 
 def test_single_string_instead_of_list():
-    with pytest.raises(SkeletonError, match="list of strings.*not a single string"):
+    with pytest.raises(SkeletonError, match=r"list of strings.*not a single string"):
         Skeleton("x1_dot = -x1")
 
 
@@ -576,13 +576,21 @@ def no_side_effects(monkeypatch):
     return calls
 
 
+def test_side_effect_spy_records(no_side_effects):
+    # the spy of the injection tests does see an import and a shell command
+    import os as reimported  # noqa: F401
+
+    os.system("definitely-not-run")
+    assert no_side_effects == [("import", "os"), ("system", "definitely-not-run")]
+
+
 @pytest.mark.parametrize(("text", "culprit"), INJECTIONS)
 def test_injection_is_rejected(text, culprit, no_side_effects):
     with pytest.raises(SkeletonError) as info:
         Skeleton(["x2_dot = x1", text])
     err = info.value
     assert err.equation == 1
-    assert text[err.position:].startswith(culprit)
+    assert text[err.position :].startswith(culprit)
     assert no_side_effects == []
 
 
@@ -599,7 +607,7 @@ def test_injection_creates_no_file(tmp_path):
     payloads = [
         f"x1_dot = __import__('pathlib').Path('{sentinel}').touch()",
         f"x1_dot = open('{sentinel}', 'w')",
-        f'x1_dot = exec("open(\'{sentinel}\', \'w\')")',
+        f"x1_dot = exec(\"open('{sentinel}', 'w')\")",
         f"x1_dot = eval(compile('open(\"{sentinel}\", \"w\")', 'x', 'eval'))",
         f"x1_dot = (lambda: open('{sentinel}', 'w'))()",
     ]

@@ -336,8 +336,10 @@ def test_constraint_objects_are_accepted():
 
 
 def test_duplicate_constraints_are_merged():
-    sk = Skeleton(DUFFING, ["f1 odd", {"constraint": "f1 odd"}, "f1  odd", "f2(1)=2",
-                            "f2(1.0)=2.0", "f2(1e0)=2"])
+    sk = Skeleton(
+        DUFFING,
+        ["f1 odd", {"constraint": "f1 odd"}, "f1  odd", "f2(1)=2", "f2(1.0)=2.0", "f2(1e0)=2"],
+    )
     assert sk.constraints == (Constraint("f1", "odd"), Constraint("f2", "value", 1.0, 2.0))
 
 
@@ -348,8 +350,9 @@ def test_constraints_of():
 
 
 def test_consistent_symmetric_points_are_accepted():
-    sk = Skeleton(DUFFING, ["f1 odd", "f1(0)=0", "f1(2)=1", "f1(-2)=-1",
-                            "f2 even", "f2(1)=2", "f2(-1)=2"])
+    sk = Skeleton(
+        DUFFING, ["f1 odd", "f1(0)=0", "f1(2)=1", "f1(-2)=-1", "f2 even", "f2(1)=2", "f2(-1)=2"]
+    )
     assert len(sk.constraints) == 7
 
 
@@ -421,6 +424,14 @@ def test_constraint_on_skeleton_without_curves():
     assert "no curves" in str(err)
 
 
+def culprits(err):
+    """The constraints a contradiction message blames, before its 'require both ...'."""
+    message = str(err)
+    assert "contradictory constraints on" in message
+    blamed = message.split(": ", 1)[1].split(" require both ")[0]
+    return set(blamed.split(", "))
+
+
 def test_contradiction_odd_and_even():
     err = error_of(DUFFING, ["f1 odd", "f2 odd", "f1 even"])
     assert "contradictory" in str(err)
@@ -430,36 +441,24 @@ def test_contradiction_odd_and_even():
 
 def test_contradiction_odd_with_nonzero_origin():
     err = error_of(DUFFING, ["f1 odd", "f1(0)=1"])
-    message = str(err)
-    assert "contradictory" in message
-    assert "f1 odd" in message
-    assert "f1(0)=1" in message
-    assert "-0" not in message
+    assert culprits(err) == {"f1 odd", "f1(0)=1"}
+    assert "-0" not in str(err)
 
 
 def test_contradiction_odd_with_symmetric_equal_values():
     err = error_of(DUFFING, ["f1 odd", "f1(1)=2", "f1(-1)=2"])
-    message = str(err)
-    assert "contradictory" in message
-    for culprit in ("f1 odd", "f1(1)=2", "f1(-1)=2"):
-        assert culprit in message
+    assert culprits(err) == {"f1 odd", "f1(1)=2", "f1(-1)=2"}
 
 
 def test_contradiction_even_with_different_values():
     err = error_of(DUFFING, ["f1 even", "f1(1)=2", "f1(-1)=3"])
-    message = str(err)
-    assert "contradictory" in message
-    for culprit in ("f1 even", "f1(1)=2", "f1(-1)=3"):
-        assert culprit in message
+    assert culprits(err) == {"f1 even", "f1(1)=2", "f1(-1)=3"}
 
 
 def test_contradiction_two_values_at_one_point():
     err = error_of(DUFFING, ["f2(0)=0", "f1(1)=2", "f1(1)=3"])
-    message = str(err)
-    assert "contradictory" in message
-    assert "f1(1)=2" in message
-    assert "f1(1)=3" in message
-    assert "f2" not in message
+    assert culprits(err) == {"f1(1)=2", "f1(1)=3"}
+    assert "f2" not in str(err)
 
 
 def test_contradiction_is_a_skeleton_error_and_value_error():
