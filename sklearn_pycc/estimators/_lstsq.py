@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg import lstsq as lapack_lstsq
+from scipy.linalg import qr
 
 __all__ = ["LstsqResult", "constrained_lstsq"]
 
@@ -45,18 +47,33 @@ def constrained_lstsq(A: np.ndarray, b: np.ndarray, C: np.ndarray | None = None,
     """Solve ``min ||A x + b||^2 + alpha ||x||^2`` subject to ``C x = d`` exactly.
 
     The equality constraints are eliminated with a null-space basis of ``C``;
-    columns are scaled to unit norm before the SVD-based solve. ``b`` is
+    columns are scaled to unit norm before a rank-revealing QR solve. ``b`` is
     not modified; ``A`` is scaled in place when ``overwrite_a``.
     """
     p = A.shape[1]
     if C is not None and len(C):
-        U, s, Vt = np.linalg.svd(C, full_matrices=True)
-        tol = max(C.shape) * np.finfo(float).eps * (s[0] if s.size else 0.0)
-        r = int((s > tol).sum())
-        x0 = Vt[:r].T @ ((U[:, :r].T @ d) / s[:r])
-        N = Vt[r:].T
-        M = A @ N
-        rhs = -(b + A @ x0)
+        # eliminate one pivot coefficient per independent constraint:
+        # x = x0 + N z with N = [I; -G] on (free; pivots), so A N only
+        # changes the columns the constraints involve
+        R, perm = qr(C, mode="r", pivoting=True)
+        diag = np.abs(np.diag(R))
+        tol = max(C.shape) * np.finfo(float).eps * (diag[0] if diag.size else 0.0)
+        r = int((diag > tol).sum())
+        pivots, free = perm[:r], np.sort(perm[r:])
+        Cp, Cf = C[:, pivots], C[:, free]
+        # least-squares pivot values (constraints are consistent by construction)
+        Gp = np.linalg.lstsq(Cp, np.column_stack([Cf, d]), rcond=None)[0]
+        G, xp = Gp[:, :-1], Gp[:, -1]
+        x0 = np.zeros(p)
+        x0[pivots] = xp
+        N = np.zeros((p, p - r))
+        N[free, np.arange(p - r)] = 1.0
+        N[pivots] = -G
+        M = A[:, free]
+        touched = np.flatnonzero(np.abs(G).max(axis=0) > 0)
+        if touched.size:
+            M[:, touched] -= A[:, pivots] @ G[:, touched]
+        rhs = -(b + A[:, pivots] @ xp)
     else:
         x0 = None
         N = None
@@ -73,7 +90,9 @@ def constrained_lstsq(A: np.ndarray, b: np.ndarray, C: np.ndarray | None = None,
         solve_M = np.vstack([M, np.sqrt(alpha) * np.diag(1.0 / norms)])
         solve_rhs = np.concatenate([rhs, np.zeros(M.shape[1])])
     rcond = rtol if rtol is not None else max(solve_M.shape) * np.finfo(float).eps
-    z_scaled, _, rank, _ = np.linalg.lstsq(solve_M, solve_rhs, rcond=rcond)
+    # rank-revealing QR (LAPACK gelsy): the usual choice for tall, skinny designs
+    z_scaled, _, rank, _ = lapack_lstsq(solve_M, solve_rhs, cond=rcond, lapack_driver="gelsy",
+                                        check_finite=False)
     z = z_scaled / norms
     x = z if N is None else x0 + N @ z
     if rank < M.shape[1]:
