@@ -464,3 +464,10 @@ def test_contradiction_two_values_at_one_point():
 def test_contradiction_is_a_skeleton_error_and_value_error():
     with pytest.raises(ValueError):
         Skeleton(DUFFING, ["f1(1)=2", "f1(1)=3"])
+
+
+def test_cycle_between_derivatives_is_rejected_at_construction():
+    from sklearn_pycc import Skeleton, SkeletonError
+
+    with pytest.raises(SkeletonError, match="cycle"):
+        Skeleton(["x1_dot = x2_dot", "x2_dot = x1_dot"])

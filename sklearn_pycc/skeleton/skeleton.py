@@ -10,7 +10,7 @@ import pandas as pd
 from ..exceptions import SkeletonError
 from ..simulation import InputSignals, check_time_grid, integrate_system
 from .constraints import Constraint, check_constraints, parse_constraints
-from .equations import TIME, Equation, classify, state_of
+from .equations import TIME, Equation, classify, evaluation_order, state_of
 from .nodes import Param, Symbol, Unknown, walk
 from .parser import parse_equation
 from .system import CompiledSystem
@@ -74,6 +74,7 @@ class Skeleton:
             parsed.append((text, lhs, rhs))
         self.equations: tuple[str, ...] = tuple(texts)
         self._equations: list[Equation] = classify(parsed)
+        evaluation_order(self._equations)  # rejects derivatives defined in a cycle
         self.derivatives = [eq.derivative for eq in self._equations]
         self.states = [state_of(d) for d in self.derivatives]
         functions: list[str] = []
