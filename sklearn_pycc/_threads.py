@@ -18,12 +18,9 @@ _controller: ThreadpoolController | None = None
 
 
 @contextmanager
-def blas_threads(n: int | None = 1):
-    """Limit BLAS threads to ``n`` inside the block (``None``: leave as is)."""
+def blas_threads(n: int = 1):
+    """Limit BLAS threads to ``n`` inside the block, restoring the setting after."""
     global _controller
-    if n is None:
-        yield
-        return
     if _controller is None:
         _controller = ThreadpoolController()
     with _controller.limit(limits=n, user_api="blas"):

@@ -16,6 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..exceptions import SkeletonError
+from ..skeleton.equations import unknown_names
 from ..skeleton.functions import ELEMENTARY
 from ..skeleton.nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown, walk
 
@@ -68,12 +69,6 @@ class Affine:
                 out += array * f
 
 
-def _unknowns(node: Node) -> tuple[set[str], set[str]]:
-    curves = {n.name for n in walk(node) if isinstance(n, Unknown)}
-    params = {n.name for n in walk(node) if isinstance(n, Param)}
-    return curves, params
-
-
 def _degree(node: Node, linear: set[str]) -> int:
     """Degree in the linear unknowns; raises NotAffine naming parameters to move out."""
     if isinstance(node, (Number, Symbol)):
@@ -83,7 +78,7 @@ def _degree(node: Node, linear: set[str]) -> int:
     if isinstance(node, Neg):
         return _degree(node.operand, linear)
     if isinstance(node, (Apply, Unknown)):
-        curves, params = _unknowns(node.arg)
+        curves, params = unknown_names(node.arg)
         if curves:
             raise NotAffine(set(), node, f"the curve {sorted(curves)[0]} appears inside the "
                             f"argument of {getattr(node, 'name', getattr(node, 'func', ''))}")
@@ -97,8 +92,8 @@ def _degree(node: Node, linear: set[str]) -> int:
         if node.op == "*":
             if left + right <= 1:
                 return left + right
-            lc, lp = _unknowns(node.left)
-            rc, rp = _unknowns(node.right)
+            lc, lp = unknown_names(node.left)
+            rc, rp = unknown_names(node.right)
             if not lc:
                 raise NotAffine(lp & linear, node, "product of unknowns")
             if not rc:
@@ -107,7 +102,7 @@ def _degree(node: Node, linear: set[str]) -> int:
         side = node.right
         if right == 0 and (node.op == "/" or left == 0):
             return left
-        curves, params = _unknowns(side if node.op == "/" else node)
+        curves, params = unknown_names(side if node.op == "/" else node)
         if curves:
             raise NotAffine(set(), node, f"the curve {sorted(curves)[0]} appears in a "
                             f"{'denominator' if node.op == '/' else 'power'}")

@@ -195,8 +195,8 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         self.params_ = {a: float(all_params[a]) for a in skeleton.params}
         self.functions_ = {f: functions[f] for f in skeleton.functions}
         self.curve_ranges_ = self._argument_ranges(problem)
-        self._compiled = skeleton.compile(self.functions_, self.params_) if self._solvable() \
-            else None
+        solvable = all(eq.solvable for eq in skeleton.parsed)
+        self._compiled = skeleton.compile(self.functions_, self.params_) if solvable else None
 
     def _argument_ranges(self, problem: Problem) -> dict[str, tuple[float, float]]:
         names = list(problem.data.columns)
@@ -214,12 +214,6 @@ class CCRegressor(RegressorMixin, BaseEstimator):
                     lo, hi = min(lo, float(finite.min())), max(hi, float(finite.max()))
             ranges[f] = (lo, hi) if np.isfinite(lo) else (0.0, 0.0)
         return ranges
-
-    def _solvable(self) -> bool:
-        from ..skeleton.compiler import degree_in
-
-        return all(eq.explicit or degree_in(eq.residual, eq.derivative) == 1
-                   for eq in self.skeleton_.parsed)
 
     # -- using a fitted model --------------------------------------------------
     def _system(self) -> CompiledSystem:

@@ -11,7 +11,7 @@ from scipy.optimize import least_squares
 
 from .._threads import blas_threads
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
-from ..skeleton.nodes import Param, Unknown, walk
+from ..skeleton.equations import unknown_names
 from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
 from ._linear import curve_arguments, linearize, split_parameters
 from ._lstsq import constrained_lstsq
@@ -43,8 +43,8 @@ class _Design:
         unknown = set(linear) | set(nonlinear) | set(self.curves)
         self.active = []
         for i, node in enumerate(self.residuals):
-            names = {x.name for x in walk(node) if isinstance(x, (Param, Unknown))}
-            if names & unknown:
+            curves, params = unknown_names(node)
+            if (curves | params) & unknown:
                 self.active.append(i)
         self.weights = {}
 

@@ -66,6 +66,13 @@ class Equation:
         return BinOp("-", self.lhs, self.rhs)
 
     @property
+    def solvable(self) -> bool:
+        """True when the derivative can be computed: explicit, or entering linearly."""
+        from .compiler import degree_in
+
+        return self.explicit or degree_in(self.residual, self.derivative) == 1
+
+    @property
     def residual(self) -> Node:
         """``lhs - rhs``: zero when the equation holds."""
         return BinOp("-", self.lhs, self.rhs)

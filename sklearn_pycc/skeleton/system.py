@@ -9,7 +9,7 @@ import numpy as np
 
 from ..exceptions import SkeletonError
 from ..simulation import Diverged
-from .compiler import compile_expression, degree_in
+from .compiler import compile_expression
 from .equations import TIME, Equation, evaluation_order
 
 __all__ = ["CompiledSystem"]
@@ -54,7 +54,7 @@ class CompiledSystem:
         for i in evaluation_order(equations):
             eq = equations[i]
             slot = self.slots[eq.derivative]
-            if not eq.explicit and degree_in(eq.residual, eq.derivative) != 1:
+            if not eq.solvable:
                 raise SkeletonError(
                     f"cannot solve for {eq.derivative}: it does not enter the equation "
                     "linearly, so the model can be fitted as written but not simulated",
