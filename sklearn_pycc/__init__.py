@@ -6,8 +6,9 @@ estimator.
 """
 
 from . import datasets
-from .estimators import CCRegressor, PolyCCRegressor
+from .estimators import CCRegressor, NeuralCCRegressor, PolyCCRegressor
 from .exceptions import (
+    ExtrapolationWarning,
     GaugeWarning,
     IdentifiabilityError,
     RankDeficiencyWarning,
@@ -20,8 +21,10 @@ __version__ = "0.1.0.dev0"
 
 __all__ = [
     "CCRegressor",
+    "ExtrapolationWarning",
     "GaugeWarning",
     "IdentifiabilityError",
+    "NeuralCCRegressor",
     "PolyCCRegressor",
     "RankDeficiencyWarning",
     "SimulationError",

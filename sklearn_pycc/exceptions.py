@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 __all__ = [
+    "ExtrapolationWarning",
     "GaugeWarning",
     "IdentifiabilityError",
     "RankDeficiencyWarning",
@@ -82,3 +83,7 @@ class GaugeWarning(UserWarning):
 
 class RankDeficiencyWarning(UserWarning):
     """The design matrix of a fit is rank deficient on the given data."""
+
+
+class ExtrapolationWarning(UserWarning):
+    """A simulation took a fitted curve outside the range it was trained on."""

@@ -2,7 +2,7 @@
 
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from sklearn_pycc import PolyCCRegressor
+from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor
 
 # Without column names, an array's columns are called x0, x1, ...; the check
 # instance's skeleton reads the first one, so it accepts any X the checks build.
@@ -19,10 +19,14 @@ EXPECTED_FAILURES = {
     ),
 }
 
+ESTIMATORS = [
+    PolyCCRegressor(equations=CHECK_EQUATIONS, degree=3),
+    # small and short so that the ~40 checks, each fitting several times, stay quick
+    NeuralCCRegressor(equations=CHECK_EQUATIONS, hidden_layer_sizes=(8,), max_epochs=10,
+                      random_state=0),
+]
 
-@parametrize_with_checks(
-    [PolyCCRegressor(equations=CHECK_EQUATIONS, degree=3)],
-    expected_failed_checks=lambda est: EXPECTED_FAILURES,
-)
+
+@parametrize_with_checks(ESTIMATORS, expected_failed_checks=lambda est: EXPECTED_FAILURES)
 def test_sklearn_compatible(estimator, check):
     check(estimator)

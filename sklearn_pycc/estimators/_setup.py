@@ -103,6 +103,16 @@ class Problem:
         """Every argument expression ``function`` is applied to."""
         return self.skeleton.curve_arguments(function)
 
+    def starting_values(self, param_init) -> dict[str, float]:
+        """The ``param_init`` hyperparameter, checked against the skeleton's parameters."""
+        init = dict(param_init or {})
+        params = self.skeleton.params
+        bad = [k for k in init if k not in params]
+        if bad:
+            raise ValueError(f"param_init names {bad[0]!r}, which is not a parameter of the "
+                             f"skeleton ({', '.join(params) or 'none'})")
+        return init
+
     def parity(self, function: str) -> str | None:
         """``"odd"``, ``"even"`` or None."""
         kinds = {c.kind for c in self.constraints[function]}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Mapping
 
 import numpy as np
@@ -10,6 +11,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.metrics import r2_score
 from sklearn.utils.validation import check_is_fitted
 
+from ..exceptions import ExtrapolationWarning
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import Symbol
@@ -295,6 +297,13 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         SimulationError
             When the model diverges or the solver fails; it carries the time
             reached and the partial trajectory.
+
+        Warns
+        -----
+        ExtrapolationWarning
+            Once, when the trajectory takes a curve that declares an
+            ``extrapolation`` policy more than 1 % of its training range
+            beyond that range.
         """
         system = self._system()
         if isinstance(y0, Mapping):
@@ -306,8 +315,42 @@ class CCRegressor(RegressorMixin, BaseEstimator):
             if missing:
                 raise ValueError(f"y0 has no value for the state {missing[0]!r}")
             y0 = [y0[s] for s in states]
-        return simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
-                               return_derivatives=return_derivatives, **solver_options)
+        watched = {name: curve for name, curve in self.functions_.items()
+                   if getattr(curve, "extrapolation", None)}
+        frame = simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
+                                return_derivatives=return_derivatives or bool(watched),
+                                **solver_options)
+        if watched:
+            self._warn_outside_domain(frame, watched)
+            if not return_derivatives:
+                frame = frame[["t", *self.skeleton_.states]]
+        return frame
+
+    def _warn_outside_domain(self, frame: pd.DataFrame, watched: Mapping) -> None:
+        """Warn once if the trajectory takes curves beyond their training range."""
+        columns = list(frame.columns)
+        slots = {name: i for i, name in enumerate(columns)}
+        env = [frame[name].to_numpy() for name in columns]
+        t = env[slots["t"]]
+        found = []
+        for name, curve in watched.items():
+            lo, hi = curve.domain
+            margin = 0.01 * (hi - lo)
+            for arg in self._arguments(name):
+                values = compile_expression(arg, slots, self.params_, self.functions_)(env)
+                values = np.broadcast_to(np.asarray(values, dtype=float), t.shape)
+                outside = (values < lo - margin) | (values > hi + margin)
+                if outside.any():
+                    k = int(np.flatnonzero(outside)[0])
+                    found.append(f"{name}({to_text(arg)}) reaches {values[k]:.4g} at "
+                                 f"t={t[k]:.4g}, outside [{lo:.4g}, {hi:.4g}] "
+                                 f"(extrapolation={curve.extrapolation!r})")
+                    break
+        if found:
+            warnings.warn(
+                "the simulated trajectory leaves the range the curves were trained on: "
+                + "; ".join(found) + ". Beyond it the model extrapolates.",
+                ExtrapolationWarning, stacklevel=3)
 
     # -- reading a fitted model ------------------------------------------------
     def _variable(self, name: str) -> str:

@@ -192,11 +192,7 @@ class PolyCCRegressor(CCRegressor):
         linear, nonlinear = split_parameters(residuals, problem.free_params, type(self).__name__)
         design = _Design(problem, linear, nonlinear, degrees, self.basis)
         fixed = dict(problem.fixed_params)
-        init = dict(self.param_init or {})
-        bad = [k for k in init if k not in problem.skeleton.params]
-        if bad:
-            raise ValueError(f"param_init names {bad[0]!r}, which is not a parameter of the "
-                             f"skeleton ({', '.join(problem.skeleton.params) or 'none'})")
+        init = problem.starting_values(self.param_init)
 
         def solve(theta: np.ndarray):
             values = {**fixed, **dict(zip(nonlinear, theta))}

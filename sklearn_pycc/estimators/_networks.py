@@ -1,0 +1,308 @@
+"""Torch modules of the neural backend: one MLP per curve, the skeleton around them.
+
+:class:`CurveNet` is a small MLP of one scaled input with the curve's
+constraints built in (exact by construction, or as a penalty);
+:class:`SkeletonModule` holds every curve network and free parameter and
+evaluates the weighted residuals of the skeleton's equations, compiled once
+from the parsed trees.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import torch
+from torch import nn
+from torch.nn.utils import skip_init
+
+from ..exceptions import SkeletonError
+from ._activations import torch_activation
+from ._numpy_mlp import NumpyCurve
+from ._torch_expr import compile_torch
+
+__all__ = ["CurveNet", "SkeletonModule", "correction_basis"]
+
+
+def correction_basis(points: Sequence[tuple[float, float]], parity: str | None,
+                     center: float, scale: float, name: str):
+    """Exponents and inverse Vandermonde matrix of the point-value correction.
+
+    The correction ``sum_k c_k u**e_k`` (``u`` the scaled argument) uses the
+    lowest powers that respect the parity: all of them, odd ones or even
+    ones. It is solved so that the corrected curve passes through every
+    point exactly.
+
+    Returns
+    -------
+    at : ndarray
+        Distinct constrained arguments (in units of ``x``).
+    values : ndarray
+        The values the curve must take there.
+    exponents : ndarray
+    inverse : ndarray of shape (k, k)
+        Maps the misfit at the points to the correction coefficients.
+    """
+    kept: dict[float, float] = {}
+    for at, value in points:
+        key = abs(at) if parity else at
+        if parity == "odd" and at == 0.0:
+            if value != 0.0:
+                raise SkeletonError(f"{name} is odd, so {name}(0) must be 0, not {value:g}",
+                                    kind="constraints")
+            continue
+        sign = -1.0 if (parity == "odd" and at < 0) else 1.0
+        target = sign * value
+        if key in kept and not math.isclose(kept[key], target, rel_tol=1e-12, abs_tol=1e-12):
+            raise SkeletonError(
+                f"the point constraints of {name} contradict each other at {at:g}",
+                kind="constraints")
+        kept[key] = target
+    if not kept:
+        return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros((0, 0))
+    at = np.array(sorted(kept))
+    values = np.array([kept[a] for a in at])
+    k = len(at)
+    if parity == "odd":
+        exponents = np.arange(1, 2 * k, 2, dtype=float)
+    elif parity == "even":
+        exponents = np.arange(0, 2 * k, 2, dtype=float)
+    else:
+        exponents = np.arange(k, dtype=float)
+    u = (at - center) / scale
+    inverse = np.linalg.inv(np.power.outer(u, exponents))
+    return at, values, exponents, inverse
+
+
+class CurveNet(nn.Module):
+    """One characteristic curve: an MLP of the scaled argument, constrained.
+
+    Parameters
+    ----------
+    name : str
+        Curve name, for messages.
+    hidden : sequence of int
+        Hidden layer sizes.
+    activation : str
+        Activation name (see ``_activations.ACTIVATIONS``).
+    center, scale : float
+        Input scaling ``u = (x - center) / scale`` (center 0 for a parity).
+    parity : {"odd", "even"} or None
+    points : sequence of (float, float)
+        Point values ``f(at) = value``.
+    exact : bool
+        Constraints by construction (True) or only through :meth:`penalty`.
+    generator : torch.Generator
+        Source of the initial weights.
+    dtype : torch.dtype
+    """
+
+    def __init__(self, name: str, hidden: Sequence[int], activation: str, center: float,
+                 scale: float, parity: str | None, points: Sequence[tuple[float, float]],
+                 exact: bool, generator: torch.Generator, dtype: torch.dtype) -> None:
+        super().__init__()
+        self.name = name
+        self.activation = activation
+        self.center = float(center)
+        self.scale = float(scale)
+        self.parity = parity
+        self.exact = exact
+        self.points = [(float(a), float(v)) for a, v in points]
+        layers: list[nn.Module] = []
+        width = 1
+        for size in hidden:
+            layers += [skip_init(nn.Linear, width, size, dtype=dtype),
+                       torch_activation(activation)]
+            width = size
+        layers.append(skip_init(nn.Linear, width, 1, dtype=dtype))
+        self.mlp = nn.Sequential(*layers)
+        with torch.no_grad():
+            for layer in self.mlp:
+                if isinstance(layer, nn.Linear):
+                    bound = 1.0 / math.sqrt(layer.in_features)
+                    layer.weight.uniform_(-bound, bound, generator=generator)
+                    layer.bias.uniform_(-bound, bound, generator=generator)
+        at, values, exponents, inverse = correction_basis(
+            self.points, parity if exact else None, self.center, self.scale, name)
+        # float64 copies for the export
+        self.correction = (at, values, exponents, inverse)
+        self.register_buffer("at", torch.as_tensor(at, dtype=dtype))
+        self.register_buffer("values", torch.as_tensor(values, dtype=dtype))
+        self.register_buffer("exponents", torch.as_tensor(exponents, dtype=dtype))
+        self.register_buffer("inverse", torch.as_tensor(inverse, dtype=dtype))
+        self.seen: list[float] | None = None
+
+    # -- the unconstrained network -------------------------------------------
+    def network(self, x: torch.Tensor) -> torch.Tensor:
+        """Raw MLP on the scaled argument, 1-D in and out."""
+        u = (x - self.center) / self.scale
+        return self.mlp(u.unsqueeze(-1)).squeeze(-1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """The curve on a 1-D tensor of arguments."""
+        if self.seen is not None:
+            self._record(x)
+        if not self.exact:
+            return self.network(x)
+        m = x.shape[0]
+        k = self.at.shape[0]
+        points = torch.cat([x, self.at]) if k else x
+        out = self.network(torch.cat([points, -points]) if self.parity else points)
+        if self.parity:
+            sign = -1.0 if self.parity == "odd" else 1.0
+            n_all = m + k
+            plus, minus = out[:n_all], out[n_all:]
+            out = 0.5 * (plus + sign * minus)
+        g, g_at = out[:m], out[m:]
+        if k:
+            coefficients = self.inverse @ (self.values - g_at)
+            u = (x - self.center) / self.scale
+            g = g + torch.pow(u.unsqueeze(-1), self.exponents) @ coefficients
+        return g
+
+    def _record(self, x: torch.Tensor) -> None:
+        finite = x[torch.isfinite(x)]
+        if finite.numel():
+            lo, hi = float(finite.min()), float(finite.max())
+            self.seen = [min(self.seen[0], lo), max(self.seen[1], hi)]
+
+    # -- soft constraints --------------------------------------------------------
+    def penalty(self, grid: torch.Tensor) -> torch.Tensor:
+        """Mean squared violation of the constraints (zero when they are exact)."""
+        total = grid.new_zeros(())
+        if self.exact:
+            return total
+        if self.parity:
+            x = self.center + self.scale * grid
+            sign = 1.0 if self.parity == "odd" else -1.0
+            both = self.network(torch.cat([x, -x]))
+            n = grid.shape[0]
+            total = total + torch.mean((both[:n] + sign * both[n:]) ** 2) / 4.0
+        if self.points:
+            at = torch.tensor([a for a, _ in self.points], dtype=grid.dtype, device=grid.device)
+            values = torch.tensor([v for _, v in self.points], dtype=grid.dtype,
+                                  device=grid.device)
+            total = total + torch.sum((self.network(at) - values) ** 2)
+        return total
+
+    # -- export ------------------------------------------------------------------
+    def export(self, domain: tuple[float, float], extrapolation: str) -> NumpyCurve:
+        """Export the network as a :class:`NumpyCurve` (weights copied to float64 on CPU)."""
+        layers = [(layer.weight.detach().cpu().double().numpy().copy(),
+                   layer.bias.detach().cpu().double().numpy().copy())
+                  for layer in self.mlp if isinstance(layer, nn.Linear)]
+        parity = self.parity if self.exact else None
+        at, values, exponents, inverse = self.correction
+        coefficients = np.zeros(0)
+        if self.exact and at.size:
+            bare = NumpyCurve(self.name, layers, self.activation, self.center, self.scale,
+                              parity, [], [], domain, extrapolation)
+            coefficients = inverse @ (values - bare._value(at))
+        else:
+            exponents = np.zeros(0)
+        if parity:
+            reach = max(abs(domain[0]), abs(domain[1]))
+            domain = (-reach, reach)
+        return NumpyCurve(self.name, layers, self.activation, self.center, self.scale,
+                          parity, exponents, coefficients, domain, extrapolation)
+
+
+class SkeletonModule(nn.Module):
+    """Weighted residuals of the skeleton's equations as a torch module.
+
+    Built by skorch from ``module__*`` parameters.
+
+    Parameters
+    ----------
+    residuals : list of Node
+        Residual ``lhs - rhs`` of each equation that has something to fit.
+    weights : list of float
+        One scale per residual (the inverse RMS of its measured side).
+    slots : mapping
+        Column name -> position in the input matrix.
+    curves : mapping
+        Curve name -> ``dict(center=, scale=, parity=, points=)`` for its
+        :class:`CurveNet` (curves pinned to zero by the gauge are absent).
+    params : mapping
+        Free parameter name -> initial value.
+    fixed : mapping
+        Parameters pinned by the gauge.
+    hidden_layer_sizes : sequence of int
+    activation : str
+    exact : bool
+        Constraints by construction, or as penalties.
+    seed : int
+        Seed of the initial weights (a private generator; the global torch
+        random state is not touched).
+    dtype : torch.dtype
+    """
+
+    def __init__(self, residuals, weights, slots: Mapping[str, int],
+                 curves: Mapping[str, dict], params: Mapping[str, float],
+                 fixed: Mapping[str, float], hidden_layer_sizes: Sequence[int],
+                 activation: str, exact: bool, seed: int, dtype: torch.dtype) -> None:
+        super().__init__()
+        generator = torch.Generator().manual_seed(int(seed))
+        self.curves = nn.ModuleDict({
+            name: CurveNet(name, hidden_layer_sizes, activation, spec["center"],
+                           spec["scale"], spec["parity"], spec["points"], exact, generator,
+                           dtype)
+            for name, spec in curves.items()})
+        self.params = nn.ParameterDict(
+            {name: nn.Parameter(torch.tensor(float(v), dtype=dtype))
+             for name, v in params.items()})
+        self.register_buffer("weights", torch.tensor(list(weights), dtype=dtype))
+        self._spec = (list(residuals), dict(slots), dict(fixed))
+        self._compile()
+
+    def _compile(self) -> None:
+        residuals, slots, fixed = self._spec
+        self._residuals = [compile_torch(node, slots, self.curves, self.params, fixed)
+                           for node in residuals]
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state.pop("_residuals", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        super().__setstate__(state)
+        self._compile()
+
+    def forward(self, X: torch.Tensor) -> torch.Tensor:
+        """Weighted residuals, shape ``(n_samples, n_residuals)``."""
+        columns = X.unbind(1)
+        n = X.shape[0]
+        out = []
+        for fn, w in zip(self._residuals, self.weights):
+            r = fn(columns)
+            if not isinstance(r, torch.Tensor) or r.ndim == 0:
+                r = torch.as_tensor(r, dtype=X.dtype, device=X.device).expand(n)
+            out.append(r * w)
+        return torch.stack(out, dim=1)
+
+    def penalty(self) -> torch.Tensor:
+        """Sum of the curves' soft-constraint penalties."""
+        grid = torch.linspace(-1.0, 1.0, 65, dtype=self.weights.dtype,
+                              device=self.weights.device)
+        total = self.weights.new_zeros(())
+        for curve in self.curves.values():
+            total = total + curve.penalty(grid)
+        return total
+
+    def record_ranges(self, X: torch.Tensor) -> dict[str, tuple[float, float]]:
+        """Range of every curve's argument over ``X`` at the current parameters."""
+        for curve in self.curves.values():
+            curve.seen = [math.inf, -math.inf]
+        try:
+            with torch.no_grad():
+                self.forward(X)
+            ranges = {}
+            for name, curve in self.curves.items():
+                lo, hi = curve.seen
+                ranges[name] = (lo, hi) if lo <= hi else (0.0, 0.0)
+            return ranges
+        finally:
+            for curve in self.curves.values():
+                curve.seen = None

@@ -1,0 +1,250 @@
+"""A trained curve network exported to a plain numpy forward pass.
+
+``predict`` and ``simulate`` evaluate fitted curves through
+:class:`NumpyCurve` only: no torch call, no validation.
+
+Arrays go through the network itself. An ODE solver's right-hand side asks
+for one Python float at a time, where a dozen numpy calls on 16-element
+vectors would cost more than the rest of the step; for those, a network
+with a smooth activation is tabulated once (values and exact slopes on a
+grid, cubic Hermite in between) and the table is accepted only when it
+matches the network to ``TABLE_TOLERANCE`` of the curve's scale at every
+interval's midpoint, the grid being refined where it does not. That is far
+below what float32 training resolves; a network the table cannot match
+within ``MAX_TABLE_SIZE`` nodes, or a ReLU/ELU one, is evaluated
+exactly.
+"""
+
+from __future__ import annotations
+
+from bisect import bisect_right
+
+import numpy as np
+
+from ._activations import is_smooth, numpy_activation, numpy_derivative
+
+__all__ = ["EXTRAPOLATIONS", "NumpyCurve", "OutsideTrainingRange"]
+
+EXTRAPOLATIONS = ("linear", "clip", "raise")
+#: largest accepted deviation of the scalar table from the network, relative
+#: to the largest absolute value of the curve on its domain
+TABLE_TOLERANCE = 1e-9
+MIN_TABLE_SIZE = 256
+MAX_TABLE_SIZE = 65536
+
+
+class OutsideTrainingRange(ValueError):
+    """A curve with ``extrapolation="raise"`` was evaluated outside its training range."""
+
+
+class NumpyCurve:
+    """Forward pass of a one-input MLP with exact constraints, in numpy.
+
+    Parameters
+    ----------
+    name : str
+        Curve name (``"f1"``), used in error messages.
+    layers : list of (ndarray, ndarray)
+        ``(weight, bias)`` of each linear layer, weight shaped ``(out, in)``.
+    activation : str
+        Activation between the linear layers.
+    center, scale : float
+        The network sees ``u = (x - center) / scale``.
+    parity : {"odd", "even"} or None
+        Symmetrisation ``(g(u) -+ g(-u)) / 2`` applied to the network.
+    exponents, coefficients : ndarray
+        Polynomial correction ``sum_k coefficients[k] * u**exponents[k]`` that
+        enforces the point constraints.
+    domain : (float, float)
+        Range of the argument seen in training.
+    extrapolation : {"linear", "clip", "raise"}
+        Behaviour outside ``domain``: continue with the slope at the edge,
+        hold the edge value, or raise :class:`OutsideTrainingRange`.
+    """
+
+    def __init__(self, name, layers, activation, center, scale, parity, exponents,
+                 coefficients, domain, extrapolation="linear") -> None:
+        if extrapolation not in EXTRAPOLATIONS:
+            raise ValueError(
+                f"extrapolation must be one of {EXTRAPOLATIONS}, got {extrapolation!r}")
+        self.name = name
+        self.layers = [(np.asarray(w, dtype=float), np.asarray(b, dtype=float))
+                       for w, b in layers]
+        self.activation = activation
+        self.center = float(center)
+        self.scale = float(scale)
+        self.parity = parity
+        self.exponents = np.asarray(exponents, dtype=float)
+        self.coefficients = np.asarray(coefficients, dtype=float)
+        self.domain = (float(domain[0]), float(domain[1]))
+        self.extrapolation = extrapolation
+        self._prepare()
+
+    # -- pickling: the numpy function is looked up again on load --------------
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        for key in ("_act", "_first", "_hidden", "_last", "_edges", "_table"):
+            state.pop(key, None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._prepare()
+
+    def _prepare(self) -> None:
+        self._act = numpy_activation(self.activation)
+        w0, b0 = self.layers[0]
+        self._first = (w0[:, :1], b0[:, None])
+        self._hidden = [(w, b[:, None]) for w, b in self.layers[1:-1]]
+        w_last, b_last = self.layers[-1]
+        self._last = (w_last[0], float(b_last[0]))
+        lo, hi = self.domain
+        edges = np.array([lo, hi])
+        values, slopes = self._value_and_slope(edges)
+        self._edges = (float(values[0]), float(values[1]), float(slopes[0]), float(slopes[1]))
+        self._table = self._tabulate() if is_smooth(self.activation) else None
+
+    # -- the scalar table ------------------------------------------------------------
+    def _tabulate(self):
+        """Cubic Hermite coefficients on an adapted grid, or None when it would be too big.
+
+        The grid starts uniform and every interval whose Hermite midpoint
+        misses the network by more than the tolerance is halved, so nodes
+        gather where the curve bends sharply (a friction step).
+        """
+        lo, hi = self.domain
+        if not hi > lo:
+            return None
+        x = np.linspace(lo, hi, MIN_TABLE_SIZE + 1)
+        scale = None
+        while x.size <= MAX_TABLE_SIZE + 1:
+            v, d = self._value_and_slope(x)
+            if scale is None:
+                scale = max(float(np.max(np.abs(v))), 1e-300)
+            h = np.diff(x)
+            m0, m1 = d[:-1] * h, d[1:] * h
+            middle = 0.5 * (v[:-1] + v[1:]) + (m0 - m1) / 8.0
+            error = np.abs(middle - self._value(x[:-1] + 0.5 * h))
+            bad = error > TABLE_TOLERANCE * scale
+            if not bad.any():
+                y0, y1 = v[:-1], v[1:]
+                c2 = 3.0 * (y1 - y0) - 2.0 * m0 - m1
+                c3 = 2.0 * (y0 - y1) + m0 + m1
+                self.table_error = float(error.max()) / scale
+                return (x[:-1].tolist(), (1.0 / h).tolist(), y0.tolist(), m0.tolist(),
+                        c2.tolist(), c3.tolist())
+            x = np.sort(np.concatenate([x, x[:-1][bad] + 0.5 * h[bad]]))
+        self.table_error = None
+        return None
+
+    # -- evaluation ------------------------------------------------------------
+    def _network(self, u: np.ndarray) -> np.ndarray:
+        act = self._act
+        w, b = self._first
+        h = act(w * u + b)
+        for w, b in self._hidden:
+            h = act(w @ h + b)
+        w, b = self._last
+        return w @ h + b
+
+    def _value_and_slope(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The constrained network and its derivative on a 1-D array (forward mode)."""
+        act, dact = self._act, numpy_derivative(self.activation)
+        u = (x - self.center) / self.scale
+        uu = u if self.parity is None else np.concatenate([u, -u])
+        w, b = self._first
+        z = w * uu + b
+        h = act(z)
+        dh = dact(z, h) * w
+        for w, b in self._hidden:
+            z = w @ h + b
+            h = act(z)
+            dh = dact(z, h) * (w @ dh)
+        w, b = self._last
+        out, dout = w @ h + b, w @ dh
+        if self.parity is not None:
+            m = u.shape[0]
+            # d/du of g(-u) is -g'(-u)
+            if self.parity == "odd":
+                out, dout = 0.5 * (out[:m] - out[m:]), 0.5 * (dout[:m] + dout[m:])
+            else:
+                out, dout = 0.5 * (out[:m] + out[m:]), 0.5 * (dout[:m] - dout[m:])
+        if self.coefficients.size:
+            e = self.exponents
+            out = out + np.power.outer(u, e) @ self.coefficients
+            with np.errstate(divide="ignore", invalid="ignore"):
+                powers = np.where(e > 0, np.power.outer(u, np.maximum(e - 1.0, 0.0)) * e, 0.0)
+            dout = dout + powers @ self.coefficients
+        return out, dout / self.scale
+
+    def _value(self, x: np.ndarray) -> np.ndarray:
+        """The constrained network on a 1-D array, ignoring the domain."""
+        u = (x - self.center) / self.scale
+        if self.parity is None:
+            out = self._network(u)
+        else:
+            both = self._network(np.concatenate([u, -u]))
+            m = u.shape[0]
+            if self.parity == "odd":
+                out = 0.5 * (both[:m] - both[m:])
+            else:
+                out = 0.5 * (both[:m] + both[m:])
+        if self.coefficients.size:
+            out = out + np.power.outer(u, self.exponents) @ self.coefficients
+        return out
+
+    def _outside(self, x) -> OutsideTrainingRange:
+        lo, hi = self.domain
+        return OutsideTrainingRange(
+            f"{self.name} was evaluated at {float(x):.6g}, outside its training range "
+            f"[{lo:.6g}, {hi:.6g}] (extrapolation='raise')")
+
+    def __call__(self, x):
+        """Evaluate the curve on a float or an array."""
+        if isinstance(x, float):
+            return self._scalar(x)
+        x = np.asarray(x, dtype=float)
+        if x.ndim == 0:
+            return self._scalar(float(x))
+        flat = x.reshape(-1)
+        lo, hi = self.domain
+        clipped = np.clip(flat, lo, hi)
+        if self.extrapolation == "raise":
+            bad = np.flatnonzero((flat < lo) | (flat > hi))
+            if bad.size:
+                raise self._outside(flat[bad[0]])
+        out = self._value(clipped)
+        if self.extrapolation == "linear":
+            v_lo, v_hi, s_lo, s_hi = self._edges
+            below, above = flat < lo, flat > hi
+            if below.any():
+                out[below] = v_lo + s_lo * (flat[below] - lo)
+            if above.any():
+                out[above] = v_hi + s_hi * (flat[above] - hi)
+        return out.reshape(x.shape)
+
+    def _scalar(self, x: float) -> float:
+        lo, hi = self.domain
+        if x < lo or x > hi:
+            if x != x:  # NaN propagates
+                return x
+            if self.extrapolation == "raise":
+                raise self._outside(x)
+            v_lo, v_hi, s_lo, s_hi = self._edges
+            if self.extrapolation == "clip":
+                return v_lo if x < lo else v_hi
+            return v_lo + s_lo * (x - lo) if x < lo else v_hi + s_hi * (x - hi)
+        table = self._table
+        if table is None:
+            return float(self._value(np.array([x]))[0])
+        nodes, inverse, c0, c1, c2, c3 = table
+        k = bisect_right(nodes, x) - 1
+        if k < 0:
+            k = 0
+        s = (x - nodes[k]) * inverse[k]
+        return c0[k] + s * (c1[k] + s * (c2[k] + s * c3[k]))
+
+    def __repr__(self) -> str:
+        sizes = [w.shape[0] for w, _ in self.layers[:-1]]
+        return (f"NumpyCurve({self.name!r}, hidden={sizes}, activation={self.activation!r}, "
+                f"parity={self.parity!r}, domain=({self.domain[0]:.4g}, {self.domain[1]:.4g}))")

@@ -1,0 +1,112 @@
+"""The skorch side of the neural backend: the net, its batches and callbacks.
+
+Imported only when a :class:`~sklearn_pycc.NeuralCCRegressor` is fitted, so
+``import sklearn_pycc`` does not load torch.
+"""
+
+from __future__ import annotations
+
+import torch
+from skorch import NeuralNet
+from skorch.callbacks import Callback
+
+__all__ = ["EpochProgress", "SkeletonNet"]
+
+
+class _TensorBatches:
+    """Batches of tensors already on the device: no per-sample collation.
+
+    skorch's default ``DataLoader`` gathers samples one by one; for full-batch
+    training of small networks that costs more than the step itself.
+    """
+
+    def __init__(self, X: torch.Tensor, y: torch.Tensor, batch_size: int | None,
+                 generator: torch.Generator | None) -> None:
+        self.X, self.y = X, y
+        self.batch_size = batch_size
+        self.generator = generator
+
+    def __iter__(self):
+        n = self.X.shape[0]
+        if self.batch_size is None or self.batch_size >= n:
+            yield self.X, self.y
+            return
+        if self.generator is not None:
+            order = torch.randperm(n, generator=self.generator).to(self.X.device)
+        else:
+            order = torch.arange(n, device=self.X.device)
+        for start in range(0, n, self.batch_size):
+            idx = order[start:start + self.batch_size]
+            yield self.X[idx], self.y[idx]
+
+    def __len__(self) -> int:
+        n = self.X.shape[0]
+        if self.batch_size is None or self.batch_size >= n:
+            return 1
+        return -(-n // self.batch_size)
+
+
+def _tensors(dataset):
+    """``(X, y)`` tensors of a skorch ``Dataset`` or a ``Subset`` of one."""
+    if isinstance(dataset, torch.utils.data.Subset):
+        X, y = _tensors(dataset.dataset)
+        idx = torch.as_tensor(dataset.indices, device=X.device)
+        return X[idx], y[idx]
+    return dataset.X, dataset.y
+
+
+class SkeletonNet(NeuralNet):
+    """A skorch ``NeuralNet`` over a :class:`SkeletonModule`.
+
+    The module returns weighted equation residuals and the criterion drives
+    them to zero. Soft-constraint penalties are added in :meth:`get_loss`,
+    only when training. Batches are slices of tensors already on the device,
+    shuffled by a private generator.
+
+    Parameters
+    ----------
+    penalty_weight : float
+        Weight of the soft-constraint penalty (0 when constraints are exact).
+    shuffle_generator : torch.Generator or None
+        Generator of the minibatch order (None for full batches).
+    **kwargs
+        Passed to :class:`skorch.NeuralNet`.
+    """
+
+    def __init__(self, *args, penalty_weight: float = 0.0,
+                 shuffle_generator: torch.Generator | None = None, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.penalty_weight = penalty_weight
+        self.shuffle_generator = shuffle_generator
+
+    def get_loss(self, y_pred, y_true, X=None, training=False):
+        """Criterion on the residuals, plus the constraint penalty in training."""
+        loss = super().get_loss(y_pred, y_true, X=X, training=training)
+        if training and self.penalty_weight:
+            loss = loss + self.penalty_weight * self.module_.penalty()
+        return loss
+
+    def get_iterator(self, dataset, training=False):
+        """Device-resident batches (one full batch unless ``batch_size`` is set)."""
+        X, y = _tensors(dataset)
+        size = None if self.batch_size in (None, -1) else int(self.batch_size)
+        return _TensorBatches(X, y, size, self.shuffle_generator if training else None)
+
+
+class EpochProgress(Callback):
+    """A progress bar over epochs showing the training loss (``verbose=1``)."""
+
+    def __init__(self, total: int) -> None:
+        self.total = total
+
+    def on_train_begin(self, net, X=None, y=None, **kwargs) -> None:
+        from tqdm.auto import tqdm
+
+        self.bar_ = tqdm(total=self.total, desc="epochs", unit="epoch", leave=False)
+
+    def on_epoch_end(self, net, **kwargs) -> None:
+        self.bar_.update(1)
+        self.bar_.set_postfix(loss=f"{net.history[-1, 'train_loss']:.3g}", refresh=False)
+
+    def on_train_end(self, net, X=None, y=None, **kwargs) -> None:
+        self.bar_.close()

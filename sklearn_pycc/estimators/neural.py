@@ -1,0 +1,456 @@
+"""Neural backend: each curve is a small MLP trained through skorch."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from contextlib import contextmanager
+from numbers import Integral, Real
+
+import numpy as np
+from sklearn.utils import check_random_state
+
+from ..skeleton.compiler import compile_expression
+from ..skeleton.equations import unknown_names
+from ..skeleton.nodes import Node, Unknown, walk
+from ._activations import ACTIVATIONS
+from ._basis import ZeroCurve
+from ._numpy_mlp import EXTRAPOLATIONS, NumpyCurve
+from ._setup import Problem
+from .base import CCRegressor
+
+__all__ = ["NeuralCCRegressor"]
+
+#: optimizer name -> (torch.optim class name, default learning rate)
+OPTIMIZERS: dict[str, tuple[str, float]] = {
+    "lbfgs": ("LBFGS", 1.0),
+    "adam": ("Adam", 1e-2),
+    "adamw": ("AdamW", 1e-2),
+    "rmsprop": ("RMSprop", 1e-3),
+    "sgd": ("SGD", 1e-2),
+}
+DEVICES = ("cpu", "cuda", "xpu", "auto")
+DTYPES = ("float32", "float64")
+CONSTRAINT_MODES = ("exact", "penalty")
+
+
+def _positive_int(value, name: str, allow_none: bool = False):
+    if value is None and allow_none:
+        return None
+    if not isinstance(value, Integral) or isinstance(value, bool) or value < 1:
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    return int(value)
+
+
+def _non_negative(value, name: str) -> float:
+    if not isinstance(value, Real) or isinstance(value, bool) or not np.isfinite(value) \
+            or value < 0:
+        raise ValueError(f"{name} must be a non-negative number, got {value!r}")
+    return float(value)
+
+
+def resolve_device(device) -> str:
+    """Check ``device`` and turn ``"auto"`` into the best available one."""
+    import torch
+
+    if not isinstance(device, str) or device.split(":")[0] not in DEVICES:
+        raise ValueError(f"device must be one of {DEVICES} (or 'cuda:N'), got {device!r}")
+    kind = device.split(":")[0]
+    has_xpu = hasattr(torch, "xpu") and torch.xpu.is_available()
+    if kind == "auto":
+        if torch.cuda.is_available():
+            return "cuda"
+        return "xpu" if has_xpu else "cpu"
+    if kind == "cuda" and not torch.cuda.is_available():
+        raise ValueError(f"device={device!r}, but torch finds no CUDA GPU "
+                         "(torch.cuda.is_available() is False); use 'cpu' or 'auto'")
+    if kind == "xpu" and not has_xpu:
+        raise ValueError(f"device={device!r}, but torch finds no XPU "
+                         "(torch.xpu is missing or unavailable); use 'cpu' or 'auto'")
+    return device
+
+
+@contextmanager
+def torch_threads(n: int | None):
+    """Run the block with ``n`` intra-op torch threads, restoring the setting after."""
+    import torch
+
+    if n is None:
+        yield
+        return
+    previous = torch.get_num_threads()
+    torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
+
+
+class NeuralCCRegressor(CCRegressor):
+    """Characteristic curves as small neural networks (NN-CC), trained with skorch.
+
+    Every unknown curve ``f_i`` is a multilayer perceptron of its (scaled)
+    argument; unknown scalars ``a_i`` are trained jointly as torch
+    parameters. The skeleton is compiled once from its parsed tree into a
+    torch module returning the residual of each equation, scaled by the
+    inverse RMS of its measured side; skorch minimises their mean square.
+    Constraints hold by construction: an odd curve is ``(g(x) - g(-x)) / 2``,
+    an even one ``(g(x) + g(-x)) / 2``, and point values are imposed by a
+    low-order polynomial correction that respects the parity. After ``fit``
+    the networks are exported to numpy, so ``predict`` and ``simulate`` never
+    call torch.
+
+    Parameters
+    ----------
+    equations : list of str or Skeleton
+        The structural skeleton.
+    constraints : list of str or dict, optional
+        ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, ...
+    hidden_layer_sizes : tuple of int, default=(16, 16)
+        Hidden layers of each curve's network.
+    activation : {"tanh", "relu", "silu", "elu", "softplus", "sigmoid", "gelu"}, default="tanh"
+        Activation of the hidden layers.
+    optimizer : {"lbfgs", "adam", "adamw", "rmsprop", "sgd"} or torch optimizer class, \
+default="lbfgs"
+        ``"lbfgs"`` runs up to 20 quasi-Newton iterations with a strong Wolfe
+        line search per epoch (torch's default); on these small full-batch
+        problems it converges in far less time than first-order methods. Use
+        a first-order optimizer (with more epochs and patience) for
+        minibatches.
+    lr : float, optional
+        Learning rate; default 1.0 for lbfgs, 1e-2 for adam/adamw/sgd,
+        1e-3 for rmsprop.
+    max_epochs : int, default=100
+        Maximum number of epochs (the paper's ``epochs``; with Adam, think
+        in thousands).
+    batch_size : int, optional
+        Minibatch size; None trains on the full batch.
+    early_stopping : bool, default=True
+        Stop when the monitored loss has not improved by a relative ``tol``
+        for ``patience`` epochs. It monitors the training loss, unless
+        ``validation_fraction`` holds out a validation set.
+    patience : int, default=5
+        Epochs without improvement before stopping.
+    tol : float, default=1e-4
+        Relative improvement that counts.
+    validation_fraction : float, optional
+        Fraction of the samples held out (by skorch's ``ValidSplit``) to
+        monitor ``valid_loss``; None trains on everything.
+    constraint_mode : {"exact", "penalty"}, default="exact"
+        Constraints by construction, or as a penalty added to the loss.
+    constraint_weight : float, default=1.0
+        Weight of the penalty when ``constraint_mode="penalty"``.
+    param_init : dict, optional
+        Starting values of the parameters ``a_i`` (1.0 otherwise).
+    extrapolation : {"linear", "clip", "raise"}, default="linear"
+        What a curve does outside the range of its argument in training:
+        continue with the slope at the edge, hold the edge value, or raise.
+        ``simulate`` warns once when the trajectory leaves that range.
+    dtype : {"float32", "float64"}, default="float32"
+        Precision of training (inputs of either type are accepted).
+    device : {"cpu", "cuda", "xpu", "auto"}, default="cpu"
+        Where to train; ``"auto"`` picks a GPU when there is one. The fitted
+        model holds only numpy arrays, so it loads anywhere.
+    n_threads : int or None, default=1
+        Intra-op torch threads during ``fit`` (restored afterwards); small
+        networks are fastest on one. None keeps torch's setting.
+    callbacks : list of skorch callbacks, optional
+        Extra callbacks for the skorch net.
+    gauge : {"auto", "warn", "raise"}, default="auto"
+        See :class:`CCRegressor`.
+    random_state : int, RandomState or None
+        Seeds the initial weights and the minibatch order (private
+        generators; global random state is never touched).
+    verbose : int, default=0
+        0 silent, 1 a progress bar over epochs, 2 skorch's table per epoch.
+
+    Attributes
+    ----------
+    history_ : skorch.History
+        Loss per epoch.
+    n_epochs_ : int
+        Epochs run.
+    loss_ : float
+        Final training loss (mean squared scaled residual).
+    device_ : str
+        The device the model was trained on.
+
+    Examples
+    --------
+    >>> from sklearn_pycc import NeuralCCRegressor, datasets
+    >>> df = datasets.make_duffing(n_samples=300)
+    >>> model = NeuralCCRegressor(
+    ...     equations=["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
+    ...     constraints=["f1 odd", "f2 odd"], max_epochs=300, random_state=0)
+    >>> _ = model.fit(df[["x1", "x2", "F_ext"]], df[["x1_dot", "x2_dot"]])
+    >>> model.score(df[["x1", "x2", "F_ext"]], df[["x1_dot", "x2_dot"]]) > 0.999
+    True
+    """
+
+    #: quasi-Newton iterations per epoch with optimizer="lbfgs" (torch's default)
+    _lbfgs_iterations = 20
+
+    def __init__(self, equations=None, constraints=None, hidden_layer_sizes=(16, 16),
+                 activation: str = "tanh", optimizer="lbfgs", lr: float | None = None,
+                 max_epochs: int = 100, batch_size: int | None = None,
+                 early_stopping: bool = True, patience: int = 5, tol: float = 1e-4,
+                 validation_fraction: float | None = None, constraint_mode: str = "exact",
+                 constraint_weight: float = 1.0, param_init: Mapping | None = None,
+                 extrapolation: str = "linear", dtype: str = "float32", device: str = "cpu",
+                 n_threads: int | None = 1, callbacks: Sequence | None = None,
+                 gauge: str = "auto", random_state=None, verbose: int = 0) -> None:
+        super().__init__(equations=equations, constraints=constraints, gauge=gauge)
+        self.hidden_layer_sizes = hidden_layer_sizes
+        self.activation = activation
+        self.optimizer = optimizer
+        self.lr = lr
+        self.max_epochs = max_epochs
+        self.batch_size = batch_size
+        self.early_stopping = early_stopping
+        self.patience = patience
+        self.tol = tol
+        self.validation_fraction = validation_fraction
+        self.constraint_mode = constraint_mode
+        self.constraint_weight = constraint_weight
+        self.param_init = param_init
+        self.extrapolation = extrapolation
+        self.dtype = dtype
+        self.device = device
+        self.n_threads = n_threads
+        self.callbacks = callbacks
+        self.random_state = random_state
+        self.verbose = verbose
+
+    # -- hyperparameter checks -----------------------------------------------------
+    def _hidden(self) -> tuple[int, ...]:
+        sizes = self.hidden_layer_sizes
+        if isinstance(sizes, Integral) and not isinstance(sizes, bool):
+            sizes = (sizes,)
+        try:
+            sizes = tuple(sizes)
+        except TypeError:
+            raise ValueError("hidden_layer_sizes must be a tuple of positive integers, "
+                             f"got {self.hidden_layer_sizes!r}") from None
+        if not sizes:
+            raise ValueError("hidden_layer_sizes must name at least one hidden layer, got ()")
+        for k, size in enumerate(sizes):
+            if not isinstance(size, Integral) or isinstance(size, bool) or size < 1:
+                raise ValueError(
+                    f"hidden_layer_sizes must be positive integers; position {k} is "
+                    f"{size!r} in {self.hidden_layer_sizes!r}")
+        return tuple(int(s) for s in sizes)
+
+    def _optimizer(self):
+        import torch
+
+        if isinstance(self.optimizer, str):
+            if self.optimizer not in OPTIMIZERS:
+                raise ValueError(f"optimizer must be one of {sorted(OPTIMIZERS)} or a torch "
+                                 f"optimizer class, got {self.optimizer!r}")
+            name, default_lr = OPTIMIZERS[self.optimizer]
+            return getattr(torch.optim, name), default_lr, self.optimizer == "lbfgs"
+        if isinstance(self.optimizer, type) and issubclass(self.optimizer, torch.optim.Optimizer):
+            lbfgs = issubclass(self.optimizer, torch.optim.LBFGS)
+            return self.optimizer, 1.0 if lbfgs else 1e-3, lbfgs
+        raise ValueError(f"optimizer must be one of {sorted(OPTIMIZERS)} or a torch optimizer "
+                         f"class, got {self.optimizer!r}")
+
+    def _check_params(self) -> dict:
+        checked = {"hidden": self._hidden()}
+        if self.activation not in ACTIVATIONS:
+            raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}, "
+                             f"got {self.activation!r}")
+        checked["optimizer"], default_lr, checked["lbfgs"] = self._optimizer()
+        lr = default_lr if self.lr is None else self.lr
+        if not isinstance(lr, Real) or isinstance(lr, bool) or not np.isfinite(lr) or lr <= 0:
+            raise ValueError(f"lr must be a positive number, got {self.lr!r}")
+        checked["lr"] = float(lr)
+        checked["max_epochs"] = _positive_int(self.max_epochs, "max_epochs")
+        checked["batch_size"] = _positive_int(self.batch_size, "batch_size", allow_none=True)
+        checked["patience"] = _positive_int(self.patience, "patience")
+        checked["tol"] = _non_negative(self.tol, "tol")
+        fraction = self.validation_fraction
+        if fraction is not None and (not isinstance(fraction, Real) or not 0 < fraction < 1):
+            raise ValueError("validation_fraction must be None or a number strictly between "
+                             f"0 and 1, got {fraction!r}")
+        if self.constraint_mode not in CONSTRAINT_MODES:
+            raise ValueError(f"constraint_mode must be one of {CONSTRAINT_MODES}, "
+                             f"got {self.constraint_mode!r}")
+        checked["constraint_weight"] = _non_negative(self.constraint_weight,
+                                                     "constraint_weight")
+        if self.extrapolation not in EXTRAPOLATIONS:
+            raise ValueError(f"extrapolation must be one of {EXTRAPOLATIONS}, "
+                             f"got {self.extrapolation!r}")
+        if self.dtype not in DTYPES:
+            raise ValueError(f"dtype must be one of {DTYPES}, got {self.dtype!r}")
+        checked["n_threads"] = _positive_int(self.n_threads, "n_threads", allow_none=True)
+        checked["device"] = resolve_device(self.device)
+        if not isinstance(self.verbose, Integral) or self.verbose < 0:
+            raise ValueError(f"verbose must be a non-negative integer, got {self.verbose!r}")
+        return checked
+
+    # -- fitting -----------------------------------------------------------------
+    def _fit_problem(self, problem: Problem):
+        checked = self._check_params()
+        init = problem.starting_values(self.param_init)
+        params0 = {a: float(init.get(a, 1.0)) for a in problem.free_params}
+        functions: dict = {name: ZeroCurve() for name in problem.zeroed}
+        residuals, weights = _active_residuals(problem)
+        free = set(problem.free_functions)
+        if not residuals:
+            self.history_, self.n_epochs_, self.loss_ = [], 0, 0.0
+            self.device_ = checked["device"]
+            return functions, params0
+        with torch_threads(checked["n_threads"]):
+            trained, params = self._train(problem, residuals, weights, params0, free, checked)
+        functions.update(trained)
+        return functions, params
+
+    def _train(self, problem, residuals, weights, params0, free, checked):
+        import torch
+
+        from ._networks import SkeletonModule
+        from ._skorch_net import EpochProgress, SkeletonNet
+
+        dtype = getattr(torch, self.dtype)
+        device = checked["device"]
+        seed = int(check_random_state(self.random_state).randint(0, 2**31 - 1))
+        names = list(problem.data.columns)
+        slots = {name: i for i, name in enumerate(names)}
+        curves = {f: self._curve_spec(problem, f, params0) for f in problem.free_functions
+                  if f in free}
+        data = np.column_stack([np.asarray(problem.data[name], dtype=float) for name in names])
+        X = torch.as_tensor(data, dtype=dtype).to(device)
+        y = torch.zeros((X.shape[0], len(residuals)), dtype=dtype, device=device)
+        exact = self.constraint_mode == "exact"
+        callbacks = []
+        if self.early_stopping:
+            from skorch.callbacks import EarlyStopping
+
+            monitor = "valid_loss" if self.validation_fraction else "train_loss"
+            callbacks.append(("early_stopping", EarlyStopping(
+                monitor=monitor, patience=checked["patience"], threshold=checked["tol"],
+                threshold_mode="rel", lower_is_better=True,
+                sink=print if self.verbose >= 2 else _silent)))
+        if self.verbose == 1:
+            callbacks.append(("progress", EpochProgress(checked["max_epochs"])))
+        for k, callback in enumerate(self.callbacks or []):
+            callbacks.append((f"user_{k}", callback))
+        train_split = None
+        if self.validation_fraction:
+            from skorch.dataset import ValidSplit
+
+            train_split = ValidSplit(self.validation_fraction, random_state=seed)
+        optimizer_params = {}
+        if checked["lbfgs"]:
+            optimizer_params = {"optimizer__line_search_fn": "strong_wolfe",
+                                "optimizer__max_iter": self._lbfgs_iterations}
+        if self.verbose < 2:
+            optimizer_params["callbacks__print_log"] = None
+        shuffle = None
+        if checked["batch_size"] is not None:
+            shuffle = torch.Generator().manual_seed(seed + 1)
+        net = SkeletonNet(
+            SkeletonModule,
+            module__residuals=residuals, module__weights=weights, module__slots=slots,
+            module__curves=curves, module__params=params0,
+            module__fixed=problem.fixed_params, module__hidden_layer_sizes=checked["hidden"],
+            module__activation=self.activation, module__exact=exact, module__seed=seed,
+            module__dtype=dtype,
+            criterion=torch.nn.MSELoss,
+            optimizer=checked["optimizer"], lr=checked["lr"], max_epochs=checked["max_epochs"],
+            batch_size=-1 if checked["batch_size"] is None else checked["batch_size"],
+            train_split=train_split, callbacks=callbacks, device=device,
+            verbose=1 if self.verbose >= 2 else 0,
+            penalty_weight=0.0 if exact else checked["constraint_weight"],
+            shuffle_generator=shuffle,
+            **optimizer_params,
+        )
+        net.fit(X, y)
+        module = net.module_
+        ranges = module.record_ranges(X)
+        functions = {name: curve.export(ranges[name], self.extrapolation)
+                     for name, curve in module.curves.items()}
+        params = {name: float(p.detach().cpu()) for name, p in module.params.items()}
+        history = net.history
+        self.history_ = history
+        self.n_epochs_ = len(history)
+        self.loss_ = float(history[-1, "train_loss"]) if len(history) else float("nan")
+        self.device_ = device
+        if not np.isfinite(self.loss_):
+            raise FloatingPointError(
+                "training diverged: the loss is not finite. Lower lr, scale the data, or "
+                "give param_init values closer to the truth")
+        return functions, params
+
+    def _curve_spec(self, problem: Problem, name: str, params: Mapping[str, float]) -> dict:
+        """Input scaling and constraints of one curve's network."""
+        parity = problem.parity(name)
+        values = _argument_values(problem, name, {**problem.fixed_params, **params})
+        if values.size:
+            lo, hi = float(values.min()), float(values.max())
+        else:
+            lo, hi = -1.0, 1.0
+        if parity:
+            center, scale = 0.0, max(abs(lo), abs(hi))
+        else:
+            center, scale = (lo + hi) / 2.0, (hi - lo) / 2.0
+        if not np.isfinite(scale) or scale <= 0:
+            scale = max(abs(center), 1.0)
+        return {"center": center, "scale": scale, "parity": parity,
+                "points": problem.points(name)}
+
+    def _curve_text(self, name: str, variable: str, precision: int) -> str:
+        curve = self.functions_[name]
+        if isinstance(curve, ZeroCurve):
+            return "0"
+        if not isinstance(curve, NumpyCurve):
+            return super()._curve_text(name, variable, precision)
+        sizes = ", ".join(str(w.shape[0]) for w, _ in curve.layers[:-1])
+        text = f"MLP({variable}; hidden=({sizes}), activation={curve.activation})"
+        if curve.parity:
+            text += f", {curve.parity}"
+        return text
+
+
+def _silent(*args, **kwargs) -> None:
+    return None
+
+
+def _active_residuals(problem: Problem) -> tuple[list[Node], list[float]]:
+    """Residuals of the equations with something to fit, and their scales."""
+    unknown = set(problem.free_functions) | set(problem.free_params)
+    names = list(problem.data.columns)
+    slots = {name: i for i, name in enumerate(names)}
+    env = [problem.data[name] for name in names]
+    residuals, weights = [], []
+    for eq in problem.equations:
+        curves, params = unknown_names(eq.residual)
+        if not (curves | params) & unknown:
+            continue
+        residuals.append(eq.residual)
+        weight = 1.0
+        lhs_curves, lhs_params = unknown_names(eq.lhs)
+        if not lhs_curves and not (lhs_params - set(problem.fixed_params)):
+            value = compile_expression(eq.lhs, slots, problem.fixed_params)(env)
+            value = np.broadcast_to(np.asarray(value, dtype=float), (problem.data.n_samples,))
+            rms = float(np.sqrt(np.mean(value * value)))
+            if np.isfinite(rms) and rms > 0:
+                weight = 1.0 / rms
+        weights.append(weight)
+    return residuals, weights
+
+
+def _argument_values(problem: Problem, name: str, params: Mapping[str, float]) -> np.ndarray:
+    """Values of the curve's arguments on the data (empty when they involve curves)."""
+    names = list(problem.data.columns)
+    slots = {n: i for i, n in enumerate(names)}
+    env = [problem.data[n] for n in names]
+    chunks = []
+    for arg in problem.arguments(name):
+        if any(isinstance(node, Unknown) for node in walk(arg)):
+            continue
+        with np.errstate(all="ignore"):
+            value = compile_expression(arg, slots, params)(env)
+        value = np.broadcast_to(np.asarray(value, dtype=float), (problem.data.n_samples,))
+        chunks.append(value[np.isfinite(value)])
+    return np.concatenate(chunks) if chunks else np.zeros(0)
