@@ -202,10 +202,10 @@ class NumpyCurve:
     def __call__(self, x):
         """Evaluate the curve on a float or an array."""
         if isinstance(x, float):
-            return self._scalar(x)
+            return self.scalar(x)
         x = np.asarray(x, dtype=float)
         if x.ndim == 0:
-            return self._scalar(float(x))
+            return self.scalar(float(x))
         flat = x.reshape(-1)
         lo, hi = self.domain
         clipped = np.clip(flat, lo, hi)
@@ -223,7 +223,8 @@ class NumpyCurve:
                 out[above] = v_hi + s_hi * (flat[above] - hi)
         return out.reshape(x.shape)
 
-    def _scalar(self, x: float) -> float:
+    def scalar(self, x: float) -> float:
+        """Evaluate the curve on one Python float (the ODE right-hand-side path)."""
         lo, hi = self.domain
         if x < lo or x > hi:
             if x != x:  # NaN propagates
