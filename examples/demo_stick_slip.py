@@ -1,17 +1,20 @@
-"""The PyCC paper's stick-slip oscillator, fitted with PolyCCRegressor.
+"""The PyCC paper's stick-slip oscillator, fitted with two backends.
 
 x'' + delta x' + mu tanh(500 x') + alpha x + beta x^3 = cos(t)
 
 The same data are fitted with the paper's three kinds of skeleton:
 parametric (only a's), hybrid (a's and a curve) and functional (only
-curves), and each fitted model is printed, scored and simulated.
+curves), with polynomial curves (PolyCCRegressor), and the functional and
+hybrid skeletons again with neural curves (NeuralCCRegressor), the only
+representation that follows the Coulomb step of the friction. Each fitted
+model is printed, scored and simulated.
 """
 
 import time
 
 import numpy as np
 
-from sklearn_pycc import PolyCCRegressor, Skeleton, datasets
+from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, Skeleton, datasets
 
 
 def rmse(a, b):
@@ -23,21 +26,25 @@ X = frame[["t", "x1", "x2", "F_ext"]]
 y = frame[["x1_dot", "x2_dot"]]
 forcing = {"F_ext": truth.inputs["F_ext"]}
 
+HYBRID = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - a4 x1 - a5 x1^3"]
+FUNCTIONAL = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]
 candidates = {
-    "parametric": (truth.parametric_equations, None, {}),
-    "hybrid": (["x1_dot = x2", "x2_dot = F_ext - f1(x2) - a4 x1 - a5 x1^3"],
-               ["f1 odd"], {"degree": 15}),
-    "functional": (["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
-                   ["f1 odd", "f2(0)=0"], {"degree": 15}),
+    "parametric, polynomial backend": (PolyCCRegressor, truth.parametric_equations, None, {}),
+    "hybrid, polynomial backend": (PolyCCRegressor, HYBRID, ["f1 odd"], {"degree": 15}),
+    "functional, polynomial backend": (PolyCCRegressor, FUNCTIONAL, ["f1 odd", "f2(0)=0"],
+                                       {"degree": 15}),
+    "hybrid, neural backend": (NeuralCCRegressor, HYBRID, ["f1 odd"], {"random_state": 0}),
+    "functional, neural backend": (NeuralCCRegressor, FUNCTIONAL, ["f1 odd", "f2 odd"],
+                                   {"random_state": 0}),
 }
 
 print(f"Data: the stick-slip oscillator of the PyCC paper, {len(frame)} samples, "
       f"t from {frame.t.iloc[0]:g} to {frame.t.iloc[-1]:g}")
-for label, (equations, constraints, options) in candidates.items():
+for label, (backend, equations, constraints, options) in candidates.items():
     print("\n" + "=" * 78)
     print(f"{label} skeleton")
     print(Skeleton(equations, constraints))
-    model = PolyCCRegressor(equations=equations, constraints=constraints, **options)
+    model = backend(equations=equations, constraints=constraints, **options)
     start = time.perf_counter()
     model.fit(X, y)
     fit_time = time.perf_counter() - start

@@ -522,3 +522,26 @@ def test_diverging_training_is_reported(small_stick_slip):
     model = quick_model(optimizer="sgd", lr=1e12, max_epochs=20, early_stopping=False)
     with pytest.raises(FloatingPointError, match="training diverged"):
         model.fit(frame[X_COLUMNS], frame[Y_COLUMNS])
+
+
+# -- long accuracy study (make test-slow) ------------------------------------------------------
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_stick_slip_accuracy_holds_across_seeds(stick_slip, seed):
+    frame, truth = stick_slip
+    model = NeuralCCRegressor(equations=STICK_SLIP_FUNCTIONAL, constraints=["f1 odd", "f2 odd"],
+                              random_state=seed).fit(frame[X_COLUMNS], frame[Y_COLUMNS])
+    assert curve_rmse(model, truth, "f1") <= 1e-2
+    assert curve_rmse(model, truth, "f2") <= 5e-3
+    sim = model.simulate(frame["t"], y0=truth.y0, inputs=truth.inputs)
+    assert float(np.sqrt(np.mean((sim["x1"] - frame["x1"]) ** 2))) <= 3e-3
+
+
+@pytest.mark.slow
+def test_stick_slip_with_measurement_noise(stick_slip):
+    _, truth = stick_slip
+    noisy = datasets.make_stick_slip(noise=40, noise_columns=["x2_dot"], random_state=0)
+    model = NeuralCCRegressor(equations=STICK_SLIP_FUNCTIONAL, constraints=["f1 odd", "f2 odd"],
+                              random_state=0).fit(noisy[X_COLUMNS], noisy[Y_COLUMNS])
+    assert curve_rmse(model, truth, "f1") <= 5e-2
+    assert curve_rmse(model, truth, "f2") <= 5e-2

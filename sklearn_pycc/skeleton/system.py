@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import math
-from operator import itemgetter
 from collections.abc import Callable, Mapping
+from operator import itemgetter
 
 import numpy as np
 
