@@ -6,6 +6,7 @@ estimator.
 """
 
 from . import datasets
+from .diagnostics import effects
 from .estimators import CCRegressor, NeuralCCRegressor, PolyCCRegressor
 from .exceptions import (
     ExtrapolationWarning,
@@ -31,4 +32,5 @@ __all__ = [
     "Skeleton",
     "SkeletonError",
     "datasets",
+    "effects",
 ]

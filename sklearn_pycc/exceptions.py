@@ -42,8 +42,8 @@ class SkeletonError(ValueError):
         self.position = position
         self.text = text
         parts = []
-        if equation is not None:
-            where = f"{kind}[{equation}]"
+        if equation is not None or position is not None:
+            where = kind if equation is None else f"{kind}[{equation}]"
             if position is not None:
                 where += f", position {position}"
             parts.append(f"{where}: {message}")

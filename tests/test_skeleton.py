@@ -471,3 +471,55 @@ def test_cycle_between_derivatives_is_rejected_at_construction():
 
     with pytest.raises(SkeletonError, match="cycle"):
         Skeleton(["x1_dot = x2_dot", "x2_dot = x1_dot"])
+
+
+# -- adding a term ---------------------------------------------------------------------
+LINEAR = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
+
+
+def test_add_term_renumbers_to_fresh_indices():
+    sk = Skeleton(LINEAR)
+    extended = sk.add_term("x2", "a1 sign(x2)")
+    assert extended.equations == ("x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 - a3*sign(x2)")
+    assert extended.params == ["a1", "a2", "a3"]
+    assert sk.equations == tuple(LINEAR)  # unchanged
+    two = sk.add_term(1, "a7 tanh(a2 x2)", sign="+")
+    # renumbered in the order of the term's own indices
+    assert two.equations[1] == "x2_dot = F_ext - a1 x2 - a2 x1 + a4*tanh(a3*x2)"
+
+
+@pytest.mark.parametrize("equation", [1, -1, "x2", "x2_dot"])
+def test_add_term_finds_the_equation(equation):
+    extended = Skeleton(LINEAR).add_term(equation, "a1 x1^3")
+    assert extended.equations[1].endswith("- a3*x1^3")
+    assert extended.equations[0] == "x1_dot = x2"
+
+
+def test_add_term_with_curves_and_their_constraints():
+    sk = Skeleton(["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f3(x1)"], ["f1 odd"])
+    extended = sk.add_term("x2", "f1(x1 - x2) + a1 x2", constraints=["f1 odd", "f1(0)=0"])
+    assert extended.equations[1] == "x2_dot = F_ext - f1(x2) - f3(x1) - (f4(x1 - x2) + a1*x2)"
+    assert [str(c) for c in extended.constraints] == ["f1 odd", "f4 odd", "f4(0)=0"]
+
+
+def test_add_term_keeps_a_leading_minus_readable():
+    extended = Skeleton(LINEAR).add_term("x2", "-a1 x1")
+    assert extended.equations[1] == "x2_dot = F_ext - a1 x2 - a2 x1 - (-a3*x1)"
+    refit = Skeleton(list(extended.equations))
+    assert refit.params == ["a1", "a2", "a3"]
+
+
+def test_add_term_bad_input():
+    sk = Skeleton(LINEAR)
+    with pytest.raises(ValueError, match="no equation determines 'x3'"):
+        sk.add_term("x3", "a1 x1")
+    with pytest.raises(IndexError, match="no equation 2"):
+        sk.add_term(2, "a1 x1")
+    with pytest.raises(TypeError, match="equation must be"):
+        sk.add_term(1.5, "a1 x1")
+    with pytest.raises(ValueError, match="sign must be"):
+        sk.add_term("x2", "a1 x1", sign="*")
+    with pytest.raises(SkeletonError, match="position"):
+        sk.add_term("x2", "a1 sign(x2")
+    with pytest.raises(SkeletonError, match="f2"):
+        sk.add_term("x2", "f1(x2)", constraints=["f2 odd"])

@@ -6,8 +6,8 @@ for error messages but ignored by ``==`` and ``hash``).
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from dataclasses import dataclass, field
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, fields, replace
 
 __all__ = [
     "Apply",
@@ -18,6 +18,7 @@ __all__ = [
     "Param",
     "Symbol",
     "Unknown",
+    "rename",
     "walk",
 ]
 
@@ -101,6 +102,15 @@ class BinOp(Node):
 
     def children(self) -> tuple[Node, ...]:
         return (self.left, self.right)
+
+
+def rename(node: Node, mapping: Mapping[str, str]) -> Node:
+    """A copy of ``node`` with curves and parameters renamed by ``mapping``."""
+    if isinstance(node, (Param, Unknown)) and node.name in mapping:
+        node = replace(node, name=mapping[node.name])
+    changes = {f.name: rename(getattr(node, f.name), mapping) for f in fields(node)
+               if isinstance(getattr(node, f.name), Node)}
+    return replace(node, **changes) if changes else node
 
 
 def walk(node: Node) -> Iterator[Node]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator, Mapping
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -11,8 +12,9 @@ from ..exceptions import SkeletonError
 from ..simulation import InputSignals, check_time_grid, integrate_system
 from .constraints import Constraint, check_constraints, parse_constraints
 from .equations import TIME, Equation, classify, evaluation_order, state_of
-from .nodes import Param, Symbol, Unknown, walk
-from .parser import parse_equation
+from .nodes import BinOp, Param, Symbol, Unknown, rename, walk
+from .parser import parse_equation, parse_expression
+from .printer import to_text
 from .system import CompiledSystem
 
 __all__ = ["Skeleton"]
@@ -138,6 +140,79 @@ class Skeleton:
     def with_constraints(self, constraints: Iterable | None) -> Skeleton:
         """A new skeleton with the same equations and these constraints added."""
         return Skeleton(self, constraints)
+
+    def add_term(self, equation: int | str, term: str, sign: str = "-",
+                 constraints: Iterable | None = None) -> Skeleton:
+        """A new skeleton with ``term`` added to the right-hand side of one equation.
+
+        The term's curves and parameters are renumbered to fresh indices
+        (above the largest the skeleton uses, in the order of their own
+        indices), so a catalogue term written with ``a1`` or ``f1`` never
+        collides with the skeleton's.
+
+        Parameters
+        ----------
+        equation : int or str
+            Index of the equation, its state (``"x2"``) or its derivative
+            (``"x2_dot"``).
+        term : str
+            The term in the skeleton language, e.g. ``"a1 sign(x2)"``.
+        sign : {"-", "+"}, default="-"
+            Subtract the term (a force opposing motion) or add it.
+        constraints : list of str or dict, optional
+            Constraints on the term's curves, written with the term's names
+            (``["f1 odd"]`` for ``term="f1(x2)"``); they are renamed too.
+
+        Returns
+        -------
+        Skeleton
+            The extended skeleton; this one is unchanged.
+
+        Examples
+        --------
+        >>> sk = Skeleton(["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"])
+        >>> sk.add_term("x2", "a1 sign(x2)").equations[1]
+        'x2_dot = F_ext - a1 x2 - a2 x1 - a3*sign(x2)'
+        """
+        index = self._equation_index(equation)
+        if sign not in ("-", "+"):
+            raise ValueError(f"sign must be '-' or '+', got {sign!r}")
+        node = parse_expression(term, kind="term")
+        curves = sorted({n.name for n in walk(node) if isinstance(n, Unknown)}, key=_index_key)
+        params = sorted({n.name for n in walk(node) if isinstance(n, Param)}, key=_index_key)
+        mapping = {}
+        for names, taken in ((curves, self.functions), (params, self.params)):
+            start = max((_index_key(name) for name in taken), default=0)
+            for k, name in enumerate(names, start=start + 1):
+                mapping[name] = f"{name[0]}{k}"
+        renamed = rename(node, mapping)
+        text = to_text(renamed)
+        if text.startswith("-") or (isinstance(renamed, BinOp) and renamed.op in "+-"):
+            text = f"({text})"
+        extra = []
+        for constraint in parse_constraints(constraints):
+            if constraint.function not in mapping:
+                raise SkeletonError(
+                    f"the constraint {str(constraint)!r} names {constraint.function}, which "
+                    f"is not a curve of the term {term!r}", kind="constraints")
+            extra.append(replace(constraint, function=mapping[constraint.function]))
+        equations = list(self.equations)
+        equations[index] = f"{equations[index]} {sign} {text}"
+        return Skeleton(equations, [*self.constraints, *extra])
+
+    def _equation_index(self, equation: int | str) -> int:
+        if isinstance(equation, (int, np.integer)) and not isinstance(equation, bool):
+            if not -len(self.equations) <= equation < len(self.equations):
+                raise IndexError(f"the skeleton has {len(self.equations)} equations; "
+                                 f"there is no equation {equation}")
+            return int(equation) % len(self.equations)
+        if isinstance(equation, str):
+            for k, (state, derivative) in enumerate(zip(self.states, self.derivatives)):
+                if equation in (state, derivative):
+                    return k
+            raise ValueError(f"no equation determines {equation!r}; the states are "
+                             f"{', '.join(self.states)}")
+        raise TypeError(f"equation must be an index or a state name, got {equation!r}")
 
     def __iter__(self) -> Iterator[str]:
         return iter(self.equations)

@@ -1,0 +1,245 @@
+"""The catalogue of physical effects a skeleton may be missing.
+
+Each :class:`Effect` has a stable name, a one-line physical description,
+the kind of variable it acts through, its term in the skeleton language
+(parameters ``a1, a2, ...`` are renumbered when the term is added with
+:meth:`~sklearn_pycc.Skeleton.add_term`), the free-curve alternative, and a
+plausibility rule. Terms are written as they are *subtracted* from an
+acceleration (``x2_dot = F_ext - ... - term``), the way forces opposing
+motion appear in a skeleton.
+
+Placeholders in the templates:
+
+``{x}``
+    a position (a state whose derivative is another state),
+``{v}``
+    a velocity,
+``{u}``
+    a difference of positions (the stretch of a coupling between masses).
+
+Time is ``t`` itself. Users add their own effects with :func:`register`.
+
+Examples
+--------
+>>> from sklearn_pycc import effects
+>>> effects.get("coulomb_friction").term_for(v="x2")
+'a1 sign(x2)'
+>>> "quadratic_drag" in effects.names()
+True
+"""
+
+from __future__ import annotations
+
+import string
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import SkeletonError
+from ..skeleton.constraints import parse_constraints
+from ..skeleton.parser import parse_expression
+
+__all__ = ["ACTS_THROUGH", "PLAUSIBILITY", "Effect", "catalogue", "get", "names", "register",
+           "unregister"]
+
+#: kind of variable an effect acts through -> the placeholders its term uses
+ACTS_THROUGH: dict[str, tuple[str, ...]] = {
+    "velocity": ("v",),
+    "position": ("x",),
+    "position_velocity": ("x", "v"),
+    "difference": ("u",),
+    "time": (),
+    "none": (),
+}
+
+#: plausibility rules
+PLAUSIBILITY: dict[str, str] = {
+    "dissipative": "removes energy: the subtracted term has the sign of the velocity on "
+                   "average (sum of term * velocity > 0)",
+    "any": "no sign requirement",
+}
+
+_SAMPLE = {"x": "x1", "v": "x2", "u": "x1 - x3"}
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One physical effect of the catalogue.
+
+    Parameters
+    ----------
+    name : str
+        Stable identifier, e.g. ``"coulomb_friction"``.
+    description : str
+        One line of physics.
+    acts_through : str
+        A key of :data:`ACTS_THROUGH`.
+    term : str
+        Parametric term with placeholders (``"a1 sign({v})"``).
+    curve : str or None
+        Free-curve alternative (``"f1({v})"``), None when the effect has no
+        one-dimensional curve form.
+    curve_constraints : tuple of str
+        Constraints of that curve, written with its own name (``("f1 odd",)``).
+    plausibility : str
+        A key of :data:`PLAUSIBILITY`.
+    """
+
+    name: str
+    description: str
+    acts_through: str
+    term: str
+    curve: str | None = None
+    curve_constraints: tuple[str, ...] = ()
+    plausibility: str = "any"
+
+    def __post_init__(self) -> None:
+        if not self.name.isidentifier():
+            raise ValueError(f"an effect name must be an identifier, got {self.name!r}")
+        if self.acts_through not in ACTS_THROUGH:
+            raise ValueError(f"effect {self.name!r}: acts_through must be one of "
+                             f"{sorted(ACTS_THROUGH)}, got {self.acts_through!r}")
+        if self.plausibility not in PLAUSIBILITY:
+            raise ValueError(f"effect {self.name!r}: plausibility must be one of "
+                             f"{sorted(PLAUSIBILITY)}, got {self.plausibility!r}")
+        allowed = set(ACTS_THROUGH[self.acts_through])
+        for label, template in (("term", self.term), ("curve", self.curve)):
+            if template is None:
+                continue
+            used = {field for _, field, _, _ in string.Formatter().parse(template) if field}
+            if used - allowed:
+                raise ValueError(
+                    f"effect {self.name!r}: the {label} uses {{{sorted(used - allowed)[0]}}}, "
+                    f"but an effect acting through {self.acts_through!r} has "
+                    f"{', '.join('{' + p + '}' for p in sorted(allowed)) or 'no placeholders'}")
+            try:
+                parse_expression(template.format(**_SAMPLE), kind=f"effect {self.name} {label}")
+            except SkeletonError as exc:
+                raise ValueError(f"effect {self.name!r}: its {label} is not valid skeleton "
+                                 f"text: {exc}") from exc
+        if self.curve_constraints:
+            parse_constraints(list(self.curve_constraints))
+
+    def _fill(self, template: str, variables: dict[str, str]) -> str:
+        needed = ACTS_THROUGH[self.acts_through]
+        missing = [p for p in needed if p not in variables]
+        if missing:
+            raise ValueError(f"effect {self.name!r} acts through {self.acts_through}: give "
+                             f"{', '.join(f'{p}=...' for p in missing)}")
+        extra = [p for p in variables if p not in needed]
+        if extra:
+            raise ValueError(f"effect {self.name!r} does not use {extra[0]}=...")
+        values = {p: f"({variables[p]})" if p == "u" else variables[p] for p in needed}
+        return template.format(**values)
+
+    def term_for(self, **variables: str) -> str:
+        """The parametric term for concrete variables: ``term_for(v="x2")``."""
+        return self._fill(self.term, variables)
+
+    def curve_for(self, **variables: str) -> str | None:
+        """The free-curve alternative for concrete variables, or None."""
+        return None if self.curve is None else self._fill(self.curve, variables)
+
+    def is_plausible(self, contribution, velocity=None) -> tuple[bool, str]:
+        """Check the fitted term against the effect's plausibility rule.
+
+        Parameters
+        ----------
+        contribution : array-like
+            Values of the fitted term (as subtracted from the acceleration)
+            along the data.
+        velocity : array-like, optional
+            The velocity of the same equation (needed by ``"dissipative"``).
+
+        Returns
+        -------
+        (bool, str)
+            Whether it is plausible, and why not.
+        """
+        if self.plausibility == "any":
+            return True, ""
+        if velocity is None:
+            raise ValueError(f"effect {self.name!r} is dissipative: give the velocity")
+        power = float(np.mean(np.asarray(contribution, dtype=float)
+                              * np.asarray(velocity, dtype=float)))
+        if power > 0:
+            return True, ""
+        return False, (f"{self.name} must remove energy, but the fitted term feeds energy "
+                       f"in (mean term * velocity = {power:.3g} <= 0)")
+
+
+_CATALOGUE: dict[str, Effect] = {}
+
+
+def register(effect: Effect, replace: bool = False) -> Effect:
+    """Add an effect to the catalogue (``replace=True`` to overwrite a name)."""
+    if not isinstance(effect, Effect):
+        raise TypeError(f"register expects an Effect, got {type(effect).__name__}")
+    if effect.name in _CATALOGUE and not replace:
+        raise ValueError(f"an effect named {effect.name!r} is already registered; pass "
+                         "replace=True to overwrite it")
+    _CATALOGUE[effect.name] = effect
+    return effect
+
+
+def unregister(name: str) -> Effect:
+    """Remove an effect from the catalogue and return it."""
+    try:
+        return _CATALOGUE.pop(name)
+    except KeyError:
+        raise KeyError(f"no effect named {name!r}; the catalogue has {names()}") from None
+
+
+def get(name: str) -> Effect:
+    """The effect called ``name``."""
+    try:
+        return _CATALOGUE[name]
+    except KeyError:
+        raise KeyError(f"no effect named {name!r}; the catalogue has {names()}") from None
+
+
+def names() -> list[str]:
+    """Names of every registered effect, in registration order."""
+    return list(_CATALOGUE)
+
+
+def catalogue() -> list[Effect]:
+    """Every registered effect, in registration order."""
+    return list(_CATALOGUE.values())
+
+
+for _effect in (
+    Effect("viscous_damping", "force proportional to velocity (a dashpot, a fluid film)",
+           "velocity", "a1 {v}", "f1({v})", ("f1 odd",), "dissipative"),
+    Effect("coulomb_friction", "dry friction of constant level opposing the sliding "
+           "direction", "velocity", "a1 sign({v})", "f1({v})", ("f1 odd",), "dissipative"),
+    Effect("stribeck_friction", "dry friction that is higher at breakaway and falls with "
+           "speed", "velocity", "(a1 + a2 exp(-({v}/a3)^2)) sign({v})", "f1({v})",
+           ("f1 odd",), "dissipative"),
+    Effect("quadratic_drag", "drag growing with the square of speed (turbulent flow)",
+           "velocity", "a1 {v} abs({v})", "f1({v})", ("f1 odd",), "dissipative"),
+    Effect("linear_stiffness", "spring force proportional to displacement", "position",
+           "a1 {x}", "f1({x})", ("f1(0)=0",)),
+    Effect("cubic_stiffness", "hardening or softening spring (Duffing term)", "position",
+           "a1 {x}^3", "f1({x})", ("f1 odd",)),
+    Effect("saturation", "restoring force that levels off at large displacement", "position",
+           "a1 tanh(a2 {x})", "f1({x})", ("f1 odd",)),
+    Effect("dead_zone", "no force within a clearance, linear beyond it (backlash)",
+           "position", "a1 ({x} - a2 sign({x})) (1 + sign(abs({x}) - a2))/2", "f1({x})",
+           ("f1 odd",)),
+    Effect("pendulum", "gravity torque on a swinging arm, sine of the angle", "position",
+           "a1 sin({x})", "f1({x})", ("f1 odd",)),
+    Effect("position_dependent_damping", "damping that grows with displacement "
+           "(van der Pol, Lienard)", "position_velocity", "a1 {x}^2 {v}", None, (),
+           "dissipative"),
+    Effect("linear_coupling", "linear spring between two masses", "difference", "a1 {u}",
+           "f1({u})", ("f1(0)=0",)),
+    Effect("coupling", "nonlinear (cubic) spring between two masses", "difference",
+           "a1 {u}^3", "f1({u})", ("f1 odd",)),
+    Effect("offset", "constant force or bias (gravity on a slope, sensor offset)", "none",
+           "a1"),
+    Effect("periodic_forcing", "unmeasured harmonic excitation", "time",
+           "a1 cos(a2 t) + a3 sin(a2 t)"),
+):
+    register(_effect)
+del _effect
