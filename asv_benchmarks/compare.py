@@ -206,11 +206,8 @@ def _true_rhs(t, y):
     return [y[1], np.cos(t) - 0.1 * y[1] - 0.5 * np.tanh(500 * y[1]) - y[0] - 0.2 * y[0] ** 3]
 
 
-def case_simulate() -> Case:
-    frame, truth = datasets.make_stick_slip(return_truth=True)
-    model = PolyCCRegressor(equations=truth.parametric_equations, random_state=0)
-    model.fit(frame[X_COLUMNS], frame[Y_COLUMNS])
-    t = frame["t"].to_numpy()
+def _simulation_pair(model, t, truth):
+    """``model.simulate`` and ``solve_ivp`` of the true equations, same solver and grid."""
     y0 = list(truth.y0)
     inputs = {"F_ext": truth.inputs["F_ext"]}
 
@@ -221,6 +218,15 @@ def case_simulate() -> Case:
         return solve_ivp(_true_rhs, (t[0], t[-1]), y0, method="LSODA", t_eval=t,
                          rtol=SIM_RTOL, atol=SIM_ATOL)
 
+    return ours, reference
+
+
+def case_simulate() -> Case:
+    frame, truth = datasets.make_stick_slip(return_truth=True)
+    model = PolyCCRegressor(equations=truth.parametric_equations, random_state=0)
+    model.fit(frame[X_COLUMNS], frame[Y_COLUMNS])
+    t = frame["t"].to_numpy()
+    ours, reference = _simulation_pair(model, t, truth)
     sim, ref = ours(), reference()
     params = ", ".join(f"{k}={v:.6g}" for k, v in model.params_.items())
     check = (f"max |x1 ours - x1 ref| {np.abs(sim['x1'].to_numpy() - ref.y[0]).max():.1e}; "
@@ -354,16 +360,7 @@ def case_neural_simulate(frame, truth) -> Case:
     model = NeuralCCRegressor(equations=FUNCTIONAL, constraints=["f1 odd", "f2 odd"],
                               random_state=0).fit(frame[X_COLUMNS], frame[Y_COLUMNS])
     t = frame["t"].to_numpy()
-    y0 = list(truth.y0)
-    inputs = {"F_ext": truth.inputs["F_ext"]}
-
-    def ours():
-        return model.simulate(t, y0=y0, inputs=inputs)
-
-    def reference():
-        return solve_ivp(_true_rhs, (t[0], t[-1]), y0, method="LSODA", t_eval=t,
-                         rtol=SIM_RTOL, atol=SIM_ATOL)
-
+    ours, reference = _simulation_pair(model, t, truth)
     sim, ref = ours(), reference()
     check = (f"x1 RMSE ours vs data {np.sqrt(np.mean((sim['x1'] - frame['x1']) ** 2)):.1e}; "
              f"reference {ref.nfev} right-hand-side calls")

@@ -253,22 +253,8 @@ class SkeletonModule(nn.Module):
             {name: nn.Parameter(torch.tensor(float(v), dtype=dtype))
              for name, v in params.items()})
         self.register_buffer("weights", torch.tensor(list(weights), dtype=dtype))
-        self._spec = (list(residuals), dict(slots), dict(fixed))
-        self._compile()
-
-    def _compile(self) -> None:
-        residuals, slots, fixed = self._spec
         self._residuals = [compile_torch(node, slots, self.curves, self.params, fixed)
                            for node in residuals]
-
-    def __getstate__(self) -> dict:
-        state = self.__dict__.copy()
-        state.pop("_residuals", None)
-        return state
-
-    def __setstate__(self, state: dict) -> None:
-        super().__setstate__(state)
-        self._compile()
 
     def forward(self, X: torch.Tensor) -> torch.Tensor:
         """Weighted residuals, shape ``(n_samples, n_residuals)``."""

@@ -10,9 +10,10 @@ import numpy as np
 
 from ..exceptions import GaugeWarning, IdentifiabilityError, SkeletonError
 from ..skeleton import Skeleton
+from ..skeleton.compiler import compile_expression
 from ..skeleton.constraints import Constraint, parse_constraints
-from ..skeleton.equations import Equation
-from ..skeleton.nodes import Node
+from ..skeleton.equations import Equation, unknown_names
+from ..skeleton.nodes import Node, Unknown, walk
 from ._validation import FitData
 
 __all__ = ["GAUGES", "Problem", "build_skeleton", "gauge_skeleton"]
@@ -98,6 +99,40 @@ class Problem:
     def free_params(self) -> list[str]:
         """Parameters to fit."""
         return [a for a in self.skeleton.params if a not in self.fixed_params]
+
+    @property
+    def active(self) -> list[int]:
+        """Indices of the equations with a free curve or parameter (the others fit nothing)."""
+        free = set(self.free_functions) | set(self.free_params)
+        out = []
+        for i, eq in enumerate(self.equations):
+            curves, params = unknown_names(eq.residual)
+            if (curves | params) & free:
+                out.append(i)
+        return out
+
+    def environment(self) -> tuple[dict[str, int], list[np.ndarray]]:
+        """``(slots, columns)`` of the data for :func:`compile_expression` closures."""
+        names = list(self.data.columns)
+        return {name: i for i, name in enumerate(names)}, [self.data[n] for n in names]
+
+    def argument_values(self, function: str, params, functions=None) -> np.ndarray:
+        """Finite values of every argument of ``function`` on the data.
+
+        Arguments that apply a curve missing from ``functions`` are skipped.
+        """
+        slots, env = self.environment()
+        functions = functions or {}
+        chunks = []
+        for arg in self.arguments(function):
+            if any(isinstance(node, Unknown) and node.name not in functions
+                   for node in walk(arg)):
+                continue
+            with np.errstate(all="ignore"):
+                value = compile_expression(arg, slots, params, functions)(env)
+            value = np.broadcast_to(np.asarray(value, dtype=float), (self.data.n_samples,))
+            chunks.append(value[np.isfinite(value)])
+        return np.concatenate(chunks) if chunks else np.zeros(0)
 
     def arguments(self, function: str) -> list[Node]:
         """Every argument expression ``function`` is applied to."""

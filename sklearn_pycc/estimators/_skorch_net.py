@@ -88,7 +88,12 @@ class SkeletonNet(NeuralNet):
 
     def get_iterator(self, dataset, training=False):
         """Device-resident batches (one full batch unless ``batch_size`` is set)."""
-        X, y = _tensors(dataset)
+        cached = getattr(dataset, "_pycc_tensors", None)
+        if cached is None:
+            # skorch hands the same dataset every epoch; gather a subset once
+            cached = _tensors(dataset)
+            dataset._pycc_tensors = cached
+        X, y = cached
         size = None if self.batch_size in (None, -1) else int(self.batch_size)
         return _TensorBatches(X, y, size, self.shuffle_generator if training else None)
 

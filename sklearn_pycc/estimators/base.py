@@ -201,20 +201,10 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         self._compiled = skeleton.compile(self.functions_, self.params_) if solvable else None
 
     def _argument_ranges(self, problem: Problem) -> dict[str, tuple[float, float]]:
-        names = list(problem.data.columns)
-        slots = {name: i for i, name in enumerate(names)}
-        env = [problem.data[name] for name in names]
         ranges = {}
         for f in problem.skeleton.functions:
-            lo, hi = np.inf, -np.inf
-            for arg in problem.arguments(f):
-                values = compile_expression(arg, slots, self.params_, self.functions_)(env)
-                values = np.broadcast_to(np.asarray(values, dtype=float),
-                                         (problem.data.n_samples,))
-                finite = values[np.isfinite(values)]
-                if finite.size:
-                    lo, hi = min(lo, float(finite.min())), max(hi, float(finite.max()))
-            ranges[f] = (lo, hi) if np.isfinite(lo) else (0.0, 0.0)
+            values = problem.argument_values(f, self.params_, self.functions_)
+            ranges[f] = (float(values.min()), float(values.max())) if values.size else (0.0, 0.0)
         return ranges
 
     # -- using a fitted model --------------------------------------------------

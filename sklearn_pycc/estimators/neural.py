@@ -11,7 +11,7 @@ from sklearn.utils import check_random_state
 
 from ..skeleton.compiler import compile_expression
 from ..skeleton.equations import unknown_names
-from ..skeleton.nodes import Node, Unknown, walk
+from ..skeleton.nodes import Node
 from ._activations import ACTIVATIONS
 from ._basis import ZeroCurve
 from ._numpy_mlp import EXTRAPOLATIONS, NumpyCurve
@@ -295,17 +295,16 @@ default="lbfgs"
         params0 = {a: float(init.get(a, 1.0)) for a in problem.free_params}
         functions: dict = {name: ZeroCurve() for name in problem.zeroed}
         residuals, weights = _active_residuals(problem)
-        free = set(problem.free_functions)
         if not residuals:
             self.history_, self.n_epochs_, self.loss_ = [], 0, 0.0
             self.device_ = checked["device"]
             return functions, params0
         with torch_threads(checked["n_threads"]):
-            trained, params = self._train(problem, residuals, weights, params0, free, checked)
+            trained, params = self._train(problem, residuals, weights, params0, checked)
         functions.update(trained)
         return functions, params
 
-    def _train(self, problem, residuals, weights, params0, free, checked):
+    def _train(self, problem, residuals, weights, params0, checked):
         import torch
 
         from ._networks import SkeletonModule
@@ -314,11 +313,9 @@ default="lbfgs"
         dtype = getattr(torch, self.dtype)
         device = checked["device"]
         seed = int(check_random_state(self.random_state).randint(0, 2**31 - 1))
-        names = list(problem.data.columns)
-        slots = {name: i for i, name in enumerate(names)}
-        curves = {f: self._curve_spec(problem, f, params0) for f in problem.free_functions
-                  if f in free}
-        data = np.column_stack([np.asarray(problem.data[name], dtype=float) for name in names])
+        slots, columns = problem.environment()
+        curves = {f: self._curve_spec(problem, f, params0) for f in problem.free_functions}
+        data = np.column_stack(columns)
         X = torch.as_tensor(data, dtype=dtype).to(device)
         y = torch.zeros((X.shape[0], len(residuals)), dtype=dtype, device=device)
         exact = self.constraint_mode == "exact"
@@ -385,7 +382,7 @@ default="lbfgs"
     def _curve_spec(self, problem: Problem, name: str, params: Mapping[str, float]) -> dict:
         """Input scaling and constraints of one curve's network."""
         parity = problem.parity(name)
-        values = _argument_values(problem, name, {**problem.fixed_params, **params})
+        values = problem.argument_values(name, {**problem.fixed_params, **params})
         if values.size:
             lo, hi = float(values.min()), float(values.max())
         else:
@@ -418,39 +415,19 @@ def _silent(*args, **kwargs) -> None:
 
 def _active_residuals(problem: Problem) -> tuple[list[Node], list[float]]:
     """Residuals of the equations with something to fit, and their scales."""
-    unknown = set(problem.free_functions) | set(problem.free_params)
-    names = list(problem.data.columns)
-    slots = {name: i for i, name in enumerate(names)}
-    env = [problem.data[name] for name in names]
+    slots, env = problem.environment()
+    fixed = problem.fixed_params
     residuals, weights = [], []
-    for eq in problem.equations:
-        curves, params = unknown_names(eq.residual)
-        if not (curves | params) & unknown:
-            continue
+    for i in problem.active:
+        eq = problem.equations[i]
         residuals.append(eq.residual)
         weight = 1.0
         lhs_curves, lhs_params = unknown_names(eq.lhs)
-        if not lhs_curves and not (lhs_params - set(problem.fixed_params)):
-            value = compile_expression(eq.lhs, slots, problem.fixed_params)(env)
+        if not lhs_curves and not (lhs_params - set(fixed)):
+            value = compile_expression(eq.lhs, slots, fixed)(env)
             value = np.broadcast_to(np.asarray(value, dtype=float), (problem.data.n_samples,))
             rms = float(np.sqrt(np.mean(value * value)))
             if np.isfinite(rms) and rms > 0:
                 weight = 1.0 / rms
         weights.append(weight)
     return residuals, weights
-
-
-def _argument_values(problem: Problem, name: str, params: Mapping[str, float]) -> np.ndarray:
-    """Values of the curve's arguments on the data (empty when they involve curves)."""
-    names = list(problem.data.columns)
-    slots = {n: i for i, n in enumerate(names)}
-    env = [problem.data[n] for n in names]
-    chunks = []
-    for arg in problem.arguments(name):
-        if any(isinstance(node, Unknown) for node in walk(arg)):
-            continue
-        with np.errstate(all="ignore"):
-            value = compile_expression(arg, slots, params)(env)
-        value = np.broadcast_to(np.asarray(value, dtype=float), (problem.data.n_samples,))
-        chunks.append(value[np.isfinite(value)])
-    return np.concatenate(chunks) if chunks else np.zeros(0)

@@ -11,7 +11,6 @@ from scipy.optimize import least_squares
 
 from .._threads import blas_threads
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
-from ..skeleton.equations import unknown_names
 from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
 from ._linear import curve_arguments, linearize, split_parameters
 from ._lstsq import constrained_lstsq
@@ -40,12 +39,7 @@ class _Design:
         eqs = problem.equations
         self.residuals = [eq.residual for eq in eqs]
         # only equations with something to fit take part
-        unknown = set(linear) | set(nonlinear) | set(self.curves)
-        self.active = []
-        for i, node in enumerate(self.residuals):
-            curves, params = unknown_names(node)
-            if (curves | params) & unknown:
-                self.active.append(i)
+        self.active = problem.active
         self.weights = {}
 
     def bases(self, values: Mapping[str, float]) -> dict[str, PolyBasis]:
