@@ -6,7 +6,7 @@ estimator.
 """
 
 from . import datasets
-from .diagnostics import effects
+from .diagnostics import compare_skeletons, diagnose, effects
 from .estimators import CCRegressor, NeuralCCRegressor, PolyCCRegressor
 from .exceptions import (
     ExtrapolationWarning,
@@ -31,6 +31,8 @@ __all__ = [
     "SimulationError",
     "Skeleton",
     "SkeletonError",
+    "compare_skeletons",
     "datasets",
+    "diagnose",
     "effects",
 ]

@@ -12,6 +12,10 @@ With ``return_truth=True`` the functions also return a
 skeleton, the true curves, the true parameters, the input signals and the
 initial state.
 
+The truth also names what a hypothesis loop should find: ``base_equations``
+is the linear skeleton the loop starts from and ``hidden`` the catalogue
+names (:mod:`sklearn_pycc.effects`) of the effects it lacks.
+
 The systems follow the families of the method's papers:
 
 - :func:`make_stick_slip`: the seed paper's Duffing oscillator with
@@ -20,7 +24,9 @@ The systems follow the families of the method's papers:
 - :func:`make_van_der_pol`: a forced van der Pol oscillator in Liénard form;
 - :func:`make_first_order`: a first-order nonlinear RC or RL circuit,
   written unsolved for the derivative;
-- :func:`make_two_dof`: two oscillators joined by a nonlinear spring.
+- :func:`make_two_dof`: two oscillators joined by a nonlinear spring;
+- :func:`make_oscillator`: a linear oscillator with chosen effects of the
+  catalogue hidden in it.
 """
 
 from __future__ import annotations
@@ -39,6 +45,7 @@ from .skeleton import Skeleton
 __all__ = [
     "make_duffing",
     "make_first_order",
+    "make_oscillator",
     "make_stick_slip",
     "make_two_dof",
     "make_van_der_pol",
@@ -218,12 +225,19 @@ def _generate(
     return_truth: bool,
     params: Mapping[str, float] | None = None,
     parametric_equations: list[str] | None = None,
+    base_equations: list[str] | None = None,
+    hidden: Sequence[str] = (),
+    simulate_parametric: bool = False,
 ):
-    """Validate, simulate, add noise and package the result of a ``make_*`` function."""
+    """Validate, simulate, add noise and package the result of a ``make_*`` function.
+
+    With ``simulate_parametric`` the data come from ``parametric_equations``
+    and ``params`` rather than from ``equations`` and ``functions``.
+    """
     n_samples = _check_n_samples(n_samples)
     start, end = _check_t_span(t_span)
     noise = _check_noise(noise)
-    skeleton = Skeleton(equations)
+    skeleton = Skeleton(parametric_equations if simulate_parametric else equations)
     columns = [_TIME, *skeleton.states, *skeleton.inputs, *skeleton.derivatives]
     chosen = _check_noise_columns(noise_columns, columns, skeleton.states)
     rng = _check_random_state(random_state)
@@ -239,8 +253,9 @@ def _generate(
         raise ValueError(f"y0 must hold finite values, got {y0!r}")
 
     t = np.linspace(start, end, n_samples)
-    frame = skeleton.simulate(t, y0, functions=functions, inputs=inputs, rtol=_RTOL,
-                              atol=_ATOL, return_derivatives=True)
+    frame = skeleton.simulate(t, y0, functions=None if simulate_parametric else functions,
+                              params=params if simulate_parametric else None, inputs=inputs,
+                              rtol=_RTOL, atol=_ATOL, return_derivatives=True)
     frame = frame[columns].reset_index(drop=True)
     if noise is not None and chosen:
         frame = _add_noise(frame, noise, chosen, rng)
@@ -254,11 +269,21 @@ def _generate(
                               if parametric_equations is not None else None),
         inputs=dict(inputs),
         y0=y0,
+        base_equations=list(base_equations) if base_equations is not None else None,
+        hidden=list(hidden),
     )
     return frame, truth
 
 
 _SECOND_ORDER = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]
+#: the linear oscillator every hypothesis loop on a second-order system starts from
+_LINEAR = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
+_LINEAR_TWO_DOF = [
+    "x1_dot = x3",
+    "x2_dot = x4",
+    "x3_dot = F_ext - a1 x3 - a2 x1 - a3 (x1 - x2)",
+    "x4_dot = - a4 x4 - a5 x2 - a6 (x2 - x1)",
+]
 
 
 # -- public generators ------------------------------------------------------------
@@ -326,7 +351,8 @@ def make_stick_slip(
         Columns ``t, x1, x2, F_ext, x1_dot, x2_dot``; derivatives are exact.
     truth : sklearn.utils.Bunch
         Only when ``return_truth``: ``equations``, ``functions``, ``params``
-        (``a1`` to ``a5``), ``parametric_equations``, ``inputs`` and ``y0``.
+        (``a1`` to ``a5``), ``parametric_equations``, ``inputs``, ``y0``,
+        ``base_equations`` and ``hidden``.
 
     Raises
     ------
@@ -359,6 +385,7 @@ def make_stick_slip(
             "x1_dot = x2",
             "x2_dot = F_ext - a1 x2 - a2 tanh(a3 x2) - a4 x1 - a5 x1^3",
         ],
+        base_equations=list(_LINEAR), hidden=("coulomb_friction", "cubic_stiffness"),
         y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
         random_state=random_state, return_truth=return_truth,
     )
@@ -419,7 +446,8 @@ def make_duffing(
         Columns ``t, x1, x2, F_ext, x1_dot, x2_dot``; derivatives are exact.
     truth : sklearn.utils.Bunch
         Only when ``return_truth``: ``equations``, ``functions``, ``params``
-        (empty), ``parametric_equations`` (None), ``inputs`` and ``y0``.
+        (empty), ``parametric_equations`` (None), ``inputs``, ``y0``, ``base_equations``
+        and ``hidden``.
 
     Raises
     ------
@@ -439,6 +467,7 @@ def make_duffing(
             "f2": partial(_linear_cubic, linear=alpha, cubic=beta),
         },
         inputs={"F_ext": partial(_cosine, amplitude=amplitude, omega=omega)},
+        base_equations=list(_LINEAR), hidden=("cubic_stiffness",),
         y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
         random_state=random_state, return_truth=return_truth,
     )
@@ -495,7 +524,8 @@ def make_van_der_pol(
         Columns ``t, x1, x2, F_ext, x1_dot, x2_dot``; derivatives are exact.
     truth : sklearn.utils.Bunch
         Only when ``return_truth``: ``equations``, ``functions``, ``params``
-        (empty), ``parametric_equations`` (None), ``inputs`` and ``y0``.
+        (empty), ``parametric_equations`` (None), ``inputs``, ``y0``, ``base_equations``
+        and ``hidden``.
 
     Raises
     ------
@@ -514,6 +544,7 @@ def make_van_der_pol(
             "f2": partial(_linear_cubic, linear=1.0, cubic=0.0),
         },
         inputs={"F_ext": partial(_cosine, amplitude=amplitude, omega=omega)},
+        base_equations=list(_LINEAR), hidden=("position_dependent_damping",),
         y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
         random_state=random_state, return_truth=return_truth,
     )
@@ -579,7 +610,8 @@ def make_first_order(
         Columns ``t, x1, F_ext, x1_dot``; the derivative is exact.
     truth : sklearn.utils.Bunch
         Only when ``return_truth``: ``equations``, ``functions``, ``params``
-        (empty), ``parametric_equations`` (None), ``inputs`` and ``y0``.
+        (empty), ``parametric_equations`` (None), ``inputs``, ``y0``, ``base_equations``
+        and ``hidden``.
 
     Raises
     ------
@@ -679,7 +711,8 @@ def make_two_dof(
         derivatives are exact.
     truth : sklearn.utils.Bunch
         Only when ``return_truth``: ``equations``, ``functions``, ``params``
-        (empty), ``parametric_equations`` (None), ``inputs`` and ``y0``.
+        (empty), ``parametric_equations`` (None), ``inputs``, ``y0``, ``base_equations``
+        and ``hidden``.
 
     Raises
     ------
@@ -711,6 +744,176 @@ def make_two_dof(
             "f5": partial(_linear_cubic, linear=stiffness2, cubic=0.0),
         },
         inputs={"F_ext": partial(_cosine, amplitude=amplitude, omega=omega)},
+        base_equations=list(_LINEAR_TWO_DOF), hidden=("coupling",) if coupling_cubic else (),
+        y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
+        random_state=random_state, return_truth=return_truth,
+    )
+
+
+#: strengths of the effects :func:`make_oscillator` hides, by default
+HIDDEN_DEFAULTS: dict[str, dict[str, float]] = {
+    "viscous_damping": {"a1": 0.3},
+    "coulomb_friction": {"a1": 0.3, "a2": 20.0},
+    "quadratic_drag": {"a1": 0.5},
+    "cubic_stiffness": {"a1": 1.0},
+    "saturation": {"a1": 1.0, "a2": 1.5},
+    "pendulum": {"a1": 1.0},
+    "position_dependent_damping": {"a1": 0.5},
+    "offset": {"a1": 0.3},
+}
+
+
+def _check_hidden(hidden) -> dict[str, dict[str, float] | None]:
+    """``hidden`` as ``{effect name: parameter values or None}``, in the order given."""
+    if hidden is None:
+        return {}
+    if isinstance(hidden, str):
+        hidden = [hidden]
+    if isinstance(hidden, Mapping):
+        items = list(hidden.items())
+    else:
+        try:
+            items = [(name, None) for name in hidden]
+        except TypeError:
+            raise ValueError(f"hidden must be an effect name, a list of names or a dict of "
+                             f"name -> parameters, got {hidden!r}") from None
+    out: dict[str, dict[str, float] | None] = {}
+    for name, values in items:
+        if not isinstance(name, str):
+            raise ValueError(f"hidden names effects by their catalogue name, got {name!r}")
+        if name in out:
+            raise ValueError(f"hidden names {name!r} twice")
+        out[name] = None if values is None else dict(values)
+    return out
+
+
+def make_oscillator(
+    n_samples: int = 2000,
+    t_span: tuple[float, float] = (0.0, 40.0),
+    *,
+    hidden=("coulomb_friction",),
+    noise: float | None = None,
+    noise_columns: Sequence[str] | None = None,
+    random_state: int | np.random.Generator | None = None,
+    damping: float = 0.1,
+    stiffness: float = 1.0,
+    amplitude: float = 0.3,
+    omega: float = 0.8,
+    y0: Sequence[float] = (3.0, 0.0),
+    return_truth: bool = False,
+) -> pd.DataFrame | tuple[pd.DataFrame, Bunch]:
+    """Forced linear oscillator with hidden physical effects from the catalogue.
+
+    The system is the linear oscillator a hypothesis loop starts from, with
+    the terms of the ``hidden`` effects (see :mod:`sklearn_pycc.effects`)
+    subtracted from the acceleration::
+
+        x1_dot = x2
+        x2_dot = F_ext - damping x2 - stiffness x1 - <hidden terms>
+
+    with ``F_ext = amplitude*cos(omega*t)``, position ``x1`` and velocity
+    ``x2``. By default the oscillator is released from a large displacement
+    under a weak forcing: the free decay sweeps the amplitude, which is what
+    tells one damping or stiffness law from another (a single steady
+    harmonic response would be matched by an equivalent linear model).
+
+    Parameters
+    ----------
+    n_samples : int, default=2000
+        Number of equally spaced samples, at least 2.
+    t_span : tuple of float, default=(0.0, 40.0)
+        Start and end times.
+    hidden : str, list of str or dict, default=("coulomb_friction",)
+        Catalogue names of the hidden effects, or ``{name: {"a1": ..., ...}}``
+        with the values of each term's own parameters (written as in the
+        catalogue's term). Names alone take the strengths of
+        :data:`HIDDEN_DEFAULTS`. Effects act through the velocity, the
+        position, both, or nothing (``offset``); an empty list gives the
+        plain linear oscillator.
+    noise : float, optional
+        Signal-to-noise ratio in dB of Gaussian noise added to
+        ``noise_columns`` (40 dB is noise of 1 % of the signal's RMS); None
+        for noise-free data.
+    noise_columns : list of str, optional
+        Columns receiving noise (any column but ``t``); default the states.
+    random_state : int, numpy.random.Generator or None
+        Seed of the noise.
+    damping, stiffness : float
+        Linear damping and stiffness.
+    amplitude, omega : float
+        Amplitude and angular frequency of the forcing.
+    y0 : tuple of float, default=(3.0, 0.0)
+        Initial position and velocity.
+    return_truth : bool, default=False
+        Also return the ground truth.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        Columns ``t, x1, x2, F_ext, x1_dot, x2_dot``; derivatives are exact.
+    truth : sklearn.utils.Bunch
+        Only when ``return_truth``: ``equations`` and
+        ``parametric_equations`` (the true skeleton, linear terms ``a1 x2``
+        and ``a2 x1`` first, hidden terms after them with fresh indices),
+        ``params``, ``functions`` (empty), ``inputs``, ``y0``,
+        ``base_equations`` (the linear skeleton) and ``hidden`` (the names).
+
+    Raises
+    ------
+    ValueError
+        If an argument is invalid, an effect is unknown, does not act
+        through the velocity or position, or lacks parameter values.
+    SimulationError
+        If the trajectory diverges.
+
+    Examples
+    --------
+    >>> from sklearn_pycc.datasets import make_oscillator
+    >>> frame, truth = make_oscillator(hidden=["cubic_stiffness"], return_truth=True)
+    >>> truth.parametric_equations[1]
+    'x2_dot = F_ext - a1 x2 - a2 x1 - a3*x1^3'
+
+    """
+    from .diagnostics.effects import get as get_effect
+
+    damping, stiffness = _check_real("damping", damping), _check_real("stiffness", stiffness)
+    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
+    skeleton = Skeleton(_LINEAR)
+    params = {"a1": damping, "a2": stiffness}
+    roles = {"velocity": {"v": "x2"}, "position": {"x": "x1"},
+             "position_velocity": {"x": "x1", "v": "x2"}, "none": {}}
+    chosen = _check_hidden(hidden)
+    for name, values in chosen.items():
+        try:
+            effect = get_effect(name)
+        except KeyError as exc:
+            raise ValueError(f"hidden: {exc.args[0]}") from None
+        if effect.acts_through not in roles:
+            raise ValueError(
+                f"hidden: {name!r} acts through {effect.acts_through!r}; a single oscillator "
+                f"can hide effects acting through {', '.join(map(repr, roles))}")
+        if values is None:
+            if name not in HIDDEN_DEFAULTS:
+                raise ValueError(
+                    f"hidden: {name!r} has no default strength; give its parameters, e.g. "
+                    f"hidden={{{name!r}: {{'a1': ...}}}}")
+            values = HIDDEN_DEFAULTS[name]
+        term = effect.term_for(**roles[effect.acts_through])
+        own = Skeleton([f"z_dot = {term}"]).params
+        if sorted(values) != own:
+            raise ValueError(f"hidden: {name!r} has the parameters {own} (term {term!r}), "
+                             f"got values for {sorted(values)}")
+        extended = skeleton.add_term("x2", term)
+        new = [a for a in extended.params if a not in skeleton.params]
+        for a, value in zip(new, own):
+            params[a] = _check_real(f"hidden: {name!r} {value}", values[value])
+        skeleton = extended
+    return _generate(
+        equations=list(skeleton.equations),
+        functions={},
+        inputs={"F_ext": partial(_cosine, amplitude=amplitude, omega=omega)},
+        params=params, parametric_equations=list(skeleton.equations),
+        base_equations=list(_LINEAR), hidden=list(chosen), simulate_parametric=True,
         y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
         random_state=random_state, return_truth=return_truth,
     )

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import numbers
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
@@ -18,7 +19,7 @@ from scipy import integrate
 
 from .exceptions import SimulationError
 
-__all__ = ["Diverged", "InputSignals", "check_time_grid", "integrate_system"]
+__all__ = ["DEFAULT_MAX_STEPS", "Diverged", "InputSignals", "check_time_grid", "integrate_system"]
 
 _SOLVERS = {
     "LSODA": integrate.LSODA,
@@ -28,6 +29,10 @@ _SOLVERS = {
     "Radau": integrate.Radau,
     "BDF": integrate.BDF,
 }
+
+
+#: default limit on solver steps in one simulation (see :func:`integrate_system`)
+DEFAULT_MAX_STEPS = 500_000
 
 
 class Diverged(ArithmeticError):
@@ -171,14 +176,17 @@ def integrate_system(
     method: str = "LSODA",
     rtol: float = 1e-6,
     atol: float = 1e-8,
+    max_steps: int | None = DEFAULT_MAX_STEPS,
     **options,
 ) -> pd.DataFrame:
     """Integrate ``y' = fun(t, y)`` and sample it on ``t``.
 
     ``fun`` may raise :class:`Diverged` (or any ``ArithmeticError`` or
     ``ValueError`` from :mod:`math`) when the state leaves the domain of the
-    model; that, a non-finite state, or a solver failure raises
-    :class:`~sklearn_pycc.SimulationError` carrying the partial trajectory.
+    model; that, a non-finite state, a solver failure, or more than
+    ``max_steps`` solver steps (a model chattering on a discontinuity, or
+    stuck at a singularity) raises :class:`~sklearn_pycc.SimulationError`
+    carrying the partial trajectory. ``max_steps=None`` removes the limit.
 
     Returns
     -------
@@ -187,6 +195,9 @@ def integrate_system(
     """
     if method not in _SOLVERS:
         raise ValueError(f"unknown solver method {method!r}; choose one of {sorted(_SOLVERS)}")
+    if max_steps is not None and (not isinstance(max_steps, numbers.Integral)
+                                  or isinstance(max_steps, bool) or max_steps < 1):
+        raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
     n = len(t)
     out = np.empty((n, len(y0)))
     out[0] = y0
@@ -204,7 +215,13 @@ def integrate_system(
         raise partial(f"the model cannot be evaluated at the initial state: {exc}",
                       float(t[0])) from exc
     last_t = float(t[0])
+    steps = 0
     while k < n:
+        if max_steps is not None and steps >= max_steps:
+            raise partial(f"the solver took {steps} steps and reached only t={last_t:.6g} "
+                          f"of {float(t[-1]):.6g}: the model may chatter on a discontinuity "
+                          "or approach a singularity (raise max_steps to go on)", last_t)
+        steps += 1
         try:
             message = solver.step()
         except (ArithmeticError, ValueError) as exc:

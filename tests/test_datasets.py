@@ -186,7 +186,7 @@ def test_derivatives_match_finite_differences(make, kwargs):
 def test_truth_bunch_contents(make, kwargs):
     frame, truth = make(n_samples=300, return_truth=True, **kwargs)
     assert set(truth.keys()) == {"equations", "functions", "params", "parametric_equations",
-                                 "inputs", "y0"}
+                                 "inputs", "y0", "base_equations", "hidden"}
     skeleton = Skeleton(truth.equations)
     assert all(isinstance(e, str) for e in truth.equations)
     assert sorted(truth.functions) == skeleton.functions
@@ -449,8 +449,8 @@ def test_bad_random_state():
 
 # -- module hygiene --------------------------------------------------------------------
 def test_public_api():
-    assert sorted(datasets.__all__) == ["make_duffing", "make_first_order", "make_stick_slip",
-                                        "make_two_dof", "make_van_der_pol"]
+    assert sorted(datasets.__all__) == ["make_duffing", "make_first_order", "make_oscillator",
+                                        "make_stick_slip", "make_two_dof", "make_van_der_pol"]
     assert datasets.__doc__
     for name in datasets.__all__:
         fn = getattr(datasets, name)
@@ -466,11 +466,49 @@ def test_public_api():
 def test_module_imports_only_skeleton_and_exceptions():
     tree = ast.parse(inspect.getsource(datasets))
     for node in ast.walk(tree):
+        # the effect catalogue (a leaf over the skeleton) names the hidden effects
         if isinstance(node, ast.ImportFrom) and node.level > 0:
-            assert node.module in ("skeleton", "exceptions"), node.module
+            assert node.module in ("skeleton", "exceptions", "diagnostics.effects"), node.module
         if isinstance(node, ast.ImportFrom) and node.module:
             assert "estimators" not in node.module
-            assert "diagnostics" not in node.module
         if isinstance(node, ast.Import):
             for alias in node.names:
                 assert not alias.name.startswith("sklearn_pycc"), alias.name
+
+
+# -- hidden effects ------------------------------------------------------------------
+def test_oscillator_hides_catalogue_effects():
+    frame, truth = datasets.make_oscillator(
+        hidden={"coulomb_friction": {"a1": 0.25, "a2": 30.0}, "cubic_stiffness": None},
+        n_samples=400, return_truth=True)
+    assert truth.hidden == ["coulomb_friction", "cubic_stiffness"]
+    assert truth.base_equations == ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
+    assert truth.parametric_equations[1] == (
+        "x2_dot = F_ext - a1 x2 - a2 x1 - a3*tanh(a4*x2) - a5*x1^3")
+    assert truth.params == {"a1": 0.1, "a2": 1.0, "a3": 0.25, "a4": 30.0,
+                            "a5": datasets.HIDDEN_DEFAULTS["cubic_stiffness"]["a1"]}
+    x1, x2 = frame["x1"].to_numpy(), frame["x2"].to_numpy()
+    expected = (frame["F_ext"] - 0.1 * x2 - x1 - 0.25 * np.tanh(30.0 * x2) - 1.0 * x1**3)
+    np.testing.assert_allclose(frame["x2_dot"], expected, rtol=0, atol=1e-12)
+    assert truth.y0 == (3.0, 0.0)
+
+
+def test_oscillator_without_hidden_effects_is_linear():
+    frame, truth = datasets.make_oscillator(hidden=[], n_samples=300, return_truth=True)
+    assert truth.parametric_equations == truth.base_equations and truth.hidden == []
+    np.testing.assert_allclose(frame["x2_dot"],
+                               frame["F_ext"] - 0.1 * frame["x2"] - frame["x1"], atol=1e-12)
+
+
+@pytest.mark.parametrize(("hidden", "match"), [
+    ("no_such_effect", "no effect named 'no_such_effect'"),
+    (["coupling"], "acts through 'difference'"),
+    (["stribeck_friction"], "no default strength"),
+    ({"cubic_stiffness": {"a2": 1.0}}, r"has the parameters \['a1'\]"),
+    ({"cubic_stiffness": {"a1": "big"}}, "must be a finite float"),
+    (["offset", "offset"], "twice"),
+    (3, "hidden must be"),
+])
+def test_oscillator_rejects_bad_hidden_effects(hidden, match):
+    with pytest.raises(ValueError, match=match):
+        datasets.make_oscillator(hidden=hidden, n_samples=50)

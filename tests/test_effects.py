@@ -50,9 +50,10 @@ def test_added_coulomb_term_is_fitted_on_stick_slip(stick_slip):
     before = PolyCCRegressor(equations=base).fit(X, y)
     after = PolyCCRegressor(equations=extended).fit(X, y)
     assert after.params_["a4"] == pytest.approx(truth.params["a2"], rel=0.05)
+    assert after.params_["a5"] == pytest.approx(truth.params["a3"], rel=0.05)
     assert after.score(X, y) > before.score(X, y)
     ok, _ = effects.get("coulomb_friction").is_plausible(
-        after.params_["a4"] * np.sign(frame["x2"]), frame["x2"])
+        after.params_["a4"] * np.tanh(after.params_["a5"] * frame["x2"]), frame["x2"])
     assert ok
 
 

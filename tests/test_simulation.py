@@ -490,3 +490,18 @@ def test_stiff_but_stable_model_does_not_raise():
     t = np.linspace(0.0, 1.0, 11)
     sim = Skeleton(["x1_dot = -1000 (x1 - cos(t))"]).simulate(t, [0.0], method="BDF")
     np.testing.assert_allclose(sim["x1"].iloc[-1], np.cos(1.0), atol=1e-2)
+
+
+def test_a_chattering_model_is_stopped_by_max_steps():
+    # the dry-friction idealisation sign() makes the solver chatter once x1 reaches zero
+    skeleton = Skeleton(["x1_dot = -sign(x1)"])
+    with pytest.raises(SimulationError, match="took 2000 steps") as info:
+        skeleton.simulate(np.linspace(0.0, 3.0, 31), [1.0], max_steps=2000)
+    assert info.value.t_reached == pytest.approx(1.0, abs=1e-3)
+    assert len(info.value.partial) >= 10
+
+
+@pytest.mark.parametrize("bad", [0, -5, 2.5, True])
+def test_max_steps_must_be_a_positive_integer(bad):
+    with pytest.raises(ValueError, match="max_steps"):
+        Skeleton(["x1_dot = -x1"]).simulate(np.linspace(0.0, 1.0, 5), [1.0], max_steps=bad)

@@ -6,7 +6,10 @@ the kind of variable it acts through, its term in the skeleton language
 :meth:`~sklearn_pycc.Skeleton.add_term`), the free-curve alternative, and a
 plausibility rule. Terms are written as they are *subtracted* from an
 acceleration (``x2_dot = F_ext - ... - term``), the way forces opposing
-motion appear in a skeleton.
+motion appear in a skeleton. Dry friction is written with ``tanh(a {v})``
+rather than ``sign({v})``: a discontinuous force makes an ODE solver chatter
+wherever the motion sticks, and the smoothing scale is fitted like any
+other parameter.
 
 Placeholders in the templates:
 
@@ -23,7 +26,7 @@ Examples
 --------
 >>> from sklearn_pycc import effects
 >>> effects.get("coulomb_friction").term_for(v="x2")
-'a1 sign(x2)'
+'a1 tanh(a2 x2)'
 >>> "quadratic_drag" in effects.names()
 True
 """
@@ -56,6 +59,8 @@ ACTS_THROUGH: dict[str, tuple[str, ...]] = {
 PLAUSIBILITY: dict[str, str] = {
     "dissipative": "removes energy: the subtracted term has the sign of the velocity on "
                    "average (sum of term * velocity > 0)",
+    "restoring": "pulls back toward equilibrium: the subtracted term has the sign of the "
+                 "displacement on average (sum of term * position > 0)",
     "any": "no sign requirement",
 }
 
@@ -140,7 +145,7 @@ class Effect:
         """The free-curve alternative for concrete variables, or None."""
         return None if self.curve is None else self._fill(self.curve, variables)
 
-    def is_plausible(self, contribution, velocity=None) -> tuple[bool, str]:
+    def is_plausible(self, contribution, velocity=None, position=None) -> tuple[bool, str]:
         """Check the fitted term against the effect's plausibility rule.
 
         Parameters
@@ -150,6 +155,8 @@ class Effect:
             along the data.
         velocity : array-like, optional
             The velocity of the same equation (needed by ``"dissipative"``).
+        position : array-like, optional
+            The position of the same equation (needed by ``"restoring"``).
 
         Returns
         -------
@@ -158,14 +165,23 @@ class Effect:
         """
         if self.plausibility == "any":
             return True, ""
-        if velocity is None:
-            raise ValueError(f"effect {self.name!r} is dissipative: give the velocity")
-        power = float(np.mean(np.asarray(contribution, dtype=float)
-                              * np.asarray(velocity, dtype=float)))
-        if power > 0:
+        against, label, failure = _RULES[self.plausibility]
+        reference = velocity if against == "velocity" else position
+        if reference is None:
+            raise ValueError(f"effect {self.name!r} is {self.plausibility}: give the {against}")
+        mean = float(np.mean(np.asarray(contribution, dtype=float)
+                             * np.asarray(reference, dtype=float)))
+        if mean > 0:
             return True, ""
-        return False, (f"{self.name} must remove energy, but the fitted term feeds energy "
-                       f"in (mean term * velocity = {power:.3g} <= 0)")
+        return False, (f"{self.name} must {label}, but the fitted term {failure} "
+                       f"(mean term * {against} = {mean:.3g} <= 0)")
+
+
+#: rule -> (variable the term is multiplied by, what it must do, what it did instead)
+_RULES = {
+    "dissipative": ("velocity", "remove energy", "feeds energy in"),
+    "restoring": ("position", "pull back toward equilibrium", "pushes away from it"),
+}
 
 
 _CATALOGUE: dict[str, Effect] = {}
@@ -212,9 +228,10 @@ for _effect in (
     Effect("viscous_damping", "force proportional to velocity (a dashpot, a fluid film)",
            "velocity", "a1 {v}", "f1({v})", ("f1 odd",), "dissipative"),
     Effect("coulomb_friction", "dry friction of constant level opposing the sliding "
-           "direction", "velocity", "a1 sign({v})", "f1({v})", ("f1 odd",), "dissipative"),
+           "direction, smoothed at zero speed", "velocity", "a1 tanh(a2 {v})", "f1({v})",
+           ("f1 odd",), "dissipative"),
     Effect("stribeck_friction", "dry friction that is higher at breakaway and falls with "
-           "speed", "velocity", "(a1 + a2 exp(-({v}/a3)^2)) sign({v})", "f1({v})",
+           "speed", "velocity", "(a1 + a2 exp(-({v}/a3)^2)) tanh(a4 {v})", "f1({v})",
            ("f1 odd",), "dissipative"),
     Effect("quadratic_drag", "drag growing with the square of speed (turbulent flow)",
            "velocity", "a1 {v} abs({v})", "f1({v})", ("f1 odd",), "dissipative"),
@@ -223,12 +240,12 @@ for _effect in (
     Effect("cubic_stiffness", "hardening or softening spring (Duffing term)", "position",
            "a1 {x}^3", "f1({x})", ("f1 odd",)),
     Effect("saturation", "restoring force that levels off at large displacement", "position",
-           "a1 tanh(a2 {x})", "f1({x})", ("f1 odd",)),
+           "a1 tanh(a2 {x})", "f1({x})", ("f1 odd",), "restoring"),
     Effect("dead_zone", "no force within a clearance, linear beyond it (backlash)",
            "position", "a1 ({x} - a2 sign({x})) (1 + sign(abs({x}) - a2))/2", "f1({x})",
-           ("f1 odd",)),
+           ("f1 odd",), "restoring"),
     Effect("pendulum", "gravity torque on a swinging arm, sine of the angle", "position",
-           "a1 sin({x})", "f1({x})", ("f1 odd",)),
+           "a1 sin({x})", "f1({x})", ("f1 odd",), "restoring"),
     Effect("position_dependent_damping", "damping that grows with displacement "
            "(van der Pol, Lienard)", "position_velocity", "a1 {x}^2 {v}", None, (),
            "dissipative"),

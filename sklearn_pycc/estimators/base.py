@@ -106,6 +106,9 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         ``{pin: reason}`` for what was pinned to make the skeleton identifiable.
     curve_ranges_ : dict
         Range of each curve's argument over the training data.
+    n_parameters_ : int
+        Numbers fitted: free parameters ``a_i`` plus each curve's
+        coefficients or weights (for information criteria).
     n_features_in_ : int
         Number of columns of ``X`` seen in ``fit``.
     feature_names_in_ : ndarray
@@ -197,8 +200,14 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         self.params_ = {a: float(all_params[a]) for a in skeleton.params}
         self.functions_ = {f: functions[f] for f in skeleton.functions}
         self.curve_ranges_ = self._argument_ranges(problem)
+        self.n_parameters_ = len(problem.free_params) + sum(
+            self._curve_parameters(problem, f) for f in problem.free_functions)
         solvable = all(eq.solvable for eq in skeleton.parsed)
         self._compiled = skeleton.compile(self.functions_, self.params_) if solvable else None
+
+    def _curve_parameters(self, problem: Problem, name: str) -> int:
+        """Number of numbers fitted for the curve ``name`` (a backend's business)."""
+        return 0
 
     def _argument_ranges(self, problem: Problem) -> dict[str, tuple[float, float]]:
         ranges = {}
@@ -276,6 +285,9 @@ class CCRegressor(RegressorMixin, BaseEstimator):
             Solver tolerances.
         return_derivatives : bool
             Add the inputs and the ``NAME_dot`` columns along the trajectory.
+        **solver_options
+            Passed to the SciPy solver, and ``max_steps`` (default 500000):
+            the most solver steps before a :class:`SimulationError`.
 
         Returns
         -------

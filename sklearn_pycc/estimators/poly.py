@@ -217,6 +217,10 @@ class PolyCCRegressor(CCRegressor):
         self.cost_ = result.cost
         return functions, params
 
+    def _curve_parameters(self, problem: Problem, name: str) -> int:
+        # coefficients of the basis, less one per point value they must satisfy
+        return max(len(self.coefficients_[name]) - len(problem.points(name)), 0)
+
     # -- nonlinear parameters: variable projection with a multi-start --------------
     def _search(self, solve, names: list[str], init: Mapping[str, float]) -> np.ndarray:
         m = len(names)

@@ -32,7 +32,7 @@ import numpy as np
 from .compiler import compile_expression
 from .constraints import Constraint
 from .equations import TIME
-from .nodes import BinOp, Neg, Node, Param, Unknown, walk
+from .nodes import Node, Param, Unknown, product_factors, sum_terms, walk
 
 __all__ = ["Ambiguity", "Fix", "IdentifiabilityReport", "analyse"]
 
@@ -156,24 +156,6 @@ def _random_curve(constraints: list[Constraint], rng, homogeneous: bool = False)
 
 
 # -- structure helpers ----------------------------------------------------------
-def _additive_terms(node: Node) -> list[Node]:
-    if isinstance(node, BinOp) and node.op in "+-":
-        return _additive_terms(node.left) + _additive_terms(node.right)
-    if isinstance(node, Neg):
-        return _additive_terms(node.operand)
-    return [node]
-
-
-def _factors(node: Node) -> list[Node]:
-    if isinstance(node, BinOp) and node.op == "*":
-        return _factors(node.left) + _factors(node.right)
-    if isinstance(node, BinOp) and node.op == "/":
-        return [*_factors(node.left), node]
-    if isinstance(node, Neg):
-        return _factors(node.operand)
-    return [node]
-
-
 def _top_level_unknowns(node: Node) -> set[str]:
     """Curves and parameters of ``node`` that are not inside a curve argument."""
     names: set[str] = set()
@@ -248,8 +230,8 @@ def analyse(skeleton, seed: int = 0) -> IdentifiabilityReport:
     for a in reversed(skeleton.params):
         cofactors: set[str] = set()
         for eq in skeleton.parsed:
-            for term in _additive_terms(eq.residual):
-                factors = _factors(term)
+            for term in sum_terms(eq.residual):
+                factors = product_factors(term)
                 if any(isinstance(x, Param) and x.name == a for x in factors):
                     for x in factors:
                         if not (isinstance(x, Param) and x.name == a):

@@ -18,7 +18,9 @@ __all__ = [
     "Param",
     "Symbol",
     "Unknown",
+    "product_factors",
     "rename",
+    "sum_terms",
     "walk",
 ]
 
@@ -102,6 +104,26 @@ class BinOp(Node):
 
     def children(self) -> tuple[Node, ...]:
         return (self.left, self.right)
+
+
+def sum_terms(node: Node) -> list[Node]:
+    """The terms of a sum, signs dropped: ``F - a1 x2 - f1(x1)`` -> ``[F, a1 x2, f1(x1)]``."""
+    if isinstance(node, BinOp) and node.op in "+-":
+        return sum_terms(node.left) + sum_terms(node.right)
+    if isinstance(node, Neg):
+        return sum_terms(node.operand)
+    return [node]
+
+
+def product_factors(node: Node) -> list[Node]:
+    """The factors of a product, signs dropped (a quotient ``p / q`` is one factor)."""
+    if isinstance(node, BinOp) and node.op == "*":
+        return product_factors(node.left) + product_factors(node.right)
+    if isinstance(node, BinOp) and node.op == "/":
+        return [*product_factors(node.left), node]
+    if isinstance(node, Neg):
+        return product_factors(node.operand)
+    return [node]
 
 
 def rename(node: Node, mapping: Mapping[str, str]) -> Node:

@@ -320,6 +320,9 @@ class Skeleton:
             Passed to the SciPy solver (LSODA by default).
         return_derivatives : bool
             Also return the ``NAME_dot`` columns evaluated on the trajectory.
+        **solver_options
+            Passed to the SciPy solver, and ``max_steps`` (default 500000):
+            the most solver steps before a :class:`SimulationError`.
 
         Returns
         -------

@@ -1,0 +1,374 @@
+"""Candidate effects for a failing model: enumerate, screen on the residual, refit, judge."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from sklearn.base import clone
+
+from ..exceptions import RankDeficiencyWarning, SkeletonError
+from ..skeleton import Skeleton
+from ..skeleton.compiler import compile_expression
+from ..skeleton.nodes import (
+    Node,
+    Number,
+    Param,
+    Symbol,
+    Unknown,
+    product_factors,
+    sum_terms,
+    walk,
+)
+from ..skeleton.parser import parse_expression
+from . import effects as catalogue
+from ._data import TIME, Measurements
+from ._roles import EquationRoles
+
+__all__ = ["Candidate", "enumerate_candidates", "refit_candidate", "screen_candidates"]
+
+#: a term whose contribution is this many times the derivative it explains is absurd
+ABSURD_RATIO = 10.0
+
+
+@dataclass
+class Candidate:
+    """One effect tried in one equation (or a coupled pair of equations)."""
+
+    effect: catalogue.Effect
+    roles: EquationRoles
+    variable: str
+    additions: list[tuple[int, str]]
+    curve_term: str | None
+    # the extended skeleton, the renumbered terms and the parameters they bring
+    extended: Skeleton | None = None
+    added: list[tuple[int, str]] = field(default_factory=list)
+    new_params: list[str] = field(default_factory=list)
+    # screening: the term fitted to the residual alone
+    screen_bic: float = math.inf
+    screen_removed: float = 0.0
+    screen_params: dict[str, float] = field(default_factory=dict)
+    # refit of the extended skeleton
+    refit: object = None
+    delta_bic: float = math.nan
+    removed: float = math.nan
+    rmse_before: float = math.nan
+    rmse_after: float = math.nan
+    plausible: bool | None = None
+    redundant: bool = False
+    note: str = ""
+    contributions: dict[int, np.ndarray] = field(default_factory=dict)
+    simulation_rmse: float = math.nan
+
+    @property
+    def equations(self) -> list[int]:
+        """Indices of the equations the candidate changes."""
+        return [k for k, _ in self.additions]
+
+    @property
+    def term(self) -> str:
+        """The renumbered term added to the primary equation."""
+        for k, text in self.added:
+            if k == self.roles.index:
+                return text
+        return self.additions[0][1]
+
+
+# -- enumeration ------------------------------------------------------------------
+def _assignments(effect: catalogue.Effect, roles: EquationRoles, has_time: bool):
+    """``(variables, label, additions)`` for every way ``effect`` can enter the equation."""
+    kind = effect.acts_through
+    k = roles.index
+    if kind == "velocity":
+        v = roles.velocity
+        yield v, [(k, effect.term_for(v=v))]
+    elif kind == "position":
+        x = roles.position
+        yield x, [(k, effect.term_for(x=x))]
+    elif kind == "position_velocity" and roles.second_order:
+        x, v = roles.position, roles.velocity
+        yield f"{x}^2 {v}" if "{x}^2 {v}" in effect.term else f"{x}, {v}", \
+            [(k, effect.term_for(x=x, v=v))]
+    elif kind == "difference":
+        x = roles.position
+        for other, partner in roles.others:
+            additions = [(k, effect.term_for(u=f"{x} - {other}"))]
+            if partner is not None:
+                additions.append((partner, effect.term_for(u=f"{other} - {x}")))
+            yield f"{x} - {other}", additions
+    elif kind == "time" and has_time:
+        yield TIME, [(k, effect.term_for())]
+    elif kind == "none":
+        yield "", [(k, effect.term_for())]
+
+
+def _curve_term(effect: catalogue.Effect, roles: EquationRoles, variable: str) -> str | None:
+    if effect.curve is None:
+        return None
+    kind = effect.acts_through
+    if kind == "velocity":
+        return effect.curve_for(v=roles.velocity)
+    if kind == "position":
+        return effect.curve_for(x=roles.position)
+    if kind == "difference":
+        return effect.curve_for(u=variable)
+    return None
+
+
+def enumerate_candidates(skeleton: Skeleton, roles: list[EquationRoles],
+                         has_time: bool) -> list[Candidate]:
+    """Every catalogue effect in every equation and through every variable it can use."""
+    out, seen = [], set()
+    for r in roles:
+        for effect in catalogue.catalogue():
+            for variable, additions in _assignments(effect, r, has_time):
+                key = (effect.name, frozenset(k for k, _ in additions), variable.replace(" ", ""))
+                pair_key = (effect.name, frozenset(k for k, _ in additions))
+                if key in seen or (len(additions) > 1 and pair_key in seen):
+                    continue
+                seen.add(key)
+                seen.add(pair_key)
+                candidate = Candidate(effect, r, variable, additions,
+                                      _curve_term(effect, r, variable))
+                if not _absorbed(skeleton, candidate):
+                    out.append(candidate)
+    return out
+
+
+# -- redundancy with a free curve already in the equation -----------------------------
+def _symbols(node: Node) -> set[str]:
+    return {n.name for n in walk(node) if isinstance(n, Symbol)}
+
+
+def _parity_of(factors: list[Node], z: str) -> str | None:
+    """``"odd"``, ``"even"`` or None for the product of ``factors`` as a function of ``z``."""
+    params = {n.name: 0.7 for f in factors for n in walk(f) if isinstance(n, Param)}
+    points = np.array([0.3, 0.9, 1.7, 2.6])
+    values = {}
+    for sign in (1.0, -1.0):
+        env = [sign * points]
+        total = np.ones_like(points)
+        for f in factors:
+            with np.errstate(all="ignore"):
+                total = total * np.broadcast_to(
+                    np.asarray(compile_expression(f, {z: 0}, params, {})(env), dtype=float),
+                    points.shape)
+        values[sign] = total
+    if np.allclose(values[1.0], values[-1.0]):
+        return "even"
+    if np.allclose(values[1.0], -values[-1.0]):
+        return "odd"
+    return None
+
+
+def _shape(factors: list[Node]) -> list[Node]:
+    """The factors that are not bare parameters or numbers."""
+    return [f for f in factors if not isinstance(f, (Param, Number))]
+
+
+def _absorbed(skeleton: Skeleton, candidate: Candidate) -> bool:
+    """Whether the equation can already take the term's shape.
+
+    A term already present up to its coefficient (``a3 x2`` beside
+    ``a1 x2``) is redundant; a free curve ``f1(x2)`` absorbs any term of
+    ``x2`` alone (of its parity, if it has one), and ``f1(x1) x2`` absorbs
+    any ``g(x1) x2``.
+    """
+    for k, text in candidate.additions:
+        eq = skeleton.parsed[k]
+        term_factors = product_factors(parse_expression(text, kind="term"))
+        for existing in sum_terms(eq.rhs):
+            factors = product_factors(existing)
+            shape = _shape(factors)
+            if shape and Counter(shape) == Counter(_shape(term_factors)):
+                return True
+            curves = [f for f in factors if isinstance(f, Unknown)]
+            if len(curves) != 1 or not isinstance(curves[0].arg, Symbol):
+                continue
+            curve, z = curves[0], curves[0].arg.name
+            others = [f for f in factors if f is not curve]
+            if not all(isinstance(f, (Param, Number, Symbol)) for f in others):
+                continue
+            needed = [f.name for f in others if isinstance(f, Symbol)]
+            rest = list(term_factors)
+            for name in needed:
+                match = next((f for f in rest if isinstance(f, Symbol) and f.name == name), None)
+                if match is None:
+                    break
+                rest.remove(match)
+            else:
+                symbols = set().union(*(_symbols(f) for f in rest)) if rest else set()
+                if not symbols <= {z}:
+                    continue
+                kinds = {c.kind for c in skeleton.constraints_of(curve.name)}
+                if not symbols:
+                    if not kinds:
+                        return True
+                    continue
+                parity = "odd" if "odd" in kinds else "even" if "even" in kinds else None
+                if parity is None or _parity_of(rest, z) == parity:
+                    return True
+    return False
+
+
+# -- screening: fit the term to the residual alone ------------------------------------
+def _screen_skeleton(candidate: Candidate, states: list[str]) -> tuple[Skeleton, list[str]]:
+    prefix = "zscreen"
+    while any(s.startswith(prefix) for s in states):
+        prefix += "z"
+    names = [f"{prefix}{i}" for i in range(len(candidate.additions))]
+    skeleton = Skeleton([f"{name}_dot = 0" for name in names])
+    for i, (_, term) in enumerate(candidate.additions):
+        skeleton = skeleton.add_term(i, term)
+    return skeleton, names
+
+
+def extend(skeleton: Skeleton, candidate: Candidate) -> None:
+    """Build the extended skeleton, its renumbered terms and its new parameters."""
+    extended = skeleton
+    added = []
+    for k, term in candidate.additions:
+        before = extended.equations[k]
+        extended = extended.add_term(k, term)
+        added.append((k, extended.equations[k][len(before) + 3:]))
+    candidate.extended = extended
+    candidate.added = added
+    candidate.new_params = [a for a in extended.params if a not in skeleton.params]
+
+
+def screen_candidates(candidates: list[Candidate], data: Measurements, residuals: np.ndarray,
+                      states: list[str], max_rows: int = 2000) -> None:
+    """Fit each candidate's term(s) to the residual of its equation(s) alone."""
+    from ..estimators import PolyCCRegressor
+
+    n = data.n_samples
+    floors = rss_floor(data.derivatives)
+    rows = np.arange(n) if n <= max_rows else np.linspace(0, n - 1, max_rows).astype(int)
+    frame = pd.DataFrame({name: values[rows] for name, values in data.columns.items()
+                          if not name.endswith("_dot")})
+    for candidate in candidates:
+        skeleton, names = _screen_skeleton(candidate, states)
+        # the residual (measured minus model) of a missing subtracted term is -term,
+        # which is what the screening equation ``z_dot = 0 - term`` predicts
+        targets = pd.DataFrame({f"{name}_dot": residuals[rows, k]
+                                for name, (k, _) in zip(names, candidate.additions)})
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                fitted = PolyCCRegressor(equations=skeleton, gauge="auto").fit(frame, targets)
+                predicted = np.asarray(fitted.predict(frame)).reshape(len(rows), -1)
+        except (SkeletonError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            candidate.note = f"could not be fitted to the residual: {exc}"
+            continue
+        scale = len(rows) / n
+        before = np.sum(targets.to_numpy() ** 2, axis=0) / scale
+        after = np.sum((targets.to_numpy() - predicted) ** 2, axis=0) / scale
+        floor = floors[[k for k, _ in candidate.additions]]
+        candidate.screen_bic, candidate.screen_removed = _delta_bic(
+            before, after, floor, len(skeleton.params), n)
+        order = skeleton.params
+        candidate.screen_params = {a: float(fitted.params_[a]) for a in order}
+
+
+#: residuals below this fraction of the derivative's RMS are rounding, not signal
+PRECISION = 1e-9
+
+
+def rss_floor(derivatives: np.ndarray) -> np.ndarray:
+    """Per equation, the residual sum of squares that rounding alone explains."""
+    n = derivatives.shape[0]
+    scale = np.sqrt(np.mean(derivatives**2, axis=0))
+    return np.maximum(n * (PRECISION * scale) ** 2, 1e-300)
+
+
+def _delta_bic(before, after, floor, n_new: int, n: int) -> tuple[float, float]:
+    """BIC change of adding ``n_new`` parameters, and the share of the residual removed.
+
+    ``n sum(log(RSS'/RSS)) + n_new log n`` over the equations changed, with
+    each RSS held above its rounding ``floor``.
+    """
+    before = np.maximum(np.asarray(before, dtype=float), floor)
+    after = np.maximum(np.asarray(after, dtype=float), floor)
+    bic = float(n * np.sum(np.log(after / before)) + n_new * math.log(n))
+    return bic, float(1.0 - after.sum() / before.sum())
+
+
+# -- refit of the extended skeleton -------------------------------------------------
+def _environment(data: Measurements) -> tuple[dict[str, int], list[np.ndarray]]:
+    names = list(data.columns)
+    return {name: i for i, name in enumerate(names)}, [data.columns[n] for n in names]
+
+
+def refit_candidate(model, candidate: Candidate, data: Measurements, residuals: np.ndarray,
+                    rss_before: np.ndarray) -> None:
+    """Fit the extended skeleton with a clone of ``model``; judge the added term."""
+    params = model.get_params(deep=False)
+    new = {"equations": candidate.extended, "constraints": None}
+    if "param_init" in params:
+        screen_names = list(candidate.screen_params)
+        init = {a: v for a, v in model.params_.items() if a in candidate.extended.params}
+        init.update({a: candidate.screen_params[s]
+                     for a, s in zip(candidate.new_params, screen_names)})
+        user = params.get("param_init") or {}
+        init.update({a: v for a, v in user.items() if a in candidate.extended.params})
+        new["param_init"] = init
+    estimator = clone(model).set_params(**new)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            estimator.fit(data.X, data.derivatives)
+            predicted = np.asarray(estimator.predict(data.X)).reshape(data.n_samples, -1)
+    except Exception as exc:  # any failure of a backend is a finding, not a crash
+        candidate.note = f"the extended skeleton could not be fitted: {exc}"
+        candidate.plausible = False
+        return
+    if any(issubclass(w.category, RankDeficiencyWarning) for w in caught):
+        candidate.redundant = True
+        candidate.plausible = False
+        candidate.note = "redundant with the skeleton (the extended fit is rank deficient)"
+    candidate.refit = estimator
+    ks = candidate.equations
+    after = np.array([np.sum((data.derivatives[:, k] - predicted[:, k]) ** 2) for k in ks])
+    before = rss_before[ks]
+    n = data.n_samples
+    candidate.delta_bic, candidate.removed = _delta_bic(
+        before, after, rss_floor(data.derivatives)[ks], len(candidate.new_params), n)
+    candidate.rmse_before = float(np.sqrt(before.sum() / (n * len(ks))))
+    candidate.rmse_after = float(np.sqrt(after.sum() / (n * len(ks))))
+    _judge(candidate, estimator, data)
+
+
+def _judge(candidate: Candidate, estimator, data: Measurements) -> None:
+    """Plausibility of the fitted term: energy balance and size."""
+    if candidate.redundant:
+        return
+    slots, env = _environment(data)
+    reasons = []
+    for k, text in candidate.added:
+        node = parse_expression(text, kind="term")
+        with np.errstate(all="ignore"):
+            values = compile_expression(node, slots, estimator.params_,
+                                        estimator.functions_)(env)
+        values = np.broadcast_to(np.asarray(values, dtype=float), (data.n_samples,))
+        candidate.contributions[k] = np.array(values)
+        if not np.isfinite(values).all():
+            reasons.append("the fitted term is not finite on the data")
+            continue
+        if k == candidate.roles.index and candidate.effect.plausibility != "any":
+            ok, why = candidate.effect.is_plausible(
+                values, velocity=data.columns[candidate.roles.velocity],
+                position=data.columns[candidate.roles.position])
+            if not ok:
+                reasons.append(why)
+        scale = float(np.sqrt(np.mean(data.derivatives[:, k] ** 2)))
+        size = float(np.sqrt(np.mean(values**2)))
+        if scale > 0 and size > ABSURD_RATIO * scale:
+            reasons.append(f"absurd size: the fitted term is {size / scale:.3g} times the "
+                           f"derivative it should explain (terms cancel each other)")
+    candidate.plausible = not reasons
+    if reasons:
+        candidate.note = "; ".join(reasons)

@@ -1,0 +1,171 @@
+"""Measurements lined up against a fitted model: columns, experiments, derivatives."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from scipy.signal import savgol_filter
+
+__all__ = ["Measurements", "read_measurements"]
+
+TIME = "t"
+TRAJECTORY = "trajectory"
+
+
+@dataclass
+class Measurements:
+    """The data a diagnosis compares the model with.
+
+    Attributes
+    ----------
+    X : DataFrame
+        The user's columns (never modified).
+    columns : dict
+        Name -> float array: states, inputs, ``t`` and the measured
+        derivatives ``NAME_dot``.
+    derivatives : ndarray of shape (n_samples, n_states)
+        Measured (or estimated) derivatives, in equation order.
+    groups : list of (label, ndarray of int)
+        Row positions of each experiment, in the order of the data.
+    has_time : bool
+        Whether a time column is present (needed to simulate).
+    estimated : str
+        How the derivatives were obtained when ``y`` was None, else "".
+    """
+
+    X: pd.DataFrame
+    columns: dict[str, np.ndarray]
+    derivatives: np.ndarray
+    groups: list[tuple[object, np.ndarray]]
+    has_time: bool
+    estimated: str = ""
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of rows."""
+        return self.derivatives.shape[0]
+
+
+def _float_column(frame: pd.DataFrame, name: str, what: str) -> np.ndarray:
+    try:
+        values = frame[name].to_numpy(dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} column {name!r} must be numeric") from None
+    bad = ~np.isfinite(values)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"{what} column {name!r} holds {values[row]} at row {row}; "
+                         "diagnose needs finite measurements")
+    return values
+
+
+def _groups(X: pd.DataFrame) -> list[tuple[object, np.ndarray]]:
+    if TRAJECTORY not in X.columns:
+        return [(None, np.arange(len(X)))]
+    labels = X[TRAJECTORY].to_numpy()
+    if pd.isna(labels).any():
+        row = int(np.flatnonzero(pd.isna(labels))[0])
+        raise ValueError(f"the 'trajectory' column is missing a label at row {row}")
+    order = pd.unique(labels)
+    return [(label, np.flatnonzero(labels == label)) for label in order]
+
+
+def _estimate(values: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, str]:
+    """Derivative of one experiment's samples: Savitzky-Golay on a uniform grid."""
+    n = len(t)
+    if n < 3:
+        raise ValueError("estimating derivatives needs at least 3 samples per experiment")
+    steps = np.diff(t)
+    if np.allclose(steps, steps[0], rtol=1e-6, atol=0.0) and n >= 7:
+        window = max(7, 2 * (n // 100) + 1)
+        window = min(window, n if n % 2 else n - 1)
+        return (savgol_filter(values, window, 3, deriv=1, delta=float(steps[0])),
+                f"Savitzky-Golay derivative (window {window} samples, cubic)")
+    return np.gradient(values, t), "central differences"
+
+
+def read_measurements(skeleton, X, y) -> Measurements:
+    """Check ``X`` and ``y`` against a skeleton and line them up.
+
+    Raises
+    ------
+    TypeError
+        If ``X`` is not a DataFrame.
+    ValueError
+        If a column the skeleton needs is missing, or values are not finite.
+    """
+    if not isinstance(X, pd.DataFrame):
+        raise TypeError(f"diagnose needs X as a pandas DataFrame with the columns "
+                        f"{skeleton.variables}, got {type(X).__name__}")
+    needed = [name for name in skeleton.variables if name != TIME]
+    missing = [name for name in needed if name not in X.columns]
+    if missing:
+        raise ValueError(f"X lacks the column{'s' if len(missing) > 1 else ''} "
+                         f"{', '.join(map(repr, missing))} of the skeleton "
+                         f"(it reads {', '.join(skeleton.variables)})")
+    has_time = TIME in X.columns
+    if skeleton.uses_time and not has_time:
+        raise ValueError("X lacks the time column 't', which the skeleton reads")
+    columns = {name: _float_column(X, name, "X") for name in needed}
+    if has_time:
+        columns[TIME] = _float_column(X, TIME, "X")
+    groups = _groups(X)
+    if has_time:
+        for label, rows in groups:
+            steps = np.diff(columns[TIME][rows])
+            if (steps <= 0).any():
+                k = int(np.flatnonzero(steps <= 0)[0])
+                where = "" if label is None else f" of trajectory {label!r}"
+                raise ValueError(f"t must increase within each experiment: row "
+                                 f"{int(rows[k + 1])}{where} has t={columns[TIME][rows[k + 1]]:g} "
+                                 f"after t={columns[TIME][rows[k]]:g}")
+    derivatives, estimated = _read_derivatives(skeleton, X, y, columns, groups, has_time)
+    for j, name in enumerate(skeleton.derivatives):
+        columns[name] = derivatives[:, j]
+    return Measurements(X, columns, derivatives, groups, has_time, estimated)
+
+
+def _read_derivatives(skeleton, X, y, columns, groups, has_time):
+    names = skeleton.derivatives
+    n = len(X)
+    if y is not None:
+        if isinstance(y, pd.Series):
+            if len(names) != 1 or y.name not in (None, names[0]):
+                raise ValueError(f"y is a series named {y.name!r}; give a DataFrame with the "
+                                 f"columns {', '.join(names)}")
+            y = y.to_frame(names[0])
+        if isinstance(y, pd.DataFrame):
+            missing = [name for name in names if name not in y.columns]
+            if missing:
+                raise ValueError(f"y lacks the column{'s' if len(missing) > 1 else ''} "
+                                 f"{', '.join(map(repr, missing))}; it must hold "
+                                 f"{', '.join(names)}")
+            values = np.column_stack([_float_column(y, name, "y") for name in names])
+        else:
+            values = np.asarray(y, dtype=float)
+            if values.ndim == 1:
+                values = values[:, None]
+            if values.shape[1] != len(names):
+                raise ValueError(f"y has {values.shape[1]} columns; the skeleton has "
+                                 f"{len(names)} equations ({', '.join(names)})")
+            if not np.isfinite(values).all():
+                raise ValueError("y holds NaN or infinity; diagnose needs finite measurements")
+        if values.shape[0] != n:
+            raise ValueError(f"X has {n} rows but y has {values.shape[0]}")
+        return values, ""
+    if all(name in X.columns for name in names):
+        return np.column_stack([_float_column(X, name, "X") for name in names]), ""
+    if not has_time:
+        raise ValueError(f"y is None and X has neither the derivatives {names} nor a time "
+                         "column 't' to estimate them from")
+    out = np.empty((n, len(names)))
+    how = ""
+    for j, state in enumerate(skeleton.states):
+        if state not in columns:
+            raise ValueError(f"y is None and X lacks the state {state!r} to differentiate")
+        for _, rows in groups:
+            out[rows, j], how = _estimate(columns[state][rows], columns[TIME][rows])
+    return out, how

@@ -1,0 +1,75 @@
+"""The physical role of each state in a skeleton: positions, velocities, couplings."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..skeleton import Skeleton
+from ..skeleton.nodes import Symbol
+
+__all__ = ["EquationRoles", "equation_roles"]
+
+
+@dataclass(frozen=True)
+class EquationRoles:
+    """What an equation's effects may act through.
+
+    Attributes
+    ----------
+    index : int
+        Position of the equation.
+    derivative : str
+        The derivative it determines (``"x2_dot"``).
+    position, velocity : str
+        The state standing for the position and for the velocity. In a
+        second-order pair ``x1_dot = x2`` they are ``x1`` and ``x2``; in a
+        first-order equation both are its own state.
+    others : tuple of (str, int or None)
+        Other positions of a multi-degree-of-freedom system with the index
+        of their acceleration equation (None when they have none).
+    second_order : bool
+        Whether the equation is the acceleration of a position-velocity pair.
+    """
+
+    index: int
+    derivative: str
+    position: str
+    velocity: str
+    others: tuple[tuple[str, int | None], ...]
+    second_order: bool
+
+
+def _kinematic(skeleton: Skeleton) -> dict[str, str]:
+    """``velocity -> position`` for every equation ``position_dot = velocity``."""
+    out = {}
+    for eq in skeleton.parsed:
+        rhs = eq.rhs
+        if (eq.explicit and isinstance(rhs, Symbol) and rhs.name in skeleton.states
+                and rhs.name != eq.state and rhs.name not in out):
+            out[rhs.name] = eq.state
+    return out
+
+
+def equation_roles(skeleton: Skeleton) -> list[EquationRoles]:
+    """Roles of every equation that can miss a physical effect.
+
+    Kinematic equations (``x1_dot = x2``) define a velocity and are left out.
+    """
+    position_of = _kinematic(skeleton)
+    positions = set(position_of.values())
+    acceleration_of = {}
+    for eq in skeleton.parsed:
+        if eq.state in position_of:
+            acceleration_of[position_of[eq.state]] = eq.index
+    out = []
+    for eq in skeleton.parsed:
+        state = eq.state
+        if state in positions:
+            continue  # kinematic: position_dot = velocity
+        if state in position_of:
+            own = position_of[state]
+            others = tuple((p, acceleration_of.get(p)) for p in sorted(positions - {own}))
+            out.append(EquationRoles(eq.index, eq.derivative, own, state, others, True))
+        else:
+            out.append(EquationRoles(eq.index, eq.derivative, state, state, (), False))
+    return out

@@ -1,0 +1,117 @@
+"""Fit several skeletons on the same data and tabulate how the error falls."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+from sklearn.base import clone
+from sklearn.model_selection import cross_val_score
+
+from ..skeleton import Skeleton
+from ._data import TIME, read_measurements
+from ._metrics import rmse
+from ._roles import equation_roles
+from ._trajectories import simulate_experiments
+
+__all__ = ["compare_skeletons"]
+
+
+def _named(skeletons) -> dict[str, object]:
+    if isinstance(skeletons, Mapping):
+        named = dict(skeletons)
+    elif isinstance(skeletons, (str, Skeleton)):
+        raise TypeError("compare_skeletons needs several skeletons: a dict name -> skeleton "
+                        "or a list of skeletons")
+    else:
+        named = {f"skeleton {i + 1}": sk for i, sk in enumerate(skeletons)}
+    if not named:
+        raise ValueError("compare_skeletons needs at least one skeleton")
+    for name in named:
+        if not isinstance(name, str):
+            raise TypeError(f"skeleton names must be strings, got {name!r}")
+    return named
+
+
+def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
+                      simulate: bool = True) -> pd.DataFrame:
+    """Fit each skeleton with a clone of ``estimator`` and tabulate its errors.
+
+    This is the "watch the error fall" table of the hypothesis loop; draw it
+    with :func:`sklearn_pycc.plotting.plot_comparison`.
+
+    Parameters
+    ----------
+    skeletons : dict of str -> skeleton, or list of skeletons
+        Each a list of equation strings or a :class:`~sklearn_pycc.Skeleton`
+        (whose constraints replace the estimator's).
+    X : DataFrame
+        Measured states and inputs (``t`` to simulate, ``trajectory`` to
+        separate experiments).
+    y : DataFrame or array, optional
+        Measured derivatives; see :func:`~sklearn_pycc.diagnose`.
+    estimator : CCRegressor, default=PolyCCRegressor()
+        The backend and its settings; it is cloned, never modified.
+    cv : int or cross-validation splitter, optional
+        Also report the cross-validated R² of the derivatives (experiments are
+        passed as ``groups`` when X has a ``trajectory`` column).
+    simulate : bool, default=True
+        Simulate each fitted model from the measured initial states.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per skeleton, in the order given: ``equations``,
+        ``derivative_rmse`` (over the non-kinematic equations),
+        ``simulation_rmse`` (over the states; inf when the simulation
+        diverges), ``n_params`` (numbers fitted), ``bic`` (Bayesian
+        information criterion of the derivative residual), ``cv_score``
+        (when ``cv`` is given) and ``fit_time`` in seconds.
+    """
+    from ..estimators import PolyCCRegressor
+
+    named = _named(skeletons)
+    base = PolyCCRegressor() if estimator is None else estimator
+    rows = []
+    for skeleton in named.values():
+        model = clone(base)
+        settings = {"equations": skeleton}
+        if isinstance(skeleton, Skeleton):
+            settings["constraints"] = None
+        model.set_params(**settings)
+        spec = (skeleton if isinstance(skeleton, Skeleton)
+                else Skeleton(skeleton, model.get_params().get("constraints")))
+        data = read_measurements(spec, X, y)
+        target = data.derivatives
+        start = time.perf_counter()
+        model.fit(X, target)
+        fit_time = time.perf_counter() - start
+        predicted = np.asarray(model.predict(data.X), dtype=float).reshape(data.n_samples, -1)
+        residual = data.derivatives - predicted
+        active = [r.index for r in equation_roles(model.skeleton_)] or list(
+            range(residual.shape[1]))
+        n = data.n_samples
+        rss = np.maximum(np.sum(residual[:, active] ** 2, axis=0), 1e-300)
+        bic = float(np.sum(n * np.log(rss / n)) + model.n_parameters_ * math.log(n))
+        row = {"equations": "; ".join(model.skeleton_.equations),
+               "derivative_rmse": rmse(np.zeros_like(residual[:, active]), residual[:, active]),
+               "simulation_rmse": math.nan, "n_params": int(model.n_parameters_),
+               "bic": bic}
+        if simulate and data.has_time:
+            simulated, divergences, _ = simulate_experiments(
+                model, data, max_steps=50 * n + 10_000)
+            states = np.column_stack([data.columns[s] for s in model.skeleton_.states])
+            row["simulation_rmse"] = math.inf if divergences else rmse(states, simulated)
+        if cv is not None:
+            groups = X["trajectory"] if "trajectory" in X.columns else None
+            scores = cross_val_score(clone(model), X, target, cv=cv, groups=groups,
+                                     error_score="raise")
+            row["cv_score"] = float(np.mean(scores))
+        row["fit_time"] = fit_time
+        rows.append(row)
+    table = pd.DataFrame(rows, index=pd.Index(list(named), name="skeleton"))
+    table.attrs["has_time"] = TIME in X.columns
+    return table

@@ -1,0 +1,545 @@
+"""Compare a fitted model with measurements, find where it fails and what effect is missing."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from numbers import Integral, Real
+
+import numpy as np
+import pandas as pd
+from sklearn.utils.validation import check_is_fitted
+
+from ..skeleton import Skeleton
+from ._candidates import (
+    Candidate,
+    enumerate_candidates,
+    extend,
+    refit_candidate,
+    screen_candidates,
+)
+from ._data import TIME, Measurements, read_measurements
+from ._failures import (
+    ResidualMap,
+    explaining_variables,
+    residual_map,
+    worst_windows,
+)
+from ._metrics import error_table_row, rmse
+from ._roles import EquationRoles, equation_roles
+from ._trajectories import Divergence, simulate_experiments
+
+__all__ = ["Diagnosis", "Suggestion", "diagnose"]
+
+_RANKING_COLUMNS = [
+    "equation", "variable", "effect", "score", "suggested_term", "curve_term", "n_params",
+    "error_removed", "delta_bic", "rmse_before", "rmse_after", "simulation_rmse",
+    "plausible", "refit", "explained", "note",
+]
+
+
+@dataclass(frozen=True)
+class Suggestion:
+    """The missing effect a diagnosis recommends adding.
+
+    Attributes
+    ----------
+    effect : str
+        Catalogue name, e.g. ``"coulomb_friction"``.
+    description : str
+        The effect's physics in one line.
+    equation : str
+        The derivative of the equation it enters (``"x2_dot"``).
+    variable : str
+        The variable it acts through (``"x2"``, ``"x1 - x2"``).
+    term : str
+        The term, with fresh parameter indices, subtracted from that equation.
+    equations : Skeleton
+        The skeleton with the term added, ready to fit.
+    param_init : dict
+        Values of the extended skeleton's parameters from the diagnosis's
+        own refit (useful as ``param_init`` for nonlinear parameters).
+    curve_term : str or None
+        The free-curve alternative (``"f3(x2)"``), fresh index, with the
+        catalogue's constraints in ``curve_constraints``.
+    curve_constraints : tuple of str
+        Constraints of that curve, already renamed.
+    also : dict
+        Other equations the effect enters (a coupling acts on both masses):
+        derivative -> term.
+    error_removed : float
+        Share of the equation's derivative residual the refit removes.
+    delta_bic : float
+        Change of the Bayesian information criterion (negative is better).
+    simulation_rmse : float
+        Simulation RMSE of the refitted model (NaN when not simulated).
+    """
+
+    effect: str
+    description: str
+    equation: str
+    variable: str
+    term: str
+    equations: Skeleton
+    param_init: dict
+    curve_term: str | None
+    curve_constraints: tuple[str, ...]
+    also: dict
+    error_removed: float
+    delta_bic: float
+    simulation_rmse: float
+
+    def __str__(self) -> str:
+        return f"add '- {self.term}' to {self.equation} ({self.effect} through {self.variable})"
+
+
+@dataclass
+class Diagnosis:
+    """What :func:`diagnose` found. Read :meth:`summary` first.
+
+    Attributes
+    ----------
+    model : CCRegressor
+        The diagnosed model (not modified).
+    derivatives : DataFrame
+        Per equation: ``rmse``, ``nrmse``, ``r2``, ``fit_percent`` of the
+        predicted derivatives.
+    trajectories : DataFrame
+        Per state: the same measures for the simulation from each
+        experiment's measured initial state with its measured inputs
+        (empty when there is no time column or ``simulate=False``).
+    simulation : DataFrame
+        ``t``, ``trajectory`` (when given), each state measured and
+        simulated (``x1`` and ``x1_sim``); NaN after a divergence.
+    residuals : DataFrame
+        Measured minus predicted derivatives, one column per equation.
+    divergences : list
+        Simulations that stopped early (time reached and reason).
+    windows : DataFrame
+        The time windows with the largest errors (divergences first).
+    explained : DataFrame
+        ``equation, variable, fraction``: the share of each equation's
+        residual variance that a function of each variable explains.
+    maps : dict
+        Equation -> :class:`ResidualMap` over position x velocity (or state
+        x input for a first-order equation).
+    ranking : DataFrame
+        Every effect tried, best first (columns ``equation, variable,
+        effect, score, suggested_term, ...``).
+    best : Suggestion or None
+        What to add; None when nothing is missing.
+    simulation_rmse : float
+        RMSE of the simulated states over every experiment.
+    notes : list of str
+        Things worth knowing (estimated derivatives, extrapolation).
+    """
+
+    model: object
+    derivatives: pd.DataFrame
+    trajectories: pd.DataFrame
+    simulation: pd.DataFrame
+    residuals: pd.DataFrame
+    divergences: list[Divergence]
+    windows: pd.DataFrame
+    explained: pd.DataFrame
+    maps: dict[str, ResidualMap]
+    ranking: pd.DataFrame
+    best: Suggestion | None
+    simulation_rmse: float
+    notes: list[str] = field(default_factory=list)
+    _candidates: list[Candidate] = field(default_factory=list, repr=False)
+    _data: Measurements | None = field(default=None, repr=False)
+
+    def __repr__(self) -> str:
+        best = "nothing missing" if self.best is None else str(self.best)
+        return f"<Diagnosis: {best}>"
+
+    # -- plain words ----------------------------------------------------------------
+    def summary(self) -> str:
+        """The diagnosis in plain words."""
+        lines = []
+        model = self.model
+        n = len(self.residuals)
+        experiments = 1 if self._data is None else len(self._data.groups)
+        lines.append(f"Model ({type(model).__name__}, {model.n_parameters_} fitted numbers) "
+                     f"against {n} samples in {experiments} experiment"
+                     f"{'s' if experiments != 1 else ''}:")
+        for text in model.equations():
+            lines.append(f"    {text}")
+        lines.append("")
+        lines.append("Derivatives:")
+        for name, row in self.derivatives.iterrows():
+            lines.append(f"    {name}: R2 {row.r2:.4f}, RMSE {row.rmse:.4g} "
+                         f"(NRMSE {row.nrmse:.3g})")
+        if not self.trajectories.empty:
+            lines.append("Simulation from the measured initial state with the measured "
+                         "inputs:")
+            for name, row in self.trajectories.iterrows():
+                lines.append(f"    {name}: fit {row.fit_percent:.1f} %, RMSE {row.rmse:.4g} "
+                             f"(NRMSE {row.nrmse:.3g})")
+        for d in self.divergences:
+            lines.append(f"    FAILURE: {d}")
+        lines.append("")
+        lines.extend(self._where_words())
+        lines.append("")
+        lines.extend(self._effect_words())
+        if self.notes:
+            lines.append("")
+            lines.extend(f"Note: {note}" for note in self.notes)
+        return "\n".join(lines)
+
+    def _where_words(self) -> list[str]:
+        lines = []
+        if self.derivatives.empty:
+            return lines
+        worst = self.derivatives.loc[
+            [r for r in self.derivatives.index if r in self.maps]].sort_values(
+            "nrmse", ascending=False) if self.maps else self.derivatives.iloc[:0]
+        for name, row in worst.iterrows():
+            part = self.explained[self.explained.equation == name].head(3)
+            if part.empty:
+                continue
+            lead = ", then ".join(f"{v} ({100 * f:.0f} %)"
+                                  for v, f in zip(part.variable, part.fraction))
+            lines.append(f"Where it fails: the residual of {name} (NRMSE {row.nrmse:.3g}) is "
+                         f"explained best by {lead} of its variance.")
+        windows = self.windows[self.windows.note == ""].head(3)
+        if not windows.empty:
+            spans = ", ".join(f"t {row.start:.4g}-{row.end:.4g}"
+                              + (f" (trajectory {row.trajectory!r})"
+                                 if row.trajectory is not None else "")
+                              for row in windows.itertuples())
+            lines.append(f"Largest errors in time: {spans}.")
+        return lines
+
+    def _effect_words(self) -> list[str]:
+        best = self.best
+        tried = len(self.ranking)
+        if best is None:
+            leading = self.ranking.head(1)
+            if leading.empty:
+                return ["Missing effect: none of the catalogue's effects applies to this "
+                        "skeleton."]
+            row = leading.iloc[0]
+            return [f"Missing effect: nothing. None of the {tried} effects tried lowers the "
+                    f"error beyond what noise explains (the closest, {row.effect} in "
+                    f"{row.equation}, removes {100 * max(row.error_removed, 0):.1f} % of the "
+                    f"residual, change of BIC {row.delta_bic:+.1f}). The skeleton is "
+                    "complete as far as the catalogue can tell."]
+        lines = [f"Missing effect: {best.effect} ({best.description}) in {best.equation}, "
+                 f"acting through {best.variable or 'nothing'}."]
+        lines.append(f"    Add '- {best.term}' to {best.equation}"
+                     + "".join(f" and '- {t}' to {eq}" for eq, t in best.also.items())
+                     + (f"; or a free curve '- {best.curve_term}' "
+                        f"({', '.join(best.curve_constraints)})" if best.curve_term else "")
+                     + ".")
+        change = (f" and the simulation RMSE from {self.simulation_rmse:.4g} to "
+                  f"{best.simulation_rmse:.4g}" if np.isfinite(best.simulation_rmse) else "")
+        lines.append(f"    Refitted, it removes {100 * best.error_removed:.1f} % of the "
+                     f"derivative residual (change of BIC {best.delta_bic:+.1f}){change}.")
+        runners = self.ranking.iloc[1:4]
+        if len(runners):
+            lines.append("    Runners-up: " + "; ".join(
+                f"{r.effect} in {r.equation} (score {r.score:.1f}"
+                + ("" if not r.refit or r.plausible else ", implausible")
+                + ("" if r.refit else ", screened only") + ")"
+                for r in runners.itertuples()) + ".")
+        rejected = self.ranking[(self.ranking.refit) & (~self.ranking.plausible.astype(bool))]
+        for r in rejected.head(2).itertuples():
+            lines.append(f"    Rejected: {r.effect} in {r.equation}: {r.note}.")
+        lines.append("    Next: fit report.best.equations and diagnose again.")
+        return lines
+
+    # -- figures ---------------------------------------------------------------------
+    def plot(self):
+        """Figures of the diagnosis (see :func:`sklearn_pycc.plotting.plot_diagnosis`)."""
+        from ..plotting import plot_diagnosis
+
+        return plot_diagnosis(self)
+
+
+def _check_options(n_refit, min_improvement, bic_threshold, max_steps) -> None:
+    if not isinstance(n_refit, Integral) or isinstance(n_refit, bool) or n_refit < 0:
+        raise ValueError(f"n_refit must be a non-negative integer, got {n_refit!r}")
+    if not isinstance(min_improvement, Real) or not 0 <= min_improvement < 1:
+        raise ValueError(f"min_improvement must be in [0, 1), got {min_improvement!r}")
+    if not isinstance(bic_threshold, Real) or not math.isfinite(bic_threshold):
+        raise ValueError(f"bic_threshold must be a finite number, got {bic_threshold!r}")
+    if max_steps is not None and (not isinstance(max_steps, Integral) or max_steps < 1):
+        raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
+
+
+def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1,
+             bic_threshold: float = 10.0, simulate: bool = True,
+             max_steps: int | None = None) -> Diagnosis:
+    """Compare a fitted model with measurements and name the physical effect it lacks.
+
+    The diagnosis has three parts:
+
+    *compare*
+        derivative residuals per equation, and the model simulated from each
+        experiment's measured initial state with its measured inputs, against
+        the measured states (RMSE, normalised RMSE, R², fit %);
+    *where it fails*
+        the time windows with the largest error, residual maps over position
+        x velocity, and for each equation the share of the residual variance
+        each variable explains (states, inputs, differences of positions,
+        ``x^2 v`` for oscillators, time);
+    *which effect is missing*
+        every effect of :mod:`sklearn_pycc.effects` that can enter a
+        non-kinematic equation (through its velocity, position, both, the
+        difference to another position, time, or as a constant) and that the
+        skeleton cannot already represent is fitted to the residual; the
+        ``n_refit`` most promising are refitted inside the extended skeleton
+        with a clone of ``model``, ranked by the change of the Bayesian
+        information criterion of the derivative residual, and checked for
+        plausibility (a friction term must remove energy; a term many times
+        larger than the derivative it explains is absurd). The best
+        plausible one becomes :attr:`Diagnosis.best` when it lowers the BIC
+        by more than ``bic_threshold`` and removes at least
+        ``min_improvement`` of the residual; otherwise nothing is missing.
+
+    Parameters
+    ----------
+    model : CCRegressor
+        A fitted model of any backend; it is not modified.
+    X : DataFrame
+        Measured states and inputs by name; ``t`` to simulate, ``trajectory``
+        to separate experiments.
+    y : DataFrame or array, optional
+        Measured derivatives ``NAME_dot``. When None they are read from
+        ``X`` if present there, else estimated from the states by a
+        Savitzky-Golay derivative within each experiment.
+    n_refit : int, default=5
+        How many candidate effects are refitted inside the extended skeleton
+        (each refit costs one fit of ``model``).
+    min_improvement : float, default=0.1
+        Least share of the residual an effect must remove to be suggested.
+    bic_threshold : float, default=10.0
+        Least decrease of the BIC an effect must bring (10 is "very strong
+        evidence").
+    simulate : bool, default=True
+        Simulate the model and the leading candidates (needs ``t``).
+    max_steps : int, optional
+        Solver step limit per simulation; default 50 per sample plus 10000.
+        A simulation stopped by it (or diverging) is reported as a failure.
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    NotFittedError
+        If ``model`` is not fitted.
+    ValueError
+        If ``X`` lacks a column of the skeleton or holds non-finite values.
+
+    Examples
+    --------
+    >>> from sklearn_pycc import PolyCCRegressor, datasets, diagnose
+    >>> frame, truth = datasets.make_oscillator(hidden=["cubic_stiffness"], return_truth=True)
+    >>> model = PolyCCRegressor(equations=truth.base_equations)
+    >>> model = model.fit(frame[["t", "x1", "x2", "F_ext"]], frame[["x1_dot", "x2_dot"]])
+    >>> report = diagnose(model, frame)
+    >>> report.best.effect, report.best.equation
+    ('cubic_stiffness', 'x2_dot')
+    """
+    _check_options(n_refit, min_improvement, bic_threshold, max_steps)
+    check_is_fitted(model, "skeleton_")
+    skeleton = model.skeleton_
+    data = read_measurements(skeleton, X, y)
+    states, derivs = skeleton.states, skeleton.derivatives
+    notes = []
+    if data.estimated:
+        notes.append(f"y was not given: the derivatives were estimated ({data.estimated}).")
+
+    predicted = np.asarray(model.predict(data.X), dtype=float).reshape(data.n_samples, -1)
+    residuals = data.derivatives - predicted
+    derivative_table = pd.DataFrame(
+        [error_table_row(data.derivatives[:, j], predicted[:, j]) for j in range(len(derivs))],
+        index=pd.Index(derivs, name="equation"))
+
+    # -- simulation ---------------------------------------------------------------
+    steps = max_steps or 50 * data.n_samples + 10_000
+    run_simulation = simulate and data.has_time
+    simulated, divergences = None, []
+    if run_simulation:
+        simulated, divergences, warned = simulate_experiments(model, data, max_steps=steps)
+        notes.extend(warned)
+    elif simulate:
+        notes.append("X has no time column 't': the model was not simulated.")
+    measured_states = np.column_stack([data.columns[s] for s in states])
+    trajectory_table = pd.DataFrame(columns=["rmse", "nrmse", "r2", "fit_percent"])
+    simulation_frame = pd.DataFrame()
+    simulation_rmse = math.nan
+    if simulated is not None:
+        trajectory_table = pd.DataFrame(
+            [error_table_row(measured_states[:, j], simulated[:, j])
+             for j in range(len(states))], index=pd.Index(states, name="state"))
+        simulation_rmse = rmse(measured_states, simulated)
+        columns = {TIME: data.columns[TIME]}
+        if "trajectory" in data.X.columns:
+            columns["trajectory"] = data.X["trajectory"].to_numpy()
+        for j, s in enumerate(states):
+            columns[s] = measured_states[:, j]
+            columns[f"{s}_sim"] = simulated[:, j]
+        simulation_frame = pd.DataFrame(columns)
+
+    # -- where it fails -----------------------------------------------------------------
+    roles = equation_roles(skeleton)
+    explained = explaining_variables(residuals, roles, data, states, skeleton.inputs)
+    spread = np.std(measured_states, axis=0)
+    spread[spread == 0] = 1.0
+    sim_error = (None if simulated is None
+                 else np.mean(((simulated - measured_states) / spread) ** 2, axis=1))
+    target_spread = np.std(data.derivatives, axis=0)
+    target_spread[target_spread == 0] = 1.0
+    failing = [r.index for r in roles] or list(range(len(derivs)))
+    deriv_error = np.mean((residuals[:, failing] / target_spread[failing]) ** 2, axis=1)
+    windows = worst_windows(data, sim_error, deriv_error, divergences)
+    maps = {r.derivative: _map_of(r, residuals, data, skeleton.inputs) for r in roles}
+    maps = {k: v for k, v in maps.items() if v is not None}
+
+    # -- which effect is missing -------------------------------------------------------
+    candidates = enumerate_candidates(skeleton, roles, data.has_time)
+    for candidate in candidates:
+        extend(skeleton, candidate)
+    screen_candidates(candidates, data, residuals, states)
+    rss_before = np.sum(residuals**2, axis=0)
+    screened = sorted((c for c in candidates if math.isfinite(c.screen_bic)),
+                      key=lambda c: c.screen_bic)
+    for candidate in screened[:n_refit]:
+        refit_candidate(model, candidate, data, residuals, rss_before)
+    refitted = [c for c in screened[:n_refit] if c.refit is not None]
+    if run_simulation:
+        _simulate_leaders(refitted, data, measured_states, steps, divergences)
+    ranking = _ranking(candidates, explained)
+    best = _choose(candidates, skeleton, min_improvement, bic_threshold)
+    return Diagnosis(model, derivative_table, trajectory_table, simulation_frame,
+                     pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
+                     maps, ranking, best, simulation_rmse, notes, candidates, data)
+
+
+def _map_of(roles: EquationRoles, residuals, data: Measurements, inputs) -> ResidualMap | None:
+    columns = data.columns
+    if roles.second_order:
+        x, y = roles.position, roles.velocity
+    elif inputs:
+        x, y = roles.position, inputs[0]
+    elif data.has_time:
+        x, y = TIME, roles.position
+    else:
+        return None
+    return residual_map(roles.derivative, residuals[:, roles.index], x, columns[x], y,
+                        columns[y])
+
+
+def _simulate_leaders(refitted: list[Candidate], data: Measurements, measured: np.ndarray,
+                      steps: int, base_divergences: list[Divergence], count: int = 3) -> None:
+    """Simulate the leading plausible refits; a new divergence makes a candidate implausible."""
+    leaders = sorted((c for c in refitted if c.plausible), key=lambda c: c.delta_bic)[:count]
+    for candidate in leaders:
+        simulated, divergences, _ = simulate_experiments(candidate.refit, data, max_steps=steps)
+        candidate.simulation_rmse = rmse(measured, simulated)
+        if divergences and not base_divergences:
+            candidate.plausible = False
+            candidate.note = f"the refitted model's simulation fails: {divergences[0]}"
+
+
+def _group(c: Candidate) -> int:
+    if c.refit is not None and c.plausible:
+        return 0
+    if c.refit is not None:
+        return 1
+    return 2
+
+
+def _score(c: Candidate) -> float:
+    return -c.delta_bic if c.refit is not None else -c.screen_bic
+
+
+#: scores this close to the leader's (relative, absolute) count as a tie won by fewer parameters
+TIE = (0.02, 10.0)
+
+
+def _ordered(candidates: list[Candidate]) -> list[Candidate]:
+    """Best first: plausible refits, then the others, then those only screened.
+
+    Within a group, a candidate whose score is within :data:`TIE` of the
+    leader's and that has fewer parameters goes first: when another effect
+    is still missing, a more flexible term (Stribeck for Coulomb) soaks up
+    part of that other effect's residual, and the information criterion
+    alone would reward it.
+    """
+    finite = [c for c in candidates if math.isfinite(_score(c))]
+    remaining = sorted(finite, key=lambda c: (_group(c), -_score(c)))
+    out = []
+    while remaining:
+        lead = remaining[0]
+        margin = max(TIE[0] * abs(_score(lead)), TIE[1])
+        close = [c for c in remaining
+                 if _group(c) == _group(lead) and _score(lead) - _score(c) <= margin]
+        pick = min(close, key=lambda c: (len(c.new_params), -_score(c)))
+        out.append(pick)
+        remaining.remove(pick)
+    return out
+
+
+def _ranking(candidates: list[Candidate], explained: pd.DataFrame) -> pd.DataFrame:
+    lookup = {(e, v.replace(" ", "")): f for e, v, f in explained[
+        ["equation", "variable", "fraction"]].itertuples(index=False)}
+    rows = []
+    for c in _ordered(candidates):
+        refit = c.refit is not None
+        rows.append({
+            "equation": c.roles.derivative,
+            "variable": c.variable,
+            "effect": c.effect.name,
+            "score": _score(c),
+            "suggested_term": c.term,
+            "curve_term": c.curve_term,
+            "n_params": len(c.new_params),
+            "error_removed": c.removed if refit else c.screen_removed,
+            "delta_bic": c.delta_bic if refit else c.screen_bic,
+            "rmse_before": c.rmse_before,
+            "rmse_after": c.rmse_after,
+            "simulation_rmse": c.simulation_rmse,
+            "plausible": bool(c.plausible) if refit else None,
+            "refit": refit,
+            "explained": lookup.get((c.roles.derivative, c.variable.replace(" ", "")),
+                                    math.nan),
+            "note": c.note or ("" if refit else "screened on the residual only"),
+        })
+    return pd.DataFrame(rows, columns=_RANKING_COLUMNS)
+
+
+def _choose(candidates: list[Candidate], skeleton: Skeleton, min_improvement: float,
+            bic_threshold: float) -> Suggestion | None:
+    for c in _ordered(candidates):
+        if _group(c) != 0:
+            return None
+        if c.delta_bic > -bic_threshold or c.removed < min_improvement:
+            return None
+        return _suggestion(c, skeleton)
+    return None
+
+
+def _suggestion(c: Candidate, base: Skeleton) -> Suggestion:
+    skeleton = c.extended
+    curve_term, curve_constraints = None, ()
+    if c.curve_term is not None:
+        k = c.roles.index
+        curved = base.add_term(k, c.curve_term, constraints=list(c.effect.curve_constraints))
+        curve_term = curved.equations[k][len(base.equations[k]) + 3:]
+        new = [x for x in curved.constraints if x not in base.constraints]
+        curve_constraints = tuple(str(x) for x in new)
+    derivative = {eq.index: eq.derivative for eq in skeleton.parsed}
+    also = {derivative[k]: text for k, text in c.added if k != c.roles.index}
+    return Suggestion(
+        effect=c.effect.name, description=c.effect.description, equation=c.roles.derivative,
+        variable=c.variable, term=c.term, equations=skeleton,
+        param_init={a: float(v) for a, v in c.refit.params_.items()},
+        curve_term=curve_term, curve_constraints=curve_constraints, also=also,
+        error_removed=float(c.removed), delta_bic=float(c.delta_bic),
+        simulation_rmse=float(c.simulation_rmse))

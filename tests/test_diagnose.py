@@ -1,0 +1,359 @@
+"""The hypothesis loop: diagnose a fitted model, name the missing effect, watch the error fall.
+
+Data have known hidden effects; "noisy" means 1 % noise (40 dB) on every
+measured column (states and derivatives).
+"""
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.exceptions import NotFittedError
+from sklearn.model_selection import KFold
+
+from sklearn_pycc import (
+    NeuralCCRegressor,
+    PolyCCRegressor,
+    Skeleton,
+    compare_skeletons,
+    datasets,
+    diagnose,
+    effects,
+)
+from sklearn_pycc.diagnostics import Diagnosis
+
+NOISE = 40.0  # dB: noise of 1 % of each column's RMS
+SINGLE = ["coulomb_friction", "cubic_stiffness", "quadratic_drag", "position_dependent_damping"]
+
+
+def measured(columns):
+    return [c for c in columns if c != "t" and c != "F_ext"]
+
+
+def oscillator(hidden, noise=NOISE, **options):
+    frame, truth = datasets.make_oscillator(
+        hidden=hidden, noise=noise, noise_columns=["x1", "x2", "x1_dot", "x2_dot"],
+        random_state=0, return_truth=True, **options)
+    return frame, truth
+
+
+def xy(frame):
+    y_cols = [c for c in frame.columns if c.endswith("_dot")]
+    return frame[[c for c in frame.columns if c not in y_cols]], frame[y_cols]
+
+
+def loop(frame, equations, estimator=None, rounds=3):
+    """Fit, diagnose, add the best effect, refit ... until nothing is missing."""
+    X, y = xy(frame)
+    found, reports = [], []
+    for _ in range(rounds):
+        model = (estimator or PolyCCRegressor()).set_params(equations=equations,
+                                                           constraints=None)
+        report = diagnose(model.fit(X, y), X, y)
+        reports.append(report)
+        if report.best is None:
+            break
+        found.append((report.best.effect, report.best.equation))
+        equations = report.best.equations
+    return found, reports
+
+
+@pytest.fixture(scope="module", params=[NOISE, None], ids=["noisy", "noise-free"])
+def noise(request):
+    return request.param
+
+
+@pytest.mark.parametrize("effect", SINGLE)
+def test_the_hidden_effect_is_named_and_the_error_falls(effect, noise):
+    frame, truth = oscillator([effect], noise=noise)
+    found, reports = loop(frame, truth.base_equations)
+    assert found == [(effect, "x2_dot")]
+    ratio = reports[0].simulation_rmse / reports[1].simulation_rmse
+    assert ratio >= (10 if noise else 1000)
+    assert reports[1].best is None  # nothing else is missing
+
+
+def test_stick_slip_two_rounds(noise):
+    frame, truth = datasets.make_stick_slip(
+        noise=noise, noise_columns=["x1", "x2", "x1_dot", "x2_dot"], random_state=0,
+        return_truth=True)
+    found, reports = loop(frame, truth.base_equations, rounds=4)
+    assert found == [("coulomb_friction", "x2_dot"), ("cubic_stiffness", "x2_dot")]
+    assert len(reports) == 3 and reports[-1].best is None
+    errors = [r.simulation_rmse for r in reports]
+    assert errors[0] > errors[1] > errors[2]
+    assert errors[0] / errors[2] >= (10 if noise else 1000)
+
+
+def test_nonlinear_coupling_between_two_masses(noise):
+    states = ["x1", "x2", "x3", "x4"]
+    frame, truth = datasets.make_two_dof(
+        coupling_cubic=1.0, y0=(2.0, -1.0, 0.0, 0.0), amplitude=0.3, noise=noise,
+        noise_columns=[*states, *(s + "_dot" for s in states)], random_state=0,
+        return_truth=True)
+    found, reports = loop(frame, truth.base_equations)
+    assert [effect for effect, _ in found] == ["coupling"]
+    best = reports[0].best
+    assert best.equation == "x3_dot" and best.variable == "x1 - x2"
+    # the spring acts on both masses, each with its own coefficient
+    assert best.also == {"x4_dot": "a8*(x2 - x1)^3"}
+    assert reports[0].simulation_rmse / reports[1].simulation_rmse >= (10 if noise else 1000)
+
+
+def test_quadratic_drag_outranks_a_non_physical_coulomb_term():
+    frame, truth = oscillator(["quadratic_drag"])
+    X, y = xy(frame)
+    report = diagnose(PolyCCRegressor(equations=truth.base_equations).fit(X, y), X, y)
+    ranking = report.ranking.reset_index(drop=True)
+    drag = ranking.index[ranking.effect == "quadratic_drag"][0]
+    coulomb = ranking.index[ranking.effect == "coulomb_friction"][0]
+    assert drag == 0 and coulomb > drag
+    row = ranking.loc[coulomb]
+    # the Coulomb term lowers the error too, but by feeding energy in
+    assert row.refit and row.error_removed > 0.3
+    assert not row.plausible and "remove energy" in row.note
+    assert "Rejected: coulomb_friction" in report.summary()
+
+
+@pytest.mark.parametrize("effect", SINGLE)
+def test_a_complete_model_has_nothing_missing(effect, noise):
+    frame, truth = oscillator([effect], noise=noise)
+    X, y = xy(frame)
+    model = PolyCCRegressor(equations=truth.parametric_equations).fit(X, y)
+    report = diagnose(model, X, y)
+    assert report.best is None
+    assert "Missing effect: nothing" in report.summary()
+
+
+def test_linear_data_leave_the_linear_model_alone(noise):
+    frame, truth = oscillator([], noise=noise)
+    X, y = xy(frame)
+    report = diagnose(PolyCCRegressor(equations=truth.base_equations).fit(X, y), X, y)
+    assert report.best is None
+    assert not report.ranking.empty  # effects were tried, none was invented
+
+
+def test_the_loop_works_with_the_neural_backend():
+    frame, _ = oscillator(["coulomb_friction", "cubic_stiffness"])
+    X, y = xy(frame)
+    hybrid = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - a1 x1"]
+    model = NeuralCCRegressor(equations=hybrid, constraints=["f1 odd"], random_state=0)
+    report = diagnose(model.fit(X, y), X, y, n_refit=2)
+    # friction is the network's; what the skeleton lacks is the cubic spring
+    assert (report.best.effect, report.best.equation) == ("cubic_stiffness", "x2_dot")
+    assert report.best.curve_term == "f2(x1)"
+    refit = NeuralCCRegressor(equations=report.best.equations, random_state=0).fit(X, y)
+    after = diagnose(refit, X, y, n_refit=2)
+    assert report.simulation_rmse / after.simulation_rmse >= 10
+
+
+# -- what a report holds ------------------------------------------------------------
+@pytest.fixture(scope="module")
+def coulomb_report():
+    frame, truth = oscillator(["coulomb_friction"])
+    X, y = xy(frame)
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X, y)
+    return model, X, y, diagnose(model, X, y)
+
+
+def test_report_compares_derivatives_and_trajectories(coulomb_report):
+    _, X, y, report = coulomb_report
+    assert isinstance(report, Diagnosis)
+    assert list(report.derivatives.index) == ["x1_dot", "x2_dot"]
+    assert set(report.derivatives.columns) == {"rmse", "nrmse", "r2", "fit_percent"}
+    # the kinematic equation is fine, the acceleration is not
+    assert report.derivatives.loc["x1_dot", "r2"] > 0.99
+    assert report.derivatives.loc["x2_dot", "r2"] < 0.9
+    assert list(report.trajectories.index) == ["x1", "x2"]
+    assert (report.trajectories.fit_percent < 60).all()
+    assert list(report.simulation.columns) == ["t", "x1", "x1_sim", "x2", "x2_sim"]
+    np.testing.assert_allclose(report.residuals["x2_dot"],
+                               y["x2_dot"] - report.model.predict(X)[:, 1])
+
+
+def test_report_says_where_it_fails(coulomb_report):
+    _, _, _, report = coulomb_report
+    explained = report.explained[report.explained.equation == "x2_dot"]
+    assert explained.variable.iloc[0] == "x2"  # friction acts through the velocity
+    assert explained.fraction.iloc[0] > 0.9
+    assert {"x1", "x2", "F_ext", "t", "x1^2 x2"} <= set(explained.variable)
+    assert len(report.windows) == 3
+    assert (report.windows.end > report.windows.start).all()
+    residual_map = report.maps["x2_dot"]
+    assert (residual_map.x, residual_map.y) == ("x1", "x2")
+    assert residual_map.count.sum() == len(report.residuals)
+    # friction opposes motion: the residual is negative where the velocity is positive
+    frame = residual_map.to_frame()
+    fast = frame.loc[frame.index > 0.5].to_numpy()
+    assert np.nanmean(fast) < 0
+
+
+def test_report_names_the_effect_in_plain_words(coulomb_report):
+    report = coulomb_report[-1]
+    best = report.best
+    assert best.effect == "coulomb_friction" and best.variable == "x2"
+    assert best.term == "a3*tanh(a4*x2)"
+    assert best.equations == Skeleton(
+        ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 - a3*tanh(a4*x2)"])
+    assert (best.curve_term, best.curve_constraints) == ("f1(x2)", ("f1 odd",))
+    assert best.param_init["a3"] == pytest.approx(0.3, rel=0.05)
+    text = report.summary()
+    for words in ("x2_dot", "coulomb_friction", "a3*tanh(a4*x2)", "Where it fails",
+                  "explained best by x2", "fit report.best.equations"):
+        assert words in text
+    assert set(report.ranking.columns) >= {"equation", "variable", "effect", "score",
+                                           "suggested_term"}
+    assert report.ranking.iloc[0].effect == "coulomb_friction"
+    assert "coulomb_friction" in repr(report)
+
+
+def test_diagnose_leaves_the_model_and_data_alone(coulomb_report):
+    model, X, y, _ = coulomb_report
+    params, state = dict(model.params_), model.get_params()
+    X_before, y_before = X.copy(), y.copy()
+    diagnose(model, X, y, n_refit=1)
+    assert model.params_ == params and model.get_params() == state
+    pd.testing.assert_frame_equal(X, X_before)
+    pd.testing.assert_frame_equal(y, y_before)
+
+
+def test_plot_returns_the_three_figures(coulomb_report):
+    import matplotlib.pyplot as plt
+
+    _, _, _, report = coulomb_report
+    figures = report.plot()
+    assert set(figures) == {"trajectories", "residual", "map"}
+    try:
+        for fig in figures.values():
+            assert fig.axes
+        labels = [line.get_label() for line in figures["residual"].axes[0].lines]
+        assert "- a3*tanh(a4*x2)" in labels  # the effect's fitted shape over the residual
+    finally:
+        for fig in figures.values():
+            plt.close(fig)
+
+
+# -- measurements as they come ----------------------------------------------------------
+def test_several_experiments_are_simulated_separately():
+    parts = []
+    for k, y0 in enumerate([(3.0, 0.0), (-2.0, 1.0)]):
+        frame, truth = oscillator(["cubic_stiffness"], y0=y0, n_samples=800)
+        parts.append(frame.assign(trajectory=f"run{k}"))
+    frame = pd.concat(parts, ignore_index=True)
+    X, y = xy(frame)
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X, y)
+    report = diagnose(model, X, y)
+    assert report.best.effect == "cubic_stiffness"
+    assert list(report.simulation.trajectory.unique()) == ["run0", "run1"]
+    # each experiment starts from its own measured state
+    second = report.simulation[report.simulation.trajectory == "run1"].iloc[0]
+    assert second.x1_sim == pytest.approx(frame.x1[800])
+    assert set(report.windows.trajectory) <= {"run0", "run1"}
+
+
+def test_derivatives_are_read_from_x_or_estimated():
+    frame, truth = oscillator(["coulomb_friction"], noise=None)
+    X, y = xy(frame)
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X, y)
+    from_columns = diagnose(model, frame)  # the NAME_dot columns of X
+    assert from_columns.best.effect == "coulomb_friction" and not from_columns.notes
+    estimated = diagnose(model, X)
+    assert estimated.best.effect == "coulomb_friction"
+    assert "estimated" in estimated.notes[0]
+
+
+def test_a_registered_effect_is_tried():
+    mine = effects.Effect("magnetic_spring", "force of a permanent magnet", "position",
+                          "a1 {x} / (1 + {x}^2)", "f1({x})", ("f1 odd",))
+    frame, truth = oscillator(["cubic_stiffness"])
+    X, y = xy(frame)
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X, y)
+    effects.register(mine)
+    try:
+        report = diagnose(model, X, y)
+    finally:
+        effects.unregister("magnetic_spring")
+    assert "magnetic_spring" in set(report.ranking.effect)
+    assert report.best.effect == "cubic_stiffness"
+
+
+# -- bad input ---------------------------------------------------------------------------
+def test_unfitted_model_raises_not_fitted():
+    frame, truth = oscillator([])
+    with pytest.raises(NotFittedError):
+        diagnose(PolyCCRegressor(equations=truth.base_equations), *xy(frame))
+
+
+def test_missing_columns_are_named(coulomb_report):
+    model, X, y, _ = coulomb_report
+    with pytest.raises(ValueError, match="lacks the column 'F_ext'"):
+        diagnose(model, X.drop(columns="F_ext"), y)
+    with pytest.raises(ValueError, match="y lacks the column 'x2_dot'"):
+        diagnose(model, X, y[["x1_dot"]])
+    with pytest.raises(TypeError, match="DataFrame"):
+        diagnose(model, X.to_numpy(), y)
+    with pytest.raises(ValueError, match="n_refit"):
+        diagnose(model, X, y, n_refit=-1)
+    bad = X.copy()
+    bad.loc[5, "x1"] = np.nan
+    with pytest.raises(ValueError, match="'x1' holds nan at row 5"):
+        diagnose(model, bad, y)
+
+
+def test_a_diverging_simulation_is_reported_not_raised():
+    t = np.linspace(0.0, 0.5, 200)
+    train = pd.DataFrame({"t": t, "x1": 1.0 / (1.0 - t)})
+    model = PolyCCRegressor(equations=["x1_dot = a1 x1^2"])
+    model.fit(train, (train.x1**2).rename("x1_dot"))
+    # new measurements, from a larger start: the fitted model blows up at t = 0.5
+    t = np.linspace(0.0, 0.9, 300)
+    test = pd.DataFrame({"t": t, "x1": 2.0 * np.exp(t)})
+    report = diagnose(model, test, test.x1.rename("x1_dot"))
+    assert len(report.divergences) == 1
+    assert report.divergences[0].t_reached == pytest.approx(0.5, abs=0.02)
+    assert report.windows.iloc[0].note.startswith("simulation diverged")
+    assert np.isinf(report.windows.iloc[0].simulation_nrmse)
+    assert report.simulation.x1_sim.iloc[-1] != report.simulation.x1_sim.iloc[-1]  # NaN
+    assert "FAILURE" in report.summary()
+
+
+def test_a_chattering_simulation_is_stopped(coulomb_report):
+    model, X, y, _ = coulomb_report
+    report = diagnose(model, X, y, max_steps=5, n_refit=0)
+    assert report.divergences and "steps" in report.divergences[0].reason
+
+
+# -- compare_skeletons ------------------------------------------------------------------
+def test_compare_skeletons_shows_the_error_falling():
+    import matplotlib.pyplot as plt
+
+    from sklearn_pycc.plotting import plot_comparison
+
+    frame, truth = oscillator(["coulomb_friction", "cubic_stiffness"])
+    X, y = xy(frame)
+    linear = Skeleton(truth.base_equations)
+    plus_coulomb = linear.add_term("x2", effects.get("coulomb_friction").term_for(v="x2"))
+    both = plus_coulomb.add_term("x2", effects.get("cubic_stiffness").term_for(x="x1"))
+    table = compare_skeletons({"linear": linear, "+coulomb": plus_coulomb, "+cubic": both},
+                              X, y, estimator=PolyCCRegressor(), cv=KFold(3))
+    assert list(table.index) == ["linear", "+coulomb", "+cubic"]
+    assert list(table.n_params) == [2, 4, 5]
+    assert table.simulation_rmse.is_monotonic_decreasing
+    assert table.derivative_rmse.is_monotonic_decreasing
+    assert table.bic.is_monotonic_decreasing
+    assert table.simulation_rmse.iloc[0] / table.simulation_rmse.iloc[-1] > 10
+    assert table.cv_score.iloc[-1] > table.cv_score.iloc[0]
+    fig = plot_comparison(table)
+    try:
+        assert len(fig.axes) == 2
+    finally:
+        plt.close(fig)
+
+
+def test_compare_skeletons_takes_lists_and_rejects_a_single_skeleton():
+    frame, truth = oscillator([])
+    X, y = xy(frame)
+    table = compare_skeletons([truth.base_equations], X, y, simulate=False)
+    assert list(table.index) == ["skeleton 1"]
+    assert np.isnan(table.simulation_rmse.iloc[0])
+    with pytest.raises(TypeError, match="several skeletons"):
+        compare_skeletons(Skeleton(truth.base_equations), X, y)
