@@ -28,8 +28,9 @@ test: $(STAMP)
 test-slow: $(STAMP)
 	OMP_NUM_THREADS=1 MPLBACKEND=Agg $(BIN)/python -m pytest -m slow tests
 
+# the hypothesis loop walked through; figures go to demo-output/
 demo: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python examples/demo_stick_slip.py
+	MPLBACKEND=Agg $(BIN)/python examples/hypothesis_loop.py demo-output
 
 lint: $(STAMP)
 	$(BIN)/ruff check sklearn_pycc tests examples asv_benchmarks
@@ -48,4 +49,4 @@ bench: $(STAMP)
 	    $${commit:+--set-commit-hash $$commit}
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache demo-output

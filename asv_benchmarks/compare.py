@@ -34,6 +34,15 @@ e.    Time for ``NeuralCCRegressor`` (defaults) to reach the published NN-CC
       networks to the end of training; three interleaved repeats.
 f.    ``simulate`` of that fitted neural model against ``solve_ivp`` (LSODA)
       of the true equations in numpy, same tolerances and output times.
+
+Two lines have an absolute goal rather than a reference:
+
+g.    The whole hypothesis loop on 10,000 samples of an oscillator with
+      hidden Coulomb friction (1 % noise): fit the linear skeleton with
+      ``PolyCCRegressor``, ``diagnose`` it, fit ``report.best.equations``.
+      Goal: under 5 s.
+h.    ``diagnose`` alone, on the seed paper's stick-slip example (1000
+      samples) fitted with the linear skeleton.
 """
 
 from __future__ import annotations
@@ -368,6 +377,57 @@ def case_neural_simulate(frame, truth) -> Case:
                 "solve_ivp LSODA, numpy rhs", 3.0, check)
 
 
+# -- absolute goals: the hypothesis loop ---------------------------------------------
+@dataclass
+class Timing:
+    """One line with an absolute goal: a callable, its goal in ms and what it found."""
+
+    label: str
+    fn: Callable[[], object]
+    goal_ms: float | None
+    check: str = ""
+    seconds: list[float] | None = None
+
+
+def _loop_timing() -> Timing:
+    from sklearn_pycc import PolyCCRegressor, diagnose
+
+    frame, truth = datasets.make_oscillator(
+        n_samples=10_000, hidden=["coulomb_friction"], noise=40.0,
+        noise_columns=["x1", "x2", "x1_dot", "x2_dot"], random_state=0, return_truth=True)
+    X, y = frame[X_COLUMNS], frame[Y_COLUMNS]
+
+    def loop():
+        model = PolyCCRegressor(equations=truth.base_equations).fit(X, y)
+        report = diagnose(model, X, y)
+        refit = PolyCCRegressor(equations=report.best.equations).fit(X, y)
+        return report, refit
+
+    report, _ = loop()
+    after = diagnose(loop()[1], X, y, n_refit=0)
+    check = (f"named {report.best.effect}; simulation RMSE {report.simulation_rmse:.3g} -> "
+             f"{after.simulation_rmse:.3g}")
+    return Timing("g. loop fit+diagnose+refit, n=10000", loop, 5000.0, check)
+
+
+def _diagnose_timing() -> Timing:
+    from sklearn_pycc import PolyCCRegressor, diagnose
+
+    frame, truth = datasets.make_stick_slip(return_truth=True)
+    X, y = frame[X_COLUMNS], frame[Y_COLUMNS]
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X, y)
+    report = diagnose(model, X, y)
+    check = (f"named {report.best.effect}; {len(report.ranking)} effects ranked, "
+             f"{int(report.ranking.refit.sum())} refitted")
+    return Timing("h. diagnose stick-slip (linear), n=1000", lambda: diagnose(model, X, y),
+                  None, check)
+
+
+def measure_timing(timing: Timing, repeat: int) -> Timing:
+    timing.seconds = [_once(timing.fn, 1) for _ in range(repeat)]
+    return timing
+
+
 # -- report ------------------------------------------------------------------------
 def _blas() -> str:
     try:
@@ -446,7 +506,28 @@ def main(argv=None) -> int:
                 results.append(measure(build(), repeat, target))
             except Exception as exc:
                 failures.append(f"{key}. could not be measured: {type(exc).__name__}: {exc}")
-        print_table(results)
+        if results:
+            print_table(results)
+        timings = []
+        for key, build in [("g", _loop_timing), ("h", _diagnose_timing)]:
+            if args.only and key not in args.only:
+                continue
+            try:
+                timings.append(measure_timing(build(), repeat))
+            except Exception as exc:
+                failures.append(f"{key}. could not be measured: {type(exc).__name__}: {exc}")
+        if timings:
+            print()
+            print(f"{'case':<44} {'median ms':>10} {'min-max ms':>17} {'goal':>9}")
+            for item in timings:
+                ms = [1e3 * v for v in item.seconds]
+                median = statistics.median(ms)
+                goal = "" if item.goal_ms is None else f"< {item.goal_ms:g}"
+                met = "" if item.goal_ms is None else (
+                    "met" if median < item.goal_ms else "MISSED")
+                print(f"{item.label:<44} {median:>10.1f} {min(ms):>8.1f}-{max(ms):<8.1f} "
+                      f"{goal:>9} {met}")
+                print(f"    {item.check}")
         for line in failures:
             print(line)
     print(f"\ntotal {time.perf_counter() - start:.1f} s")

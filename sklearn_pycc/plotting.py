@@ -83,15 +83,15 @@ def _residual_figure(plt, report):
         if values is None:
             values, variable = np.arange(residual.size), "sample"
         ax.plot(values, residual, ".", ms=2, color="0.5", label="residual")
-        shape = _effect_shape(report, name)
-        if shape is not None:
-            order = np.argsort(values)
-            ax.plot(values[order], -shape[order], color="C3", lw=1.5,
-                    label=f"- {best.term}")
-            ax.legend(fontsize="small")
+        shift = _effect_shift(report, name)
+        if shift is not None:
+            ax.plot(values, shift, ".", ms=1.5, color="C3",
+                    label=f"refit with - {best.term}")
+            ax.legend(fontsize="small", markerscale=4)
         ax.set_xlabel(variable)
         ax.set_ylabel(f"{name}: measured - model")
-    fig.suptitle("Derivative residuals against the variable that explains them")
+        ax.set_title(name)
+    fig.suptitle("Residuals and the suggested effect")
     fig.tight_layout()
     return fig
 
@@ -112,15 +112,16 @@ def _values(data, variable: str) -> dict:
     return {}
 
 
-def _effect_shape(report, equation: str):
-    """The suggested term's fitted contribution along the data, for its own equation."""
+def _effect_shift(report, equation: str):
+    """How the suggested refit changes the equation's prediction, along the data."""
     best = report.best
-    if best is None or best.equation != equation:
+    if best is None:
         return None
     for c in report._candidates:
-        if (c.effect.name == best.effect and c.roles.derivative == equation
-                and c.variable == best.variable and c.contributions):
-            return c.contributions.get(c.roles.index)
+        if (c.effect.name == best.effect and c.roles.derivative == best.equation
+                and c.variable == best.variable and c.shifts):
+            index = list(report.residuals.columns).index(equation)
+            return c.shifts.get(index)
     return None
 
 

@@ -62,6 +62,7 @@ class Candidate:
     redundant: bool = False
     note: str = ""
     contributions: dict[int, np.ndarray] = field(default_factory=dict)
+    shifts: dict[int, np.ndarray] = field(default_factory=dict)
     simulation_rmse: float = math.nan
 
     @property
@@ -332,6 +333,9 @@ def refit_candidate(model, candidate: Candidate, data: Measurements, residuals: 
         candidate.note = "redundant with the skeleton (the extended fit is rank deficient)"
     candidate.refit = estimator
     ks = candidate.equations
+    # what the refit changes in each equation's prediction: the shape the residual should have
+    base = data.derivatives - residuals
+    candidate.shifts = {k: predicted[:, k] - base[:, k] for k in ks}
     after = np.array([np.sum((data.derivatives[:, k] - predicted[:, k]) ** 2) for k in ks])
     before = rss_before[ks]
     n = data.n_samples
