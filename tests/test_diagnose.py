@@ -360,3 +360,27 @@ def test_compare_skeletons_takes_lists_and_rejects_a_single_skeleton():
     assert np.isnan(table.simulation_rmse.iloc[0])
     with pytest.raises(TypeError, match="several skeletons"):
         compare_skeletons(Skeleton(truth.base_equations), X, y)
+
+
+# -- accuracy study across noise draws (make test-slow) ------------------------------------
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(1, 6))
+@pytest.mark.parametrize("effect", SINGLE)
+def test_the_right_effect_across_noise_draws(effect, seed):
+    frame, truth = datasets.make_oscillator(
+        hidden=[effect], noise=NOISE, noise_columns=["x1", "x2", "x1_dot", "x2_dot"],
+        random_state=seed, return_truth=True)
+    found, reports = loop(frame, truth.base_equations)
+    assert found == [(effect, "x2_dot")]
+    assert reports[0].simulation_rmse / reports[1].simulation_rmse >= 10
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(1, 6))
+def test_stick_slip_two_rounds_across_noise_draws(seed):
+    frame, truth = datasets.make_stick_slip(
+        noise=NOISE, noise_columns=["x1", "x2", "x1_dot", "x2_dot"], random_state=seed,
+        return_truth=True)
+    found, reports = loop(frame, truth.base_equations, rounds=4)
+    assert [effect for effect, _ in found] == ["coulomb_friction", "cubic_stiffness"]
+    assert reports[0].simulation_rmse / reports[-1].simulation_rmse >= 10
