@@ -67,7 +67,6 @@ def _trajectory_figure(plt, report):
 
 
 def _residual_figure(plt, report):
-    data = report._data
     equations = list(report.maps) or list(report.residuals.columns)
     fig, axes = plt.subplots(1, len(equations), figsize=(4.5 * len(equations), 3.6),
                              squeeze=False)
@@ -76,10 +75,10 @@ def _residual_figure(plt, report):
         part = report.explained[report.explained.equation == name]
         variable = part.variable.iloc[0] if not part.empty else None
         residual = report.residuals[name].to_numpy()
-        if best is not None and best.equation == name:
-            variable = best.variable if best.variable in _values(data, best.variable) \
-                else variable
-        values = _values(data, variable).get(variable) if variable else None
+        known = report._variables.get(name, {})
+        if best is not None and best.equation == name and best.variable in known:
+            variable = best.variable
+        values = known.get(variable)
         if values is None:
             values, variable = np.arange(residual.size), "sample"
         ax.plot(values, residual, ".", ms=2, color="0.5", label="residual")
@@ -94,22 +93,6 @@ def _residual_figure(plt, report):
     fig.suptitle("Residuals and the suggested effect")
     fig.tight_layout()
     return fig
-
-
-def _values(data, variable: str) -> dict:
-    """Values of a variable label (``x2``, ``x1 - x2``, ``x1^2 x2``) on the data."""
-    columns = data.columns
-    if variable in columns:
-        return {variable: columns[variable]}
-    if " - " in variable:
-        a, b = variable.split(" - ", 1)
-        if a in columns and b in columns:
-            return {variable: columns[a] - columns[b]}
-    if "^2 " in variable:
-        a, b = variable.split("^2 ", 1)
-        if a in columns and b in columns:
-            return {variable: columns[a] ** 2 * columns[b]}
-    return {}
 
 
 def _effect_shift(report, equation: str):

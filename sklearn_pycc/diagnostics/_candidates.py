@@ -61,7 +61,6 @@ class Candidate:
     plausible: bool | None = None
     redundant: bool = False
     note: str = ""
-    contributions: dict[int, np.ndarray] = field(default_factory=dict)
     shifts: dict[int, np.ndarray] = field(default_factory=dict)
     simulation_rmse: float = math.nan
 
@@ -127,12 +126,12 @@ def enumerate_candidates(skeleton: Skeleton, roles: list[EquationRoles],
     for r in roles:
         for effect in catalogue.catalogue():
             for variable, additions in _assignments(effect, r, has_time):
-                key = (effect.name, frozenset(k for k, _ in additions), variable.replace(" ", ""))
-                pair_key = (effect.name, frozenset(k for k, _ in additions))
-                if key in seen or (len(additions) > 1 and pair_key in seen):
+                # a coupling is proposed from both of its masses: keep it once
+                equations = frozenset(k for k, _ in additions)
+                key = (effect.name, equations, None if len(equations) > 1 else variable)
+                if key in seen:
                     continue
                 seen.add(key)
-                seen.add(pair_key)
                 candidate = Candidate(effect, r, variable, additions,
                                       _curve_term(effect, r, variable))
                 if not _absorbed(skeleton, candidate):
@@ -322,7 +321,7 @@ def refit_candidate(model, candidate: Candidate, data: Measurements, residuals: 
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             estimator.fit(data.X, data.derivatives)
-            predicted = np.asarray(estimator.predict(data.X)).reshape(data.n_samples, -1)
+            predicted = data.predict(estimator)
     except Exception as exc:  # any failure of a backend is a finding, not a crash
         candidate.note = f"the extended skeleton could not be fitted: {exc}"
         candidate.plausible = False
@@ -358,7 +357,6 @@ def _judge(candidate: Candidate, estimator, data: Measurements) -> None:
             values = compile_expression(node, slots, estimator.params_,
                                         estimator.functions_)(env)
         values = np.broadcast_to(np.asarray(values, dtype=float), (data.n_samples,))
-        candidate.contributions[k] = np.array(values)
         if not np.isfinite(values).all():
             reasons.append("the fitted term is not finite on the data")
             continue

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -41,12 +41,15 @@ class Measurements:
     groups: list[tuple[object, np.ndarray]]
     has_time: bool
     estimated: str = ""
-    notes: list[str] = field(default_factory=list)
 
     @property
     def n_samples(self) -> int:
         """Number of rows."""
         return self.derivatives.shape[0]
+
+    def predict(self, model) -> np.ndarray:
+        """A fitted model's derivatives on these rows, ``(n_samples, n_states)``."""
+        return np.asarray(model.predict(self.X), dtype=float).reshape(self.n_samples, -1)
 
 
 def _float_column(frame: pd.DataFrame, name: str, what: str) -> np.ndarray:

@@ -62,13 +62,17 @@ def candidate_variables(roles: EquationRoles, data: Measurements, states: list[s
 
 
 def explaining_variables(residuals: np.ndarray, roles: list[EquationRoles],
-                         data: Measurements, states: list[str],
-                         inputs: list[str]) -> pd.DataFrame:
-    """For each equation, the share of its residual each variable explains (best first)."""
-    rows = []
+                         data: Measurements, states: list[str], inputs: list[str]
+                         ) -> tuple[pd.DataFrame, dict[str, dict[str, np.ndarray]]]:
+    """For each equation, the share of its residual each variable explains (best first).
+
+    Returns the table and the variables' values, by equation and label.
+    """
+    rows, values = [], {}
     for r in roles:
         residual = residuals[:, r.index]
-        for name, z in candidate_variables(r, data, states, inputs).items():
+        values[r.derivative] = candidate_variables(r, data, states, inputs)
+        for name, z in values[r.derivative].items():
             # any residual of a deterministic system is some function of time: a few
             # wide bins keep to trends and drifts, which is what time can explain
             bins = TIME_BINS if name == TIME else 20
@@ -76,10 +80,10 @@ def explaining_variables(residuals: np.ndarray, roles: list[EquationRoles],
                          "fraction": explained_fraction(residual, z, bins)})
     frame = pd.DataFrame(rows, columns=["equation", "variable", "fraction"])
     if frame.empty:
-        return frame
+        return frame, values
     frame["_order"] = frame["equation"].map({r.derivative: i for i, r in enumerate(roles)})
     frame = frame.sort_values(["_order", "fraction"], ascending=[True, False], kind="stable")
-    return frame.drop(columns="_order").reset_index(drop=True)
+    return frame.drop(columns="_order").reset_index(drop=True), values
 
 
 def _rolling_mean(values: np.ndarray, width: int) -> np.ndarray:
@@ -116,8 +120,7 @@ def worst_windows(data: Measurements, simulation_error: np.ndarray | None,
             continue
         score = _rolling_mean(primary[idx], width)
         other = _rolling_mean(derivative_error[idx], width)
-        sim = (_rolling_mean(simulation_error[idx], width) if simulation_error is not None
-               else np.full(score.shape, np.nan))
+        sim = score if simulation_error is not None else np.full(score.shape, np.nan)
         finite_until = n
         if simulation_error is not None:
             bad = ~np.isfinite(simulation_error[idx])

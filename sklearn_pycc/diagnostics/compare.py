@@ -12,7 +12,8 @@ from sklearn.base import clone
 from sklearn.model_selection import cross_val_score
 
 from ..skeleton import Skeleton
-from ._data import TIME, read_measurements
+from ._candidates import rss_floor
+from ._data import read_measurements
 from ._metrics import rmse
 from ._roles import equation_roles
 from ._trajectories import simulate_experiments
@@ -89,12 +90,12 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
         start = time.perf_counter()
         model.fit(X, target)
         fit_time = time.perf_counter() - start
-        predicted = np.asarray(model.predict(data.X), dtype=float).reshape(data.n_samples, -1)
-        residual = data.derivatives - predicted
+        residual = data.derivatives - data.predict(model)
         active = [r.index for r in equation_roles(model.skeleton_)] or list(
             range(residual.shape[1]))
         n = data.n_samples
-        rss = np.maximum(np.sum(residual[:, active] ** 2, axis=0), 1e-300)
+        rss = np.maximum(np.sum(residual[:, active] ** 2, axis=0),
+                         rss_floor(data.derivatives)[active])
         bic = float(np.sum(n * np.log(rss / n)) + model.n_parameters_ * math.log(n))
         row = {"equations": "; ".join(model.skeleton_.equations),
                "derivative_rmse": rmse(np.zeros_like(residual[:, active]), residual[:, active]),
@@ -112,6 +113,4 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
             row["cv_score"] = float(np.mean(scores))
         row["fit_time"] = fit_time
         rows.append(row)
-    table = pd.DataFrame(rows, index=pd.Index(list(named), name="skeleton"))
-    table.attrs["has_time"] = TIME in X.columns
-    return table
+    return pd.DataFrame(rows, index=pd.Index(list(named), name="skeleton"))

@@ -149,6 +149,8 @@ class Diagnosis:
     notes: list[str] = field(default_factory=list)
     _candidates: list[Candidate] = field(default_factory=list, repr=False)
     _data: Measurements | None = field(default=None, repr=False)
+    # values of the explaining variables, by equation and label (for the figures)
+    _variables: dict = field(default_factory=dict, repr=False)
 
     def __repr__(self) -> str:
         best = "nothing missing" if self.best is None else str(self.best)
@@ -192,10 +194,8 @@ class Diagnosis:
         lines = []
         if self.derivatives.empty:
             return lines
-        worst = self.derivatives.loc[
-            [r for r in self.derivatives.index if r in self.maps]].sort_values(
-            "nrmse", ascending=False) if self.maps else self.derivatives.iloc[:0]
-        for name, row in worst.iterrows():
+        failing = self.derivatives.loc[self.derivatives.index.isin(list(self.maps))]
+        for name, row in failing.sort_values("nrmse", ascending=False).iterrows():
             part = self.explained[self.explained.equation == name].head(3)
             if part.empty:
                 continue
@@ -354,7 +354,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     if data.estimated:
         notes.append(f"y was not given: the derivatives were estimated ({data.estimated}).")
 
-    predicted = np.asarray(model.predict(data.X), dtype=float).reshape(data.n_samples, -1)
+    predicted = data.predict(model)
     residuals = data.derivatives - predicted
     derivative_table = pd.DataFrame(
         [error_table_row(data.derivatives[:, j], predicted[:, j]) for j in range(len(derivs))],
@@ -388,7 +388,8 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
 
     # -- where it fails -----------------------------------------------------------------
     roles = equation_roles(skeleton)
-    explained = explaining_variables(residuals, roles, data, states, skeleton.inputs)
+    explained, variables = explaining_variables(residuals, roles, data, states,
+                                                skeleton.inputs)
     spread = np.std(measured_states, axis=0)
     spread[spread == 0] = 1.0
     sim_error = (None if simulated is None
@@ -414,11 +415,12 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     refitted = [c for c in screened[:n_refit] if c.refit is not None]
     if run_simulation:
         _simulate_leaders(refitted, data, measured_states, steps, divergences)
-    ranking = _ranking(candidates, explained)
-    best = _choose(candidates, skeleton, min_improvement, bic_threshold)
+    ordered = _ordered(candidates)
+    ranking = _ranking(ordered, explained)
+    best = _choose(ordered, skeleton, min_improvement, bic_threshold)
     return Diagnosis(model, derivative_table, trajectory_table, simulation_frame,
                      pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
-                     maps, ranking, best, simulation_rmse, notes, candidates, data)
+                     maps, ranking, best, simulation_rmse, notes, candidates, data, variables)
 
 
 def _map_of(roles: EquationRoles, residuals, data: Measurements, inputs) -> ResidualMap | None:
@@ -486,11 +488,11 @@ def _ordered(candidates: list[Candidate]) -> list[Candidate]:
     return out
 
 
-def _ranking(candidates: list[Candidate], explained: pd.DataFrame) -> pd.DataFrame:
-    lookup = {(e, v.replace(" ", "")): f for e, v, f in explained[
+def _ranking(ordered: list[Candidate], explained: pd.DataFrame) -> pd.DataFrame:
+    lookup = {(e, v): f for e, v, f in explained[
         ["equation", "variable", "fraction"]].itertuples(index=False)}
     rows = []
-    for c in _ordered(candidates):
+    for c in ordered:
         refit = c.refit is not None
         rows.append({
             "equation": c.roles.derivative,
@@ -507,22 +509,21 @@ def _ranking(candidates: list[Candidate], explained: pd.DataFrame) -> pd.DataFra
             "simulation_rmse": c.simulation_rmse,
             "plausible": bool(c.plausible) if refit else None,
             "refit": refit,
-            "explained": lookup.get((c.roles.derivative, c.variable.replace(" ", "")),
-                                    math.nan),
+            "explained": lookup.get((c.roles.derivative, c.variable), math.nan),
             "note": c.note or ("" if refit else "screened on the residual only"),
         })
     return pd.DataFrame(rows, columns=_RANKING_COLUMNS)
 
 
-def _choose(candidates: list[Candidate], skeleton: Skeleton, min_improvement: float,
+def _choose(ordered: list[Candidate], skeleton: Skeleton, min_improvement: float,
             bic_threshold: float) -> Suggestion | None:
-    for c in _ordered(candidates):
-        if _group(c) != 0:
-            return None
-        if c.delta_bic > -bic_threshold or c.removed < min_improvement:
-            return None
-        return _suggestion(c, skeleton)
-    return None
+    """The leader, if it is a plausible refit that clears both thresholds."""
+    if not ordered:
+        return None
+    c = ordered[0]
+    if _group(c) != 0 or c.delta_bic > -bic_threshold or c.removed < min_improvement:
+        return None
+    return _suggestion(c, skeleton)
 
 
 def _suggestion(c: Candidate, base: Skeleton) -> Suggestion:
