@@ -44,6 +44,7 @@ from .skeleton import Skeleton
 
 __all__ = [
     "make_duffing",
+    "make_experiments",
     "make_first_order",
     "make_oscillator",
     "make_stick_slip",
@@ -917,3 +918,98 @@ def make_oscillator(
         y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
         random_state=random_state, return_truth=return_truth,
     )
+
+
+# -- several experiments in one data set ---------------------------------------
+def make_experiments(
+    make: Callable,
+    settings: Sequence[Mapping] | int,
+    *,
+    random_state: int | np.random.Generator | None = None,
+    return_truth: bool = False,
+    **common,
+) -> pd.DataFrame | tuple[pd.DataFrame, list[Bunch]]:
+    """Several experiments of one system in one tidy DataFrame.
+
+    Parameters
+    ----------
+    make : callable
+        One of the ``make_*`` generators of this module.
+    settings : list of dict or int
+        Keyword arguments of each experiment (for instance different
+        ``amplitude`` and ``omega`` of the forcing). An integer ``n`` gives
+        ``n`` experiments whose forcing amplitude grows from 0.5 to 1.5
+        times the generator's default and whose frequency falls from 1.2 to
+        0.8 times it.
+    random_state : int, numpy.random.Generator or None
+        Seeds the noise; each experiment draws its own stream from it.
+    return_truth : bool, default=False
+        Also return each experiment's ground truth.
+    **common
+        Keyword arguments shared by every experiment (``n_samples``,
+        ``t_span``, ``noise``, ``noise_columns``, ...).
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        The experiments one after the other, with a ``trajectory`` column
+        (0, 1, ...) after ``t``; the index runs through.
+    truths : list of sklearn.utils.Bunch
+        Only when ``return_truth``: one per experiment.
+
+    Raises
+    ------
+    ValueError
+        If ``settings`` is empty, names ``random_state`` or
+        ``return_truth``, or an experiment's arguments are invalid (the
+        message names the experiment).
+
+    Examples
+    --------
+    >>> from sklearn_pycc.datasets import make_experiments, make_stick_slip
+    >>> frame = make_experiments(make_stick_slip, [{"amplitude": 0.8}, {"amplitude": 1.2}],
+    ...                          n_samples=100)
+    >>> frame.groupby("trajectory").size().tolist()
+    [100, 100]
+    """
+    if not callable(make):
+        raise ValueError(f"make must be a make_* generator, got {make!r}")
+    if isinstance(settings, numbers.Integral) and not isinstance(settings, bool):
+        settings = _varied_forcing(make, int(settings))
+    settings = [dict(item) for item in settings]
+    if not settings:
+        raise ValueError("settings must hold at least one experiment")
+    reserved = {"random_state", "return_truth"}
+    for k, item in enumerate([common, *settings]):
+        clash = reserved & set(item)
+        if clash:
+            where = "the shared arguments" if k == 0 else f"experiment {k - 1}"
+            raise ValueError(f"{where} set {sorted(clash)[0]!r}; pass it to make_experiments "
+                             "itself")
+    streams = _check_random_state(random_state).spawn(len(settings))
+    frames, truths = [], []
+    for k, (item, stream) in enumerate(zip(settings, streams)):
+        try:
+            frame, truth = make(**{**common, **item}, random_state=stream, return_truth=True)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"experiment {k} ({item}): {error}") from None
+        frame.insert(1, "trajectory", k)
+        frames.append(frame)
+        truths.append(truth)
+    frame = pd.concat(frames, ignore_index=True)
+    return (frame, truths) if return_truth else frame
+
+
+def _varied_forcing(make: Callable, n: int) -> list[dict]:
+    if n < 1:
+        raise ValueError(f"settings must be a positive number of experiments, got {n}")
+    import inspect
+
+    defaults = {name: p.default for name, p in inspect.signature(make).parameters.items()}
+    if "amplitude" not in defaults or "omega" not in defaults:
+        raise ValueError(f"{getattr(make, '__name__', make)} has no forcing amplitude and "
+                         "omega to vary; give settings as a list of dicts")
+    scale = np.linspace(0.5, 1.5, n) if n > 1 else np.ones(1)
+    speed = np.linspace(1.2, 0.8, n) if n > 1 else np.ones(1)
+    return [{"amplitude": float(defaults["amplitude"] * a), "omega": float(defaults["omega"] * w)}
+            for a, w in zip(scale, speed)]

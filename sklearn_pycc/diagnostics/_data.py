@@ -6,7 +6,13 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.signal import savgol_filter
+
+from ..measurements import (
+    estimate_states,
+    kinematic_chains,
+    resolve_differentiation,
+    split_experiments,
+)
 
 __all__ = ["Measurements", "read_measurements"]
 
@@ -65,33 +71,13 @@ def _float_column(frame: pd.DataFrame, name: str, what: str) -> np.ndarray:
     return values
 
 
-def _groups(X: pd.DataFrame) -> list[tuple[object, np.ndarray]]:
-    if TRAJECTORY not in X.columns:
-        return [(None, np.arange(len(X)))]
-    labels = X[TRAJECTORY].to_numpy()
-    if pd.isna(labels).any():
-        row = int(np.flatnonzero(pd.isna(labels))[0])
-        raise ValueError(f"the 'trajectory' column is missing a label at row {row}")
-    order = pd.unique(labels)
-    return [(label, np.flatnonzero(labels == label)) for label in order]
-
-
-def _estimate(values: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, str]:
-    """Derivative of one experiment's samples: Savitzky-Golay on a uniform grid."""
-    n = len(t)
-    if n < 3:
-        raise ValueError("estimating derivatives needs at least 3 samples per experiment")
-    steps = np.diff(t)
-    if np.allclose(steps, steps[0], rtol=1e-6, atol=0.0) and n >= 7:
-        window = max(7, 2 * (n // 100) + 1)
-        window = min(window, n if n % 2 else n - 1)
-        return (savgol_filter(values, window, 3, deriv=1, delta=float(steps[0])),
-                f"Savitzky-Golay derivative (window {window} samples, cubic)")
-    return np.gradient(values, t), "central differences"
-
-
-def read_measurements(skeleton, X, y) -> Measurements:
+def read_measurements(skeleton, X, y, differentiation="spline") -> Measurements:
     """Check ``X`` and ``y`` against a skeleton and line them up.
+
+    Without ``y`` (and without ``NAME_dot`` columns in ``X``) the
+    derivatives are estimated by ``differentiation`` per experiment; states
+    missing from ``X`` but defined by kinematic equations are reconstructed,
+    and ``Measurements.X`` is a copy of ``X`` completed with them.
 
     Raises
     ------
@@ -104,7 +90,10 @@ def read_measurements(skeleton, X, y) -> Measurements:
         raise TypeError(f"diagnose needs X as a pandas DataFrame with the columns "
                         f"{skeleton.variables}, got {type(X).__name__}")
     needed = [name for name in skeleton.variables if name != TIME]
-    missing = [name for name in needed if name not in X.columns]
+    derivatives_given = y is not None or all(d in X.columns for d in skeleton.derivatives)
+    optional = set() if derivatives_given else set(kinematic_chains(skeleton))
+    needed_now = [name for name in needed if name not in optional or name in X.columns]
+    missing = [name for name in needed_now if name not in X.columns]
     if missing:
         raise ValueError(f"X lacks the column{'s' if len(missing) > 1 else ''} "
                          f"{', '.join(map(repr, missing))} of the skeleton "
@@ -112,26 +101,37 @@ def read_measurements(skeleton, X, y) -> Measurements:
     has_time = TIME in X.columns
     if skeleton.uses_time and not has_time:
         raise ValueError("X lacks the time column 't', which the skeleton reads")
-    columns = {name: _float_column(X, name, "X") for name in needed}
+    columns = {name: _float_column(X, name, "X") for name in needed_now}
     if has_time:
         columns[TIME] = _float_column(X, TIME, "X")
-    groups = _groups(X)
-    if has_time:
-        for label, rows in groups:
-            steps = np.diff(columns[TIME][rows])
-            if (steps <= 0).any():
-                k = int(np.flatnonzero(steps <= 0)[0])
-                where = "" if label is None else f" of trajectory {label!r}"
-                raise ValueError(f"t must increase within each experiment: row "
-                                 f"{int(rows[k + 1])}{where} has t={columns[TIME][rows[k + 1]]:g} "
-                                 f"after t={columns[TIME][rows[k]]:g}")
-    derivatives, estimated = _read_derivatives(skeleton, X, y, columns, groups, has_time)
+    labels = None
+    if TRAJECTORY in X.columns:
+        labels = X[TRAJECTORY].to_numpy()
+    experiments = split_experiments(len(X), columns.get(TIME), labels)
+    groups = [(e.label, e.rows) for e in experiments]
+    if derivatives_given:
+        derivatives = _read_derivatives(skeleton, X, y)
+        estimated = ""
+    else:
+        if not has_time:
+            raise ValueError(f"y is None and X has neither the derivatives "
+                             f"{skeleton.derivatives} nor a time column 't' to estimate them "
+                             "from")
+        measured = {s: columns[s] for s in skeleton.states if s in columns}
+        estimate = estimate_states(skeleton, measured, experiments,
+                                   resolve_differentiation(differentiation))
+        derivatives, estimated = estimate.derivatives, estimate.description
+        completed = X.copy()
+        for state, values in estimate.states.items():
+            columns[state] = values
+            completed[state] = values
+        X = completed
     for j, name in enumerate(skeleton.derivatives):
         columns[name] = derivatives[:, j]
     return Measurements(X, columns, derivatives, groups, has_time, estimated)
 
 
-def _read_derivatives(skeleton, X, y, columns, groups, has_time):
+def _read_derivatives(skeleton, X, y) -> np.ndarray:
     names = skeleton.derivatives
     n = len(X)
     if y is not None:
@@ -158,17 +158,5 @@ def _read_derivatives(skeleton, X, y, columns, groups, has_time):
                 raise ValueError("y holds NaN or infinity; diagnose needs finite measurements")
         if values.shape[0] != n:
             raise ValueError(f"X has {n} rows but y has {values.shape[0]}")
-        return values, ""
-    if all(name in X.columns for name in names):
-        return np.column_stack([_float_column(X, name, "X") for name in names]), ""
-    if not has_time:
-        raise ValueError(f"y is None and X has neither the derivatives {names} nor a time "
-                         "column 't' to estimate them from")
-    out = np.empty((n, len(names)))
-    how = ""
-    for j, state in enumerate(skeleton.states):
-        if state not in columns:
-            raise ValueError(f"y is None and X lacks the state {state!r} to differentiate")
-        for _, rows in groups:
-            out[rows, j], how = _estimate(columns[state][rows], columns[TIME][rows])
-    return out, how
+        return values
+    return np.column_stack([_float_column(X, name, "X") for name in names])

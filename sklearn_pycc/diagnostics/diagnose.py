@@ -348,7 +348,8 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     _check_options(n_refit, min_improvement, bic_threshold, max_steps)
     check_is_fitted(model, "skeleton_")
     skeleton = model.skeleton_
-    data = read_measurements(skeleton, X, y)
+    data = read_measurements(skeleton, X, y,
+                             model.get_params().get("differentiation", "spline"))
     states, derivs = skeleton.states, skeleton.derivatives
     notes = []
     if data.estimated:

@@ -75,6 +75,12 @@ class Problem:
         Columns of X plus the measured derivatives.
     y : ndarray
         Measured derivatives, ``(n_samples, n_states)`` in equation order.
+    experiments : list of Experiment or None
+        The data's experiments with their times, when derivatives were
+        estimated or the fit is by simulation.
+    measured, smoothed : dict
+        Measured states as given, and every state's smoothed or
+        reconstructed values (the same as measured when ``y`` was given).
     """
 
     skeleton: Skeleton
@@ -84,6 +90,10 @@ class Problem:
     data: FitData
     y: np.ndarray
     gauge: dict[str, str] = field(default_factory=dict)
+    #: experiments with their times (when known); measured and smoothed states by name
+    experiments: list | None = None
+    measured: dict[str, np.ndarray] = field(default_factory=dict)
+    smoothed: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def equations(self) -> list[Equation]:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 
 import numpy as np
 import pandas as pd
@@ -34,11 +34,15 @@ def _first_bad(values: np.ndarray) -> int:
     return int(np.flatnonzero(~np.isfinite(values))[0])
 
 
-def _finite_column(values: np.ndarray, what: str) -> None:
+def _finite_column(values: np.ndarray, what: str, trajectory: np.ndarray | None = None) -> None:
     if not np.isfinite(values).all():
         i = _first_bad(values)
         kind = "NaN" if np.isnan(values[i]) else "infinity"
-        raise ValueError(f"{what} contains {kind} at row {i}; remove or fill it before fitting")
+        label = None if trajectory is None else trajectory[i]
+        label = label.item() if isinstance(label, np.generic) else label
+        where = "" if trajectory is None else f" (experiment {label!r})"
+        raise ValueError(f"{what} contains {kind} at row {i}{where}; remove or fill it "
+                         "before fitting (a gap splits an experiment in two)")
 
 
 def _numeric(series: pd.Series, what: str) -> np.ndarray:
@@ -49,13 +53,15 @@ def _numeric(series: pd.Series, what: str) -> np.ndarray:
     return values
 
 
-def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X") -> FitData:
+def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X",
+           optional: Collection[str] = ()) -> FitData:
     """Validate ``X`` and return the float64 columns the skeleton reads.
 
     A DataFrame is read by column name; an array's columns (and those of a
     DataFrame whose column names are not all strings) are called
     ``x0, x1, ...``. Columns the skeleton does not use are left alone.
-    ``t`` and ``trajectory`` are read when present.
+    ``t`` and ``trajectory`` are read when present. Names in ``optional``
+    may be missing.
     """
     named = isinstance(X, pd.DataFrame) and all(isinstance(c, str) for c in X.columns)
     if named:
@@ -67,7 +73,10 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X") 
             raise ValueError(f"{who} has 0 samples; at least one is required")
         names = [str(c) for c in X.columns]
         columns: dict[str, np.ndarray] = {}
+        trajectory = X[TRAJECTORY].to_numpy(copy=True) if TRAJECTORY in names else None
         for name in needed:
+            if name not in names and name in optional:
+                continue
             if name not in names:
                 raise ValueError(
                     f"{who} has no column {name!r}, which the skeleton uses; "
@@ -76,19 +85,20 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X") 
             if len(matches) > 1:
                 raise ValueError(f"{who} has more than one column named {name!r}")
             values = _numeric(X[matches[0]], f"{who} column {name!r}")
-            _finite_column(values, f"{who} column {name!r}")
+            _finite_column(values, f"{who} column {name!r}", trajectory)
             columns[name] = values
         if TIME in names and TIME not in columns:
             values = _numeric(X[TIME], f"{who} column 't'")
-            _finite_column(values, f"{who} column 't'")
+            _finite_column(values, f"{who} column 't'", trajectory)
             columns[TIME] = values
-        trajectory = X[TRAJECTORY].to_numpy(copy=True) if TRAJECTORY in names else None
         return FitData(columns, len(X), trajectory)
     array = validate_data(estimator, X, reset=reset, dtype=np.float64,
                           ensure_all_finite=False, ensure_2d=True, copy=True)
     names = [f"x{j}" for j in range(array.shape[1])]
     columns = {}
     for name in needed:
+        if name not in names and name in optional:
+            continue
         if name not in names:
             raise ValueError(
                 f"{who} has no column {name!r}, which the skeleton uses. Pass a DataFrame "

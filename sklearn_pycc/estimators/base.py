@@ -12,6 +12,12 @@ from sklearn.metrics import r2_score
 from sklearn.utils.validation import check_is_fitted
 
 from ..exceptions import ExtrapolationWarning
+from ..measurements import (
+    estimate_states,
+    kinematic_chains,
+    resolve_differentiation,
+    split_experiments,
+)
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import Symbol
@@ -19,9 +25,11 @@ from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
 from ._setup import Problem, build_skeleton, gauge_skeleton
-from ._validation import FitData, read_X, read_y
+from ._validation import TIME, FitData, read_X, read_y
 
-__all__ = ["CCRegressor"]
+__all__ = ["FIT_MODES", "CCRegressor"]
+
+FIT_MODES = ("equation", "simulation")
 
 
 class EquationsView(list):
@@ -93,6 +101,26 @@ class CCRegressor(RegressorMixin, BaseEstimator):
     gauge : {"auto", "warn", "raise"}, default="auto"
         What to do when the skeleton is not identifiable: pin the ambiguity
         and record it in ``gauge_``, only warn, or raise.
+    differentiation : str, dict or callable, default="spline"
+        How derivatives are estimated when ``fit`` gets no ``y``: ``"spline"``
+        (cubic smoothing spline, smoothing chosen by GCV), ``"savgol"``,
+        ``"finite_difference"``, ``"kalman"``, ``"trend_filtered"`` (these two
+        need the ``derivative`` package), ``{"method": name, **options}``, an
+        object with ``d(x, t)`` or a callable ``f(x, t) -> dx/dt``. Each
+        experiment (``trajectory``) is differentiated on its own; a state
+        missing from ``X`` but defined by a kinematic equation
+        (``x1_dot = x2``) is the derivative of the measured one.
+    smooth_states : bool, default=True
+        When derivatives are estimated, fit on the smoothed states rather
+        than the raw measurements.
+    fit_mode : {"equation", "simulation"}, default="equation"
+        ``"equation"`` fits the derivatives (equation error). ``"simulation"``
+        then refines the fit so that the simulated states match the
+        measured ones (output error), by multiple shooting; it needs ``t``.
+    shooting_window : int, default=40
+        Samples per shooting segment in ``fit_mode="simulation"``.
+    shooting_iterations : int, default=30
+        Most iterations of the output-error optimisation.
 
     Attributes
     ----------
@@ -109,6 +137,14 @@ class CCRegressor(RegressorMixin, BaseEstimator):
     n_parameters_ : int
         Numbers fitted: free parameters ``a_i`` plus each curve's
         coefficients or weights (for information criteria).
+    measured_states_ : list of str
+        States given as columns of ``X`` in ``fit``.
+    derivative_source_ : str
+        ``"measured"``, or how the derivatives were estimated.
+    shooting_ : dict
+        Only after ``fit_mode="simulation"``: segments, iterations, the
+        normalised RMSE of the simulated states before and after, and the
+        largest continuity defect.
     n_features_in_ : int
         Number of columns of ``X`` seen in ``fit``.
     feature_names_in_ : ndarray
@@ -117,10 +153,18 @@ class CCRegressor(RegressorMixin, BaseEstimator):
 
     equations = _EquationsParameter()
 
-    def __init__(self, equations=None, constraints=None, gauge: str = "auto") -> None:
+    def __init__(self, equations=None, constraints=None, gauge: str = "auto",
+                 differentiation="spline", smooth_states: bool = True,
+                 fit_mode: str = "equation", shooting_window: int = 40,
+                 shooting_iterations: int = 30) -> None:
         self.equations = equations
         self.constraints = constraints
         self.gauge = gauge
+        self.differentiation = differentiation
+        self.smooth_states = smooth_states
+        self.fit_mode = fit_mode
+        self.shooting_window = shooting_window
+        self.shooting_iterations = shooting_iterations
 
     # -- to be provided by a backend ---------------------------------------
     def _fit_problem(self, problem: Problem) -> tuple[dict[str, Callable], dict[str, float]]:
@@ -128,6 +172,10 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         raise NotImplementedError(
             "CCRegressor is the shared base class: use PolyCCRegressor, NeuralCCRegressor "
             "or SymbolicCCRegressor")
+
+    def _fit_simulation(self, problem: Problem, functions: dict, params: dict, plan):
+        """Refine an equation-error fit by output error; return ``(functions, params)``."""
+        raise ValueError(f"{type(self).__name__} does not support fit_mode='simulation'")
 
     def _curve_text(self, name: str, variable: str, precision: int) -> str:
         """Text of a fitted curve as a function of ``variable``."""
@@ -156,19 +204,59 @@ class CCRegressor(RegressorMixin, BaseEstimator):
     def _problem(self, X, y) -> Problem:
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
         constraints, fixed, zeroed, gauge = gauge_skeleton(skeleton, self.gauge)
-        needed = skeleton.variables
-        data = read_X(self, X, needed, reset=True)
+        if self.fit_mode not in FIT_MODES:
+            raise ValueError(f"fit_mode must be one of {FIT_MODES}, got {self.fit_mode!r}")
         if y is None:
-            raise ValueError(
-                f"{type(self).__name__} requires y to be passed, but the target y is None: "
-                f"give the measured derivatives {skeleton.derivatives}")
+            return self._problem_from_states(X, skeleton, constraints, fixed, zeroed, gauge)
+        data = read_X(self, X, skeleton.variables, reset=True)
         targets, ndim = read_y(y, skeleton.derivatives, data.n_samples, with_ndim=True)
         columns = dict(data.columns)
         for j, name in enumerate(skeleton.derivatives):
             columns[name] = targets[:, j]
         full = FitData(columns, data.n_samples, data.trajectory)
         self._y_1d = ndim == 1
-        return Problem(skeleton, constraints, fixed, zeroed, full, targets, gauge)
+        self.measured_states_ = list(skeleton.states)
+        self.derivative_source_ = "measured"
+        problem = Problem(skeleton, constraints, fixed, zeroed, full, targets, gauge)
+        if self.fit_mode == "simulation":
+            problem.experiments = self._experiments(data, "fit_mode='simulation'")
+            problem.measured = {s: data[s] for s in skeleton.states}
+            problem.smoothed = dict(problem.measured)
+        return problem
+
+    def _experiments(self, data: FitData, why: str):
+        if TIME not in data:
+            raise ValueError(f"{why} needs the time column 't' in X")
+        return split_experiments(data.n_samples, data[TIME], data.trajectory)
+
+    def _problem_from_states(self, X, skeleton, constraints, fixed, zeroed, gauge) -> Problem:
+        """Estimate the derivatives (and unmeasured kinematic states) from ``X``."""
+        differentiator = resolve_differentiation(self.differentiation)
+        reconstructible = set(kinematic_chains(skeleton))
+        data = read_X(self, X, skeleton.variables, reset=True, optional=reconstructible)
+        if TIME not in data:
+            raise ValueError(
+                f"{type(self).__name__} requires y to be passed, but the target y is None and "
+                f"X has no time column 't' to estimate the derivatives {skeleton.derivatives} "
+                "from: give y, or X with 't'")
+        experiments = self._experiments(data, "estimating derivatives")
+        measured = {s: data[s] for s in skeleton.states if s in data}
+        estimate = estimate_states(skeleton, measured, experiments, differentiator,
+                                   smooth=bool(self.smooth_states))
+        columns = dict(data.columns)
+        columns.update(estimate.states)
+        for j, name in enumerate(skeleton.derivatives):
+            columns[name] = estimate.derivatives[:, j]
+        full = FitData(columns, data.n_samples, data.trajectory)
+        self._y_1d = False
+        self.measured_states_ = list(estimate.measured)
+        self.derivative_source_ = estimate.description
+        problem = Problem(skeleton, constraints, fixed, zeroed, full, estimate.derivatives,
+                          gauge)
+        problem.experiments = experiments
+        problem.measured = measured
+        problem.smoothed = estimate.smoothed
+        return problem
 
     def fit(self, X, y=None):
         """Fit the unknown curves and parameters of the skeleton.
@@ -178,9 +266,11 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         X : DataFrame of shape (n_samples, n_columns)
             States and inputs by name (``t`` and ``trajectory`` optional). An
             array's columns are called ``x0, x1, ...``.
-        y : DataFrame or array of shape (n_samples, n_states)
+        y : DataFrame or array of shape (n_samples, n_states), optional
             Measured derivatives: columns ``NAME_dot`` (a DataFrame is matched
-            by name, an array is taken in the order of the equations).
+            by name, an array is taken in the order of the equations). When
+            None, they are estimated from ``X`` and its ``t`` column (see
+            ``differentiation``).
 
         Returns
         -------
@@ -189,6 +279,12 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         """
         problem = self._problem(X, y)
         functions, params = self._fit_problem(problem)
+        if self.fit_mode == "simulation":
+            from ._shooting import ShootingPlan
+
+            plan = ShootingPlan(problem, self.shooting_window)
+            functions, params, self.shooting_ = self._fit_simulation(
+                problem, functions, params, plan)
         self._store(problem, functions, params)
         return self
 

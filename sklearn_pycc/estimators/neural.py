@@ -157,6 +157,9 @@ default="lbfgs"
         Extra callbacks for the skorch net.
     gauge : {"auto", "warn", "raise"}, default="auto"
         See :class:`CCRegressor`.
+    differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations
+        How measurements without derivatives are used, and output-error
+        fitting: see :class:`CCRegressor`.
     random_state : int, RandomState or None
         Seeds the initial weights and the minibatch order (private
         generators; global random state is never touched).
@@ -197,8 +200,14 @@ default="lbfgs"
                  constraint_weight: float = 1.0, param_init: Mapping | None = None,
                  extrapolation: str = "linear", dtype: str = "float32", device: str = "cpu",
                  n_threads: int | None = 1, callbacks: Sequence | None = None,
-                 gauge: str = "auto", random_state=None, verbose: int = 0) -> None:
-        super().__init__(equations=equations, constraints=constraints, gauge=gauge)
+                 gauge: str = "auto", differentiation="spline", smooth_states: bool = True,
+                 fit_mode: str = "equation", shooting_window: int = 40,
+                 shooting_iterations: int = 30, random_state=None,
+                 verbose: int = 0) -> None:
+        super().__init__(equations=equations, constraints=constraints, gauge=gauge,
+                         differentiation=differentiation, smooth_states=smooth_states,
+                         fit_mode=fit_mode, shooting_window=shooting_window,
+                         shooting_iterations=shooting_iterations)
         self.hidden_layer_sizes = hidden_layer_sizes
         self.activation = activation
         self.optimizer = optimizer

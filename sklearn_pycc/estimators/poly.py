@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from numbers import Integral
 
 import numpy as np
+from scipy.linalg import null_space
 from scipy.optimize import least_squares
 
 from .._threads import blas_threads
@@ -15,6 +16,7 @@ from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
 from ._linear import curve_arguments, linearize, split_parameters
 from ._lstsq import constrained_lstsq
 from ._setup import Problem
+from ._shooting import ShootingPlan, fit_shooting
 from .base import CCRegressor
 
 __all__ = ["PolyCCRegressor"]
@@ -124,6 +126,9 @@ class PolyCCRegressor(CCRegressor):
         Starting values of nonlinear parameters; the others start from a grid.
     gauge : {"auto", "warn", "raise"}, default="auto"
         See :class:`CCRegressor`.
+    differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations
+        How measurements without derivatives are used, and output-error
+        fitting: see :class:`CCRegressor`.
     random_state : int, RandomState or None
         Seeds the multi-start search when there are three or more nonlinear
         parameters.
@@ -151,8 +156,13 @@ class PolyCCRegressor(CCRegressor):
 
     def __init__(self, equations=None, constraints=None, degree=7, basis: str = "legendre",
                  alpha: float = 0.0, param_init: Mapping | None = None, gauge: str = "auto",
-                 random_state=None) -> None:
-        super().__init__(equations=equations, constraints=constraints, gauge=gauge)
+                 differentiation="spline", smooth_states: bool = True,
+                 fit_mode: str = "equation", shooting_window: int = 40,
+                 shooting_iterations: int = 30, random_state=None) -> None:
+        super().__init__(equations=equations, constraints=constraints, gauge=gauge,
+                         differentiation=differentiation, smooth_states=smooth_states,
+                         fit_mode=fit_mode, shooting_window=shooting_window,
+                         shooting_iterations=shooting_iterations)
         self.degree = degree
         self.basis = basis
         self.alpha = alpha
@@ -216,6 +226,57 @@ class PolyCCRegressor(CCRegressor):
         self.nonlinear_params_ = list(nonlinear)
         self.cost_ = result.cost
         return functions, params
+
+    # -- output error ----------------------------------------------------------
+    def _fit_simulation(self, problem: Problem, functions: dict, params: dict,
+                        plan: ShootingPlan):
+        """Refine the coefficients and parameters so that simulations match the states.
+
+        The curves keep their bases; coefficients move in the null space of
+        their point constraints, so constraints still hold exactly.
+        """
+        degrees = self._degrees(problem.free_functions)
+        free_params = problem.free_params
+        pieces = []  # (curve, basis, coefficients at start, null-space directions)
+        for name in problem.free_functions:
+            lo, hi = functions[name].domain
+            basis = PolyBasis(lo, hi, degrees[name], problem.parity(name), self.basis)
+            points = problem.points(name)
+            if points:
+                directions = null_space(basis.design(np.array([at for at, _ in points])))
+            else:
+                directions = np.eye(basis.size)
+            pieces.append((name, basis, self.coefficients_[name], directions))
+        sizes = [d.shape[1] for *_, d in pieces]
+        theta0 = np.concatenate([[params[a] for a in free_params], np.zeros(sum(sizes))])
+        fixed = dict(problem.fixed_params)
+
+        def unpack(theta):
+            values = {**fixed, **dict(zip(free_params, theta[:len(free_params)]))}
+            curves, offset = {}, len(free_params)
+            for (name, basis, c0, directions), size in zip(pieces, sizes):
+                coefficients = c0 + directions @ theta[offset:offset + size]
+                curves[name] = (basis, coefficients)
+                offset += size
+            return values, curves
+
+        def system_for(theta):
+            values, curves = unpack(theta)
+            current = dict(functions)
+            for name, (basis, coefficients) in curves.items():
+                current[name] = basis.curve(coefficients)
+            return problem.skeleton.compile(current, values)
+
+        plan.choose_substeps(system_for(theta0), dict(problem.data.columns))
+        with blas_threads(1):
+            theta, info = fit_shooting(plan, system_for, theta0, self.shooting_iterations)
+        values, curves = unpack(theta)
+        functions = dict(functions)
+        for name, (basis, coefficients) in curves.items():
+            functions[name] = basis.curve(coefficients)
+            self.coefficients_[name] = coefficients
+        params = {**params, **{a: float(values[a]) for a in free_params}}
+        return functions, params, info
 
     def _curve_parameters(self, problem: Problem, name: str) -> int:
         # coefficients of the basis, less one per point value they must satisfy

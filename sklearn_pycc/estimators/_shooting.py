@@ -1,0 +1,345 @@
+"""Output-error fitting by multiple shooting, shared by the backends.
+
+Each experiment is cut into segments of ``window`` samples. Every segment
+starts from its own initial state (a free variable) and is integrated by a
+fixed-step fourth-order Runge-Kutta scheme, all segments at once as numpy
+arrays. The objective compares the simulated states with the measured ones
+and joins consecutive segments by continuity; short segments keep a chaotic
+or badly started model from running away, while continuity makes the whole
+record one trajectory.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+
+import numpy as np
+from scipy import sparse
+from scipy.interpolate import PchipInterpolator
+from scipy.optimize import least_squares
+
+from ..skeleton.system import CompiledSystem
+from ._setup import Problem
+from ._validation import TIME
+
+__all__ = ["ShootingPlan", "fit_shooting"]
+
+#: weight of a continuity defect relative to a measurement residual (both scaled)
+CONTINUITY_WEIGHT = 10.0
+#: the fourth-order Runge-Kutta scheme is stable for h * |lambda| below about 2.8
+RK4_STABLE = 2.5
+MAX_SUBSTEPS = 64
+#: a segment whose state leaves this many state ranges is stopped (diverged)
+ESCAPE = 1e3
+
+
+class ShootingPlan:
+    """Segments of every experiment, laid out as arrays for batched integration.
+
+    Parameters
+    ----------
+    problem : Problem
+        With ``experiments`` (times), ``measured`` and ``smoothed`` states.
+    window : int
+        Samples per segment (steps between its first and last sample).
+    """
+
+    def __init__(self, problem: Problem, window: int) -> None:
+        if isinstance(window, bool) or int(window) != window or window < 2:
+            raise ValueError(f"shooting_window must be an integer of at least 2, got {window!r}")
+        window = int(window)
+        skeleton = problem.skeleton
+        self.states = list(skeleton.states)
+        self.inputs = [name for name in skeleton.inputs if name != TIME]
+        self.uses_time = TIME in skeleton.variables
+        self.measured = [s for s in self.states if s in problem.measured]
+        self.window = window
+        pieces = []  # (experiment, first, last) positions within the experiment
+        for e, experiment in enumerate(problem.experiments):
+            n = experiment.n_samples
+            if n < 2:
+                raise ValueError(f"fit_mode='simulation' needs at least 2 samples per "
+                                 f"experiment; there is 1{experiment.where or ' in the data'}")
+            starts = list(range(0, n - 1, window))
+            if len(starts) > 1 and n - 1 - starts[-1] < window // 2:
+                starts.pop()  # a short tail joins the segment before it
+            for k, first in enumerate(starts):
+                last = starts[k + 1] if k + 1 < len(starts) else n - 1
+                pieces.append((e, first, last))
+        K = len(pieces)
+        L = max(last - first for _, first, last in pieces)
+        self.n_segments, self.n_steps = K, L
+        self.steps = np.array([last - first for _, first, last in pieces])
+        rows = np.zeros((K, L + 1), dtype=int)
+        times = np.zeros((K, L + 1))
+        valid = np.zeros((K, L + 1), dtype=bool)
+        for k, (e, first, last) in enumerate(pieces):
+            experiment = problem.experiments[e]
+            span = slice(first, last + 1)
+            m = last - first + 1
+            rows[k, :m] = experiment.rows[span]
+            rows[k, m:] = experiment.rows[last]
+            times[k, :m] = experiment.t[span]
+            times[k, m:] = experiment.t[last]
+            valid[k, :m] = True
+        self.rows, self.times = rows, times
+        self.h = np.diff(times, axis=1)  # zero on padding: the state stays put
+        # a segment's last sample is fitted by the next segment's start
+        self.successor = np.array([k + 1 < K and pieces[k + 1][0] == pieces[k][0]
+                                   for k in range(K)])
+        own = valid.copy()
+        own[np.flatnonzero(self.successor), self.steps[self.successor]] = False
+        self.own = own
+        self.segment_experiment = np.array([e for e, _, _ in pieces])
+        # measured values and scales
+        smoothed = np.column_stack([problem.smoothed[s] for s in self.states])
+        self.scale = np.sqrt(np.mean(smoothed**2, axis=0))
+        self.scale[~(self.scale > 0)] = 1.0
+        self.bound = ESCAPE * np.maximum(np.abs(smoothed).max(axis=0), self.scale)
+        self.measured_index = [self.states.index(s) for s in self.measured]
+        self.targets = np.stack([problem.measured[s][rows] for s in self.measured], axis=-1)
+        self.initial = smoothed[rows[:, 0]]
+        self._signals = {name: problem.data[name] for name in self.inputs}
+        self._experiments = problem.experiments
+        self.substeps = 1
+        self._fine: dict[str, np.ndarray] = {}
+
+    # -- integration ---------------------------------------------------------
+    def choose_substeps(self, system: CompiledSystem, data) -> int:
+        """Substeps per sample interval keeping RK4 stable for ``system`` on the data."""
+        n = len(next(iter(data.values())))
+        base = system.evaluate(data, n)
+        radius = np.zeros(n)
+        for q, state in enumerate(self.states):
+            delta = 1e-6 * self.scale[q]
+            bumped = dict(data)
+            bumped[state] = data[state] + delta
+            column = (system.evaluate(bumped, n) - base) / delta
+            radius += np.nan_to_num(np.abs(column), nan=0.0, posinf=0.0).max(axis=1)
+        h = float(self.h.max()) if self.h.size else 1.0
+        need = 1.5 * h * float(np.max(radius)) / RK4_STABLE
+        self.substeps = int(np.clip(np.ceil(need), 1, MAX_SUBSTEPS))
+        self._fine = {}
+        return self.substeps
+
+    def _fine_signals(self) -> dict[str, np.ndarray]:
+        """Inputs (and ``t``) at every Runge-Kutta stage time, ``(K, 2 L m + 1)``."""
+        if self._fine:
+            return self._fine
+        m, L = self.substeps, self.n_steps
+        frac = np.arange(2 * m) / (2 * m)
+        fine_t = (self.times[:, :-1, None] + self.h[:, :, None] * frac).reshape(
+            self.n_segments, 2 * m * L)
+        fine_t = np.concatenate([fine_t, self.times[:, -1:]], axis=1)
+        fine = {TIME: fine_t} if self.uses_time else {}
+        for name, values in self._signals.items():
+            out = np.empty_like(fine_t)
+            for e, experiment in enumerate(self._experiments):
+                mine = self.segment_experiment == e
+                samples = values[experiment.rows]
+                if experiment.n_samples >= 3:
+                    interp = PchipInterpolator(experiment.t, samples, extrapolate=True)
+                    out[mine] = interp(fine_t[mine])
+                else:
+                    out[mine] = np.interp(fine_t[mine], experiment.t, samples)
+            fine[name] = out
+        self._fine = fine
+        return fine
+
+    def simulate(self, system: CompiledSystem, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Integrate every segment from ``start`` ``(K, n_states)``.
+
+        Returns
+        -------
+        states : ndarray of shape (K, L + 1, n_states)
+        escaped : ndarray of bool, shape (K,)
+            Segments stopped because they diverged.
+        """
+        fine = self._fine_signals()
+        K, L, m = self.n_segments, self.n_steps, self.substeps
+        names = self.states
+        out = np.empty((K, L + 1, len(names)))
+        x = np.array(start, dtype=float)
+        out[:, 0] = x
+        escaped = np.zeros(K, dtype=bool)
+        env: dict[str, np.ndarray] = {}
+
+        def rhs(state, column):
+            for q, name in enumerate(names):
+                env[name] = state[:, q]
+            for name, values in fine.items():
+                env[name] = values[:, column]
+            return system.evaluate(env, K)
+
+        with np.errstate(all="ignore"):
+            for i in range(L):
+                h = (self.h[:, i] / m)[:, None]
+                for j in range(m):
+                    c = 2 * (i * m + j)
+                    k1 = rhs(x, c)
+                    k2 = rhs(x + 0.5 * h * k1, c + 1)
+                    k3 = rhs(x + 0.5 * h * k2, c + 1)
+                    k4 = rhs(x + h * k3, c + 2)
+                    x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+                bad = ~np.isfinite(x).all(axis=1) | (np.abs(x) > self.bound).any(axis=1)
+                if bad.any():
+                    escaped |= bad
+                    x[bad] = out[bad, i]  # a diverged segment stays where it was
+                out[:, i + 1] = x
+        return out, escaped
+
+    # -- residuals ---------------------------------------------------------------
+    def residuals(self, states: np.ndarray, start: np.ndarray) -> np.ndarray:
+        """Scaled measurement residuals, then weighted continuity defects."""
+        sim = states[:, :, self.measured_index]
+        meas = ((sim - self.targets) / self.scale[self.measured_index])[self.own]
+        ends = states[np.arange(self.n_segments), self.steps]
+        k = np.flatnonzero(self.successor)
+        defects = CONTINUITY_WEIGHT * (ends[k] - start[k + 1]) / self.scale
+        return np.concatenate([meas.ravel(), defects.ravel()])
+
+    def output_nrmse(self, states: np.ndarray) -> float:
+        """Normalised RMSE of the measured states along the segments."""
+        sim = states[:, :, self.measured_index]
+        err = ((sim - self.targets) / self.scale[self.measured_index])[self.own]
+        return float(np.sqrt(np.mean(err**2)))
+
+    def jacobian(self, sens_theta: list[np.ndarray], sens_start: list[np.ndarray]):
+        """Jacobian of :meth:`residuals` from trajectory sensitivities.
+
+        ``sens_theta[i]`` and ``sens_start[q]`` are ``(K, L + 1, n_states)``
+        derivatives of the trajectories with respect to parameter ``i`` and
+        to the initial value of state ``q`` (of each segment's own start).
+        """
+        K, n = self.n_segments, len(self.states)
+        p = len(sens_theta)
+        mi = self.measured_index
+        seg_of = np.broadcast_to(np.arange(K)[:, None], self.own.shape)[self.own]
+        n_meas = int(self.own.sum())
+        rows_meas = np.arange(n_meas * len(mi)).reshape(n_meas, len(mi))
+        k_cont = np.flatnonzero(self.successor)
+        rows_cont = n_meas * len(mi) + np.arange(len(k_cont) * n).reshape(len(k_cont), n)
+        n_rows = n_meas * len(mi) + len(k_cont) * n
+        r, c, v = [], [], []
+        inv = 1.0 / self.scale
+        for i, sens in enumerate(sens_theta):
+            block = (sens[:, :, mi] * inv[mi])[self.own]
+            r.append(rows_meas.ravel())
+            c.append(np.full(rows_meas.size, i))
+            v.append(block.ravel())
+            ends = sens[k_cont, self.steps[k_cont]] * inv * CONTINUITY_WEIGHT
+            r.append(rows_cont.ravel())
+            c.append(np.full(rows_cont.size, i))
+            v.append(ends.ravel())
+        for q, sens in enumerate(sens_start):
+            block = (sens[:, :, mi] * inv[mi])[self.own]
+            cols = p + seg_of * n + q
+            r.append(rows_meas.ravel())
+            c.append(np.repeat(cols, len(mi)))
+            v.append(block.ravel())
+            ends = sens[k_cont, self.steps[k_cont]] * inv * CONTINUITY_WEIGHT
+            r.append(rows_cont.ravel())
+            c.append(np.repeat(p + k_cont * n + q, n))
+            v.append(ends.ravel())
+        # the defect's own dependence on the next segment's start
+        r.append(rows_cont.ravel())
+        c.append((p + (k_cont + 1)[:, None] * n + np.arange(n)).ravel())
+        v.append(np.tile(-CONTINUITY_WEIGHT * inv, len(k_cont)))
+        shape = (n_rows, p + K * n)
+        J = sparse.coo_matrix((np.concatenate(v), (np.concatenate(r), np.concatenate(c))),
+                              shape=shape).tocsr()
+        return J.toarray() if shape[1] <= 400 else J
+
+
+def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], CompiledSystem],
+                 theta0: np.ndarray, max_iterations: int) -> tuple[np.ndarray, dict]:
+    """Minimise the output error over the parameters and the segments' initial states.
+
+    Parameters
+    ----------
+    plan : ShootingPlan
+        Segments and measurements.
+    system_for : callable
+        Parameter vector -> compiled system.
+    theta0 : ndarray
+        Starting parameters (the equation-error fit).
+    max_iterations : int
+        Most Jacobian evaluations.
+
+    Returns
+    -------
+    theta : ndarray
+        The parameters of the best trajectory found (``theta0`` if nothing
+        improved on it).
+    info : dict
+        ``segments``, ``substeps``, ``iterations``, ``nrmse_before``,
+        ``nrmse_after``, ``max_defect`` (largest continuity jump in units of
+        each state's RMS) and ``diverged`` (segments that escaped at the end).
+    """
+    if isinstance(max_iterations, bool) or int(max_iterations) != max_iterations \
+            or max_iterations < 1:
+        raise ValueError(f"shooting_iterations must be a positive integer, got "
+                         f"{max_iterations!r}")
+    p, K, n = len(theta0), plan.n_segments, len(plan.states)
+    start0 = plan.initial.copy()
+    cache: dict = {}
+
+    def unpack(z):
+        return z[:p], z[p:].reshape(K, n)
+
+    def run(z):
+        key = z.tobytes()
+        if key not in cache:
+            theta, start = unpack(z)
+            cache.clear()
+            cache[key] = plan.simulate(system_for(theta), start)
+        return cache[key]
+
+    def fun(z):
+        states, _ = run(z)
+        return plan.residuals(states, unpack(z)[1])
+
+    def jac(z):
+        theta, start = unpack(z)
+        base, _ = run(z)
+        system = system_for(theta)
+        sens_theta = []
+        for i in range(p):
+            step = 1.5e-8 * max(abs(theta[i]), 1.0)
+            bumped = theta.copy()
+            bumped[i] += step
+            sens_theta.append((plan.simulate(system_for(bumped), start)[0] - base) / step)
+        sens_start = []
+        for q in range(n):
+            step = 1.5e-8 * np.maximum(np.abs(start[:, q]), plan.scale[q])
+            bumped = start.copy()
+            bumped[:, q] += step
+            sens_start.append((plan.simulate(system, bumped)[0] - base) / step[:, None, None])
+        return plan.jacobian(sens_theta, sens_start)
+
+    z0 = np.concatenate([np.asarray(theta0, dtype=float), start0.ravel()])
+    before_states, _ = run(z0)
+    before = plan.output_nrmse(before_states)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        solution = least_squares(fun, z0, jac=jac, method="trf", x_scale="jac",
+                                 max_nfev=int(max_iterations), ftol=1e-10, xtol=1e-10,
+                                 gtol=1e-10)
+    z = solution.x if solution.cost <= 0.5 * float(np.sum(fun(z0) ** 2)) else z0
+    states, escaped = run(z)
+    theta, start = unpack(z)
+    ends = states[np.arange(K), plan.steps]
+    k = np.flatnonzero(plan.successor)
+    defect = float(np.max(np.abs(ends[k] - start[k + 1]) / plan.scale)) if k.size else 0.0
+    info = {
+        "segments": K,
+        "window": plan.window,
+        "substeps": plan.substeps,
+        "iterations": int(solution.nfev),
+        "nrmse_before": before,
+        "nrmse_after": plan.output_nrmse(states),
+        "max_defect": defect,
+        "diverged": int(escaped.sum()),
+    }
+    return theta, info

@@ -1,0 +1,173 @@
+"""States and derivatives estimated from measured samples, experiment by experiment."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..skeleton.nodes import Symbol
+from .differentiation import Differentiator
+from .experiments import Experiment
+
+__all__ = ["Estimate", "estimate_states", "kinematic_chains"]
+
+
+def kinematic_chains(skeleton) -> dict[str, tuple[str, int]]:
+    """States a kinematic equation defines as a derivative of another state.
+
+    ``x1_dot = x2`` makes ``x2`` the first derivative of ``x1``; with
+    ``x2_dot = x3`` as well, ``x3`` is its second derivative.
+
+    Returns
+    -------
+    dict
+        ``state -> (root state, order)`` for every state reached by such a chain.
+    """
+    parent: dict[str, str] = {}
+    states = set(skeleton.states)
+    for eq in skeleton.parsed:
+        if not eq.solvable:
+            continue
+        rhs = eq.expression
+        if isinstance(rhs, Symbol) and rhs.name in states and rhs.name != eq.state:
+            parent.setdefault(rhs.name, eq.state)
+    chains = {}
+    for state in parent:
+        root, order, seen = state, 0, {state}
+        while root in parent:
+            root = parent[root]
+            order += 1
+            if root in seen:  # a cycle x1_dot = x2, x2_dot = x1: no root to start from
+                break
+            seen.add(root)
+        else:
+            chains[state] = (root, order)
+    return chains
+
+
+@dataclass
+class Estimate:
+    """States and derivatives estimated from one data set.
+
+    Attributes
+    ----------
+    states : dict
+        State -> values used for fitting: smoothed (or raw, without
+        smoothing) measurements, and reconstructed unmeasured states.
+    smoothed : dict
+        State -> smoothed or reconstructed values (initial states for simulation).
+    derivatives : ndarray of shape (n_samples, n_states)
+        Estimated ``NAME_dot``, in equation order.
+    measured : list of str
+        States that were measured (columns of ``X``).
+    description : str
+        How the estimate was made, in plain words.
+    """
+
+    states: dict[str, np.ndarray]
+    smoothed: dict[str, np.ndarray]
+    derivatives: np.ndarray
+    measured: list[str]
+    description: str = ""
+    reconstructed: dict[str, str] = field(default_factory=dict)
+
+
+def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
+                    experiments: Sequence[Experiment], differentiator: Differentiator,
+                    *, smooth: bool = True) -> Estimate:
+    """Estimate every state's derivative, and the states no column holds.
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+        Gives the states, their order and the kinematic equations.
+    columns : dict
+        Measured columns by name (at least one state per kinematic chain).
+    experiments : list of Experiment
+        With times; each is differentiated on its own.
+    differentiator : Differentiator
+        The method.
+    smooth : bool, default=True
+        Fit on the smoothed measurements instead of the raw ones.
+
+    Raises
+    ------
+    ValueError
+        If a state is neither measured nor tied to a measured state by
+        kinematic equations, or if an experiment is too short or unevenly
+        sampled for the method; the message names the state or experiment.
+    """
+    states = skeleton.states
+    chains = kinematic_chains(skeleton)
+    measured = [s for s in states if s in columns]
+    plan: dict[str, tuple[str, int]] = {}
+    for state in states:
+        if state in columns:
+            plan[state] = (state, 0)
+            continue
+        root, order = chains.get(state, (None, 0))
+        # climb past unmeasured intermediate states to a measured one
+        while root is not None and root not in columns and root in chains:
+            up, extra = chains[root]
+            root, order = up, order + extra
+        if root is None or root not in columns:
+            raise ValueError(
+                f"X has no column {state!r}, and no kinematic equation (such as "
+                f"'{_some_parent(skeleton, state)}_dot = {state}') ties it to a measured state; "
+                f"measure it, or give y with the derivatives {skeleton.derivatives}")
+        plan[state] = (root, order)
+    depth: dict[str, int] = {}
+    for root, order in plan.values():
+        depth[root] = max(depth.get(root, 0), order + 1)
+    n = len(next(iter(columns.values())))
+    series = {root: [np.empty(n) for _ in range(k + 1)] for root, k in depth.items()}
+    for experiment in experiments:
+        _check_experiment(experiment, differentiator)
+        for root, k in depth.items():
+            values = differentiator.derivatives(experiment.t, columns[root][experiment.rows], k)
+            for order, part in enumerate(values):
+                part = np.asarray(part, dtype=float)
+                if part.shape != experiment.rows.shape or not np.isfinite(part).all():
+                    raise ValueError(
+                        f"{differentiator.describe()} gave non-finite or misshapen values for "
+                        f"the derivative of order {order} of {root!r}{experiment.where}")
+                series[root][order][experiment.rows] = part
+    fitted, smoothed, reconstructed = {}, {}, {}
+    derivatives = np.empty((n, len(states)))
+    for j, state in enumerate(states):
+        root, order = plan[state]
+        smoothed[state] = series[root][order]
+        derivatives[:, j] = series[root][order + 1]
+        if state in columns:
+            fitted[state] = smoothed[state] if smooth else np.array(columns[state], dtype=float)
+        else:
+            fitted[state] = smoothed[state]
+            reconstructed[state] = (f"derivative of {root}" if order == 1
+                                    else f"derivative of order {order} of {root}")
+    text = f"derivatives estimated by {differentiator.describe()} per experiment"
+    if reconstructed:
+        text += "; " + ", ".join(f"{s} as the {how}" for s, how in reconstructed.items())
+    return Estimate(fitted, smoothed, derivatives, measured, text, reconstructed)
+
+
+def _some_parent(skeleton, state: str) -> str:
+    return next((s for s in skeleton.states if s != state), "x1")
+
+
+def _check_experiment(experiment: Experiment, differentiator: Differentiator) -> None:
+    need = differentiator.min_samples(experiment.n_samples)
+    if experiment.n_samples < need:
+        where = experiment.where or " in the data"
+        raise ValueError(
+            f"{experiment.n_samples} samples{where} are too few for "
+            f"{differentiator.describe()}, which needs at least {need}; "
+            "give a longer experiment or a smaller window")
+    if differentiator.uniform_only and not experiment.is_uniform():
+        steps = np.diff(experiment.t)
+        where = experiment.where or " in the data"
+        raise ValueError(
+            f"{differentiator.describe()} needs evenly spaced samples, but the time steps"
+            f"{where} range from {steps.min():.4g} to {steps.max():.4g}; resample, or use "
+            "differentiation='spline', 'finite_difference' or 'kalman'")

@@ -1,0 +1,73 @@
+"""Output-error fitting by multiple shooting (fit_mode="simulation")."""
+
+import numpy as np
+import pytest
+
+from sklearn_pycc import PolyCCRegressor, datasets
+
+SECOND_ORDER = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]
+
+
+def curve_rmse(model, truth, name):
+    frame = model.cc_curves()[name]
+    return float(np.sqrt(np.mean((frame[name] - truth.functions[name](frame["x"])) ** 2)))
+
+
+@pytest.mark.parametrize("snr, bound", [(40, 1.3e-2), (30, 2.5e-2)])
+def test_duffing_position_only_output_error_beats_the_floor(snr, bound):
+    frame, truth = datasets.make_duffing(noise=snr, noise_columns=["x1"], random_state=0,
+                                         return_truth=True)
+    X = frame[["t", "x1", "F_ext"]]
+    equation = PolyCCRegressor(equations=SECOND_ORDER, degree=7).fit(X)
+    output = PolyCCRegressor(equations=SECOND_ORDER, degree=7, fit_mode="simulation").fit(X)
+    assert curve_rmse(output, truth, "f2") <= bound
+    assert curve_rmse(output, truth, "f2") < curve_rmse(equation, truth, "f2")
+    info = output.shooting_
+    assert info["nrmse_after"] < info["nrmse_before"]
+    assert info["max_defect"] < 0.05
+    assert info["segments"] == 50 and info["diverged"] == 0
+    # the gauge pin f2(0)=0 still holds exactly
+    assert abs(output.functions_["f2"](np.array([0.0]))[0]) < 1e-10
+
+
+def test_output_error_on_several_experiments_with_parametric_skeleton():
+    settings = [{"amplitude": 1.2, "omega": 1.0}, {"amplitude": 1.8, "omega": 0.8}]
+    frame, truths = datasets.make_experiments(
+        datasets.make_stick_slip, settings, n_samples=500, t_span=(0, 15), noise=35,
+        noise_columns=["x1"], random_state=2, return_truth=True)
+    X = frame[["t", "trajectory", "x1", "F_ext"]]
+    skeleton = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 tanh(a3 x2) - a4 x1 - a5 x1^3"]
+    model = PolyCCRegressor(equations=skeleton, fit_mode="simulation").fit(X)
+    truth = truths[0].params
+    for name in ("a2", "a4", "a5"):
+        assert model.params_[name] == pytest.approx(truth[name], rel=0.1), name
+    # no segment crosses from one experiment into the next
+    assert model.shooting_["segments"] >= 2 * (500 // 40) - 2
+
+
+def test_measured_velocity_is_used_when_given():
+    frame, truth = datasets.make_duffing(n_samples=1000, t_span=(0, 50), noise=35,
+                                         random_state=3, return_truth=True)
+    X = frame[["t", "x1", "x2", "F_ext"]]
+    model = PolyCCRegressor(equations=SECOND_ORDER, degree=5, fit_mode="simulation").fit(X)
+    assert model.measured_states_ == ["x1", "x2"]
+    assert curve_rmse(model, truth, "f2") < 0.03
+
+
+@pytest.mark.parametrize("params, message", [
+    ({"fit_mode": "trajectory"}, "fit_mode must be one of"),
+    ({"fit_mode": "simulation", "shooting_window": 1}, "shooting_window must be an integer"),
+    ({"fit_mode": "simulation", "shooting_iterations": 0}, "shooting_iterations must be"),
+])
+def test_bad_shooting_settings_are_named(params, message):
+    frame = datasets.make_duffing(n_samples=200, t_span=(0, 10))
+    with pytest.raises(ValueError, match=message):
+        PolyCCRegressor(equations=SECOND_ORDER, degree=3, **params).fit(frame[["t", "x1",
+                                                                              "F_ext"]])
+
+
+def test_simulation_mode_needs_time():
+    frame = datasets.make_duffing(n_samples=200, t_span=(0, 10))
+    with pytest.raises(ValueError, match="fit_mode='simulation' needs the time column 't'"):
+        PolyCCRegressor(equations=SECOND_ORDER, degree=3, fit_mode="simulation").fit(
+            frame[["x1", "x2", "F_ext"]], frame[["x1_dot", "x2_dot"]])
