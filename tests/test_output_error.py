@@ -71,3 +71,34 @@ def test_simulation_mode_needs_time():
     with pytest.raises(ValueError, match="fit_mode='simulation' needs the time column 't'"):
         PolyCCRegressor(equations=SECOND_ORDER, degree=3, fit_mode="simulation").fit(
             frame[["x1", "x2", "F_ext"]], frame[["x1_dot", "x2_dot"]])
+
+
+def test_neural_output_error_refines_the_networks():
+    from sklearn_pycc import NeuralCCRegressor
+
+    frame, truth = datasets.make_duffing(n_samples=400, t_span=(0, 20), noise=40,
+                                         noise_columns=["x1"], random_state=0,
+                                         return_truth=True)
+    X = frame[["t", "x1", "F_ext"]]
+    settings = dict(equations=SECOND_ORDER, constraints=["f1 odd"], hidden_layer_sizes=(8,),
+                    max_epochs=60, random_state=0)
+    equation = NeuralCCRegressor(**settings).fit(X)
+    output = NeuralCCRegressor(**settings, fit_mode="simulation", shooting_window=20,
+                               shooting_iterations=15).fit(X)
+    info = output.shooting_
+    assert info["nrmse_after"] < info["nrmse_before"]
+    assert not info["reverted"] and info["diverged"] == 0
+    assert curve_rmse(output, truth, "f2") < curve_rmse(equation, truth, "f2")
+    sim = output.simulate(X["t"].to_numpy()[:100], [X["x1"].iloc[0], 0.0],
+                          {"F_ext": X["F_ext"].to_numpy()[:100]})
+    assert np.isfinite(sim[["x1", "x2"]].to_numpy()).all()
+
+
+def test_neural_simulation_mode_needs_solved_equations():
+    from sklearn_pycc import NeuralCCRegressor
+
+    frame = datasets.make_duffing(n_samples=200, t_span=(0, 10))
+    model = NeuralCCRegressor(equations=["x1_dot = x2", "F_ext = x2_dot + f1(x2) + f2(x1)"],
+                              hidden_layer_sizes=(4,), max_epochs=5, fit_mode="simulation")
+    with pytest.raises(ValueError, match="implicit or reads another derivative"):
+        model.fit(frame[["t", "x1", "F_ext"]])

@@ -373,10 +373,7 @@ default="lbfgs"
         )
         net.fit(X, y)
         module = net.module_
-        ranges = module.record_ranges(X)
-        functions = {name: curve.export(ranges[name], self.extrapolation)
-                     for name, curve in module.curves.items()}
-        params = {name: float(p.detach().cpu()) for name, p in module.params.items()}
+        functions, params = self._export(module, X)
         history = net.history
         self.history_ = history
         self.n_epochs_ = len(history)
@@ -386,7 +383,34 @@ default="lbfgs"
             raise FloatingPointError(
                 "training diverged: the loss is not finite. Lower lr, scale the data, or "
                 "give param_init values closer to the truth")
+        if self.fit_mode == "simulation":
+            self._trained = (module, X)
         return functions, params
+
+    def _export(self, module, X) -> tuple[dict, dict]:
+        ranges = module.record_ranges(X)
+        functions = {name: curve.export(ranges[name], self.extrapolation)
+                     for name, curve in module.curves.items()}
+        params = {name: float(p.detach().cpu()) for name, p in module.params.items()}
+        return functions, params
+
+    # -- output error ----------------------------------------------------------
+    def _fit_simulation(self, problem: Problem, functions: dict, params: dict, plan):
+        """Refine the trained networks by multiple shooting through a torch RK4."""
+        from ._torch_shooting import shoot_module
+
+        trained = self.__dict__.pop("_trained", None)
+        if trained is None:  # nothing was trained: no free curve or parameter
+            return functions, params, {}
+        module, X = trained
+        system = problem.skeleton.compile(functions, {**problem.fixed_params, **params})
+        plan.choose_substeps(system, dict(problem.data.columns))
+        checked = self._check_params()
+        with torch_threads(checked["n_threads"]):
+            info = shoot_module(plan, problem, module, self.shooting_iterations, X)
+            refined, values = self._export(module, X)
+        functions = {**functions, **refined}
+        return functions, {**params, **values}, info
 
     def _curve_spec(self, problem: Problem, name: str, params: Mapping[str, float]) -> dict:
         """Input scaling and constraints of one curve's network."""
