@@ -13,11 +13,10 @@ from ..measurements import (
     resolve_differentiation,
     split_experiments,
 )
+from ..measurements.experiments import TIME, TRAJECTORY
 
 __all__ = ["Measurements", "read_measurements"]
 
-TIME = "t"
-TRAJECTORY = "trajectory"
 
 
 @dataclass

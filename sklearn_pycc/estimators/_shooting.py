@@ -23,7 +23,7 @@ from ..skeleton.system import CompiledSystem
 from ._setup import Problem
 from ._validation import TIME
 
-__all__ = ["ShootingPlan", "fit_shooting"]
+__all__ = ["ShootingPlan", "check_iterations", "fit_shooting"]
 
 #: weight of a continuity defect relative to a measurement residual (both scaled)
 CONTINUITY_WEIGHT = 10.0
@@ -32,6 +32,14 @@ RK4_STABLE = 2.5
 MAX_SUBSTEPS = 64
 #: a segment whose state leaves this many state ranges is stopped (diverged)
 ESCAPE = 1e3
+
+
+def check_iterations(iterations) -> int:
+    """The ``shooting_iterations`` hyperparameter, checked."""
+    if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)) \
+            or iterations < 1:
+        raise ValueError(f"shooting_iterations must be a positive integer, got {iterations!r}")
+    return int(iterations)
 
 
 class ShootingPlan:
@@ -54,6 +62,10 @@ class ShootingPlan:
         self.inputs = [name for name in skeleton.inputs if name != TIME]
         self.uses_time = TIME in skeleton.variables
         self.measured = [s for s in self.states if s in problem.measured]
+        unknown = [s for s in self.states if s not in problem.smoothed]
+        if unknown:
+            raise ValueError(f"fit_mode='simulation' needs every state's values to start from; "
+                             f"X has no column {unknown[0]!r}")
         self.window = window
         pieces = []  # (experiment, first, last) positions within the experiment
         for e, experiment in enumerate(problem.experiments):
@@ -123,7 +135,7 @@ class ShootingPlan:
         self._fine = {}
         return self.substeps
 
-    def _fine_signals(self) -> dict[str, np.ndarray]:
+    def fine_signals(self) -> dict[str, np.ndarray]:
         """Inputs (and ``t``) at every Runge-Kutta stage time, ``(K, 2 L m + 1)``."""
         if self._fine:
             return self._fine
@@ -156,7 +168,7 @@ class ShootingPlan:
         escaped : ndarray of bool, shape (K,)
             Segments stopped because they diverged.
         """
-        fine = self._fine_signals()
+        fine = self.fine_signals()
         K, L, m = self.n_segments, self.n_steps, self.substeps
         names = self.states
         out = np.empty((K, L + 1, len(names)))
@@ -190,10 +202,14 @@ class ShootingPlan:
         return out, escaped
 
     # -- residuals ---------------------------------------------------------------
+    def _errors(self, states: np.ndarray) -> np.ndarray:
+        """Scaled differences of the measured states, one row per fitted sample."""
+        sim = states[:, :, self.measured_index]
+        return ((sim - self.targets) / self.scale[self.measured_index])[self.own]
+
     def residuals(self, states: np.ndarray, start: np.ndarray) -> np.ndarray:
         """Scaled measurement residuals, then weighted continuity defects."""
-        sim = states[:, :, self.measured_index]
-        meas = ((sim - self.targets) / self.scale[self.measured_index])[self.own]
+        meas = self._errors(states)
         ends = states[np.arange(self.n_segments), self.steps]
         k = np.flatnonzero(self.successor)
         defects = CONTINUITY_WEIGHT * (ends[k] - start[k + 1]) / self.scale
@@ -201,9 +217,7 @@ class ShootingPlan:
 
     def output_nrmse(self, states: np.ndarray) -> float:
         """Normalised RMSE of the measured states along the segments."""
-        sim = states[:, :, self.measured_index]
-        err = ((sim - self.targets) / self.scale[self.measured_index])[self.own]
-        return float(np.sqrt(np.mean(err**2)))
+        return float(np.sqrt(np.mean(self._errors(states) ** 2)))
 
     def jacobian(self, sens_theta: list[np.ndarray], sens_start: list[np.ndarray]):
         """Jacobian of :meth:`residuals` from trajectory sensitivities.
@@ -277,10 +291,6 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
         ``nrmse_after``, ``max_defect`` (largest continuity jump in units of
         each state's RMS) and ``diverged`` (segments that escaped at the end).
     """
-    if isinstance(max_iterations, bool) or int(max_iterations) != max_iterations \
-            or max_iterations < 1:
-        raise ValueError(f"shooting_iterations must be a positive integer, got "
-                         f"{max_iterations!r}")
     p, K, n = len(theta0), plan.n_segments, len(plan.states)
     start0 = plan.initial.copy()
     cache: dict = {}
@@ -321,12 +331,13 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
     z0 = np.concatenate([np.asarray(theta0, dtype=float), start0.ravel()])
     before_states, _ = run(z0)
     before = plan.output_nrmse(before_states)
+    cost0 = 0.5 * float(np.sum(plan.residuals(before_states, start0) ** 2))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         solution = least_squares(fun, z0, jac=jac, method="trf", x_scale="jac",
                                  max_nfev=int(max_iterations), ftol=1e-10, xtol=1e-10,
                                  gtol=1e-10)
-    z = solution.x if solution.cost <= 0.5 * float(np.sum(fun(z0) ** 2)) else z0
+    z = solution.x if solution.cost <= cost0 else z0
     states, escaped = run(z)
     theta, start = unpack(z)
     ends = states[np.arange(K), plan.steps]

@@ -42,7 +42,7 @@ class _Integrator:
             self.rhs.append(compile_torch(eq.expression, slots, module.curves, module.params,
                                           fixed))
         self.plan = plan
-        fine = plan._fine_signals()
+        fine = plan.fine_signals()
         self.signals = [_tensor(fine[name], like) for name in names[len(plan.states):]]
         self.h = _tensor(plan.h / plan.substeps, like)
         self.bound = _tensor(plan.bound, like)
@@ -73,7 +73,7 @@ class _Integrator:
                 k4 = self._f(x + h * k3, c + 2)
                 x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
                 # a diverging trial stays finite and far off: a large loss, not a crash
-                x = torch.maximum(torch.minimum(torch.nan_to_num(x), self.bound), -self.bound)
+                x = torch.clamp(torch.nan_to_num(x), -self.bound, self.bound)
             out.append(x)
         return torch.stack(out, dim=1)
 
@@ -86,8 +86,6 @@ def shoot_module(plan: ShootingPlan, problem, module, iterations: int,
     optimisation ends worse than it started (or not finite), the module is
     put back as it was.
     """
-    if isinstance(iterations, bool) or int(iterations) != iterations or iterations < 1:
-        raise ValueError(f"shooting_iterations must be a positive integer, got {iterations!r}")
     integrate = _Integrator(plan, problem, module, like)
     K = plan.n_segments
     start = torch.nn.Parameter(_tensor(plan.initial, like))

@@ -8,10 +8,10 @@ import numpy as np
 import pandas as pd
 from sklearn.utils.validation import check_array, validate_data
 
+from ..measurements.experiments import TIME, TRAJECTORY
+
 __all__ = ["TIME", "TRAJECTORY", "FitData", "read_X", "read_y"]
 
-TIME = "t"
-TRAJECTORY = "trajectory"
 
 
 class FitData:

@@ -174,7 +174,12 @@ class CCRegressor(RegressorMixin, BaseEstimator):
             "or SymbolicCCRegressor")
 
     def _fit_simulation(self, problem: Problem, functions: dict, params: dict, plan):
-        """Refine an equation-error fit by output error; return ``(functions, params)``."""
+        """Refine an equation-error fit by output error.
+
+        ``plan`` is a :class:`~._shooting.ShootingPlan` with its substeps
+        chosen. Return ``(functions, params, summary)``, the summary being
+        stored as ``shooting_``.
+        """
         raise ValueError(f"{type(self).__name__} does not support fit_mode='simulation'")
 
     def _curve_text(self, name: str, variable: str, precision: int) -> str:
@@ -206,57 +211,40 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         constraints, fixed, zeroed, gauge = gauge_skeleton(skeleton, self.gauge)
         if self.fit_mode not in FIT_MODES:
             raise ValueError(f"fit_mode must be one of {FIT_MODES}, got {self.fit_mode!r}")
+        experiments = None
         if y is None:
-            return self._problem_from_states(X, skeleton, constraints, fixed, zeroed, gauge)
-        data = read_X(self, X, skeleton.variables, reset=True)
-        targets, ndim = read_y(y, skeleton.derivatives, data.n_samples, with_ndim=True)
-        columns = dict(data.columns)
+            reconstructible = set(kinematic_chains(skeleton))
+            data = read_X(self, X, skeleton.variables, reset=True, optional=reconstructible)
+            if TIME not in data:
+                raise ValueError(
+                    f"{type(self).__name__} requires y to be passed, but the target y is None "
+                    f"and X has no time column 't' to estimate the derivatives "
+                    f"{skeleton.derivatives} from: give y, or X with 't'")
+            experiments = split_experiments(data.n_samples, data[TIME], data.trajectory)
+            measured = {s: data[s] for s in skeleton.states if s in data}
+            estimate = estimate_states(skeleton, measured, experiments,
+                                       resolve_differentiation(self.differentiation),
+                                       smooth=bool(self.smooth_states))
+            states, smoothed, targets = estimate.states, estimate.smoothed, estimate.derivatives
+            self._y_1d = False
+            self.derivative_source_ = estimate.description
+        else:
+            data = read_X(self, X, skeleton.variables, reset=True)
+            targets, ndim = read_y(y, skeleton.derivatives, data.n_samples, with_ndim=True)
+            measured = states = smoothed = {s: data[s] for s in skeleton.states if s in data}
+            self._y_1d = ndim == 1
+            self.derivative_source_ = "measured"
+        if self.fit_mode == "simulation" and experiments is None:
+            if TIME not in data:
+                raise ValueError("fit_mode='simulation' needs the time column 't' in X")
+            experiments = split_experiments(data.n_samples, data[TIME], data.trajectory)
+        self.measured_states_ = list(measured)
+        columns = {**data.columns, **states}
         for j, name in enumerate(skeleton.derivatives):
             columns[name] = targets[:, j]
         full = FitData(columns, data.n_samples, data.trajectory)
-        self._y_1d = ndim == 1
-        self.measured_states_ = list(skeleton.states)
-        self.derivative_source_ = "measured"
-        problem = Problem(skeleton, constraints, fixed, zeroed, full, targets, gauge)
-        if self.fit_mode == "simulation":
-            problem.experiments = self._experiments(data, "fit_mode='simulation'")
-            problem.measured = {s: data[s] for s in skeleton.states}
-            problem.smoothed = dict(problem.measured)
-        return problem
-
-    def _experiments(self, data: FitData, why: str):
-        if TIME not in data:
-            raise ValueError(f"{why} needs the time column 't' in X")
-        return split_experiments(data.n_samples, data[TIME], data.trajectory)
-
-    def _problem_from_states(self, X, skeleton, constraints, fixed, zeroed, gauge) -> Problem:
-        """Estimate the derivatives (and unmeasured kinematic states) from ``X``."""
-        differentiator = resolve_differentiation(self.differentiation)
-        reconstructible = set(kinematic_chains(skeleton))
-        data = read_X(self, X, skeleton.variables, reset=True, optional=reconstructible)
-        if TIME not in data:
-            raise ValueError(
-                f"{type(self).__name__} requires y to be passed, but the target y is None and "
-                f"X has no time column 't' to estimate the derivatives {skeleton.derivatives} "
-                "from: give y, or X with 't'")
-        experiments = self._experiments(data, "estimating derivatives")
-        measured = {s: data[s] for s in skeleton.states if s in data}
-        estimate = estimate_states(skeleton, measured, experiments, differentiator,
-                                   smooth=bool(self.smooth_states))
-        columns = dict(data.columns)
-        columns.update(estimate.states)
-        for j, name in enumerate(skeleton.derivatives):
-            columns[name] = estimate.derivatives[:, j]
-        full = FitData(columns, data.n_samples, data.trajectory)
-        self._y_1d = False
-        self.measured_states_ = list(estimate.measured)
-        self.derivative_source_ = estimate.description
-        problem = Problem(skeleton, constraints, fixed, zeroed, full, estimate.derivatives,
-                          gauge)
-        problem.experiments = experiments
-        problem.measured = measured
-        problem.smoothed = estimate.smoothed
-        return problem
+        return Problem(skeleton, constraints, fixed, zeroed, full, targets, gauge,
+                       experiments, measured, smoothed)
 
     def fit(self, X, y=None):
         """Fit the unknown curves and parameters of the skeleton.
@@ -278,11 +266,16 @@ class CCRegressor(RegressorMixin, BaseEstimator):
             The fitted estimator.
         """
         problem = self._problem(X, y)
-        functions, params = self._fit_problem(problem)
+        plan = None
         if self.fit_mode == "simulation":
-            from ._shooting import ShootingPlan
+            from ._shooting import ShootingPlan, check_iterations
 
+            check_iterations(self.shooting_iterations)
             plan = ShootingPlan(problem, self.shooting_window)
+        functions, params = self._fit_problem(problem)
+        if plan is not None:
+            start = problem.skeleton.compile(functions, {**problem.fixed_params, **params})
+            plan.choose_substeps(start, dict(problem.data.columns))
             functions, params, self.shooting_ = self._fit_simulation(
                 problem, functions, params, plan)
         self._store(problem, functions, params)

@@ -384,7 +384,7 @@ default="lbfgs"
                 "training diverged: the loss is not finite. Lower lr, scale the data, or "
                 "give param_init values closer to the truth")
         if self.fit_mode == "simulation":
-            self._trained = (module, X)
+            self._trained = (module, X, checked["n_threads"])
         return functions, params
 
     def _export(self, module, X) -> tuple[dict, dict]:
@@ -402,11 +402,8 @@ default="lbfgs"
         trained = self.__dict__.pop("_trained", None)
         if trained is None:  # nothing was trained: no free curve or parameter
             return functions, params, {}
-        module, X = trained
-        system = problem.skeleton.compile(functions, {**problem.fixed_params, **params})
-        plan.choose_substeps(system, dict(problem.data.columns))
-        checked = self._check_params()
-        with torch_threads(checked["n_threads"]):
+        module, X, n_threads = trained
+        with torch_threads(n_threads):
             info = shoot_module(plan, problem, module, self.shooting_iterations, X)
             refined, values = self._export(module, X)
         functions = {**functions, **refined}

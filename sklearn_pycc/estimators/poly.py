@@ -267,7 +267,6 @@ class PolyCCRegressor(CCRegressor):
                 current[name] = basis.curve(coefficients)
             return problem.skeleton.compile(current, values)
 
-        plan.choose_substeps(system_for(theta0), dict(problem.data.columns))
         with blas_threads(1):
             theta, info = fit_shooting(plan, system_for, theta0, self.shooting_iterations)
         values, curves = unpack(theta)

@@ -140,13 +140,18 @@ class PackageDifferentiator(Differentiator):
     def describe(self) -> str:
         return self.label
 
+    def _method_for(self, t: np.ndarray, x: np.ndarray):
+        """The package object used on these samples."""
+        return self.method
+
     def derivatives(self, t, x, order):
-        smooth = getattr(self.method, "x", None)
+        method = self._method_for(t, x)
+        smooth = getattr(method, "x", None)
         out = [np.asarray(smooth(x, t), dtype=float) if smooth is not None
                else np.array(x, dtype=float)]
         current = np.asarray(x, dtype=float)
         for _ in range(order):
-            current = np.asarray(self.method.d(current, t), dtype=float)
+            current = np.asarray(method.d(current, t), dtype=float)
             out.append(current)
         return out
 
@@ -185,28 +190,20 @@ def _kalman(alpha: float | None = None) -> Differentiator:
     derivative = _derivative_package()
     if alpha is not None and not (np.isfinite(alpha) and alpha > 0):
         raise ValueError(f"kalman alpha must be a positive number or None, got {alpha!r}")
-    return _KalmanDifferentiator(derivative, alpha)
+    return _KalmanDifferentiator(derivative.Kalman, alpha)
 
 
 class _KalmanDifferentiator(PackageDifferentiator):
     """Kalman smoother of the ``derivative`` package; ``alpha`` from a noise estimate if None."""
 
-    def __init__(self, package, alpha: float | None) -> None:
-        super().__init__(None, "Kalman smoother", min_samples=5)
-        self.package = package
+    def __init__(self, kalman, alpha: float | None) -> None:
+        label = "from a noise estimate" if alpha is None else f"{alpha:g}"
+        super().__init__(None, f"Kalman smoother (alpha {label})", min_samples=5)
+        self.kalman = kalman
         self.alpha = alpha
 
-    def describe(self) -> str:
-        alpha = "from a noise estimate" if self.alpha is None else f"{self.alpha:g}"
-        return f"Kalman smoother (alpha {alpha})"
-
-    def derivatives(self, t, x, order):
-        alpha = self.alpha if self.alpha is not None else _kalman_alpha(t, x)
-        self.method = self.package.Kalman(alpha=alpha)
-        try:
-            return super().derivatives(t, x, order)
-        finally:
-            self.method = None
+    def _method_for(self, t, x):
+        return self.kalman(alpha=self.alpha if self.alpha is not None else _kalman_alpha(t, x))
 
 
 def _kalman_alpha(t: np.ndarray, x: np.ndarray) -> float:

@@ -8,7 +8,11 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-__all__ = ["Experiment", "split_experiments"]
+__all__ = ["TIME", "TRAJECTORY", "Experiment", "split_experiments"]
+
+#: the column names of time and of the experiment label in a tidy data set
+TIME = "t"
+TRAJECTORY = "trajectory"
 
 #: relative spread of the time steps below which an experiment counts as evenly sampled
 UNIFORM_RTOL = 1e-3
@@ -54,11 +58,6 @@ class Experiment:
             return True
         steps = np.diff(self.t)
         return bool(np.ptp(steps) <= UNIFORM_RTOL * np.median(steps))
-
-    def step(self) -> float:
-        """The median time step."""
-        return float(np.median(np.diff(self.t))) if self.t is not None and len(self.t) > 1 \
-            else 1.0
 
 
 def split_experiments(n_samples: int, t: np.ndarray | None = None,

@@ -114,9 +114,9 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
             root, order = up, order + extra
         if root is None or root not in columns:
             raise ValueError(
-                f"X has no column {state!r}, and no kinematic equation (such as "
-                f"'{_some_parent(skeleton, state)}_dot = {state}') ties it to a measured state; "
-                f"measure it, or give y with the derivatives {skeleton.derivatives}")
+                f"X has no column {state!r}, and no kinematic equation (NAME_dot = {state}) "
+                f"ties it to a measured state; measure it, or give y with the derivatives "
+                f"{skeleton.derivatives}")
         plan[state] = (root, order)
     depth: dict[str, int] = {}
     for root, order in plan.values():
@@ -150,10 +150,6 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
     if reconstructed:
         text += "; " + ", ".join(f"{s} as the {how}" for s, how in reconstructed.items())
     return Estimate(fitted, smoothed, derivatives, measured, text, reconstructed)
-
-
-def _some_parent(skeleton, state: str) -> str:
-    return next((s for s in skeleton.states if s != state), "x1")
 
 
 def _check_experiment(experiment: Experiment, differentiator: Differentiator) -> None:

@@ -10,10 +10,9 @@ from sklearn.utils.validation import check_is_fitted
 
 from ..exceptions import SimulationError
 from ..measurements import estimate_states, resolve_differentiation, split_experiments
+from ..measurements.experiments import TIME, TRAJECTORY
 
 __all__ = ["SimulationScorer", "make_simulation_scorer"]
-
-TIME, TRAJECTORY = "t", "trajectory"
 
 
 class SimulationScorer:

@@ -9,9 +9,9 @@ import numpy as np
 import pandas as pd
 from sklearn.model_selection import BaseCrossValidator
 
-__all__ = ["BlockSplit", "ExperimentSplit"]
+from ..measurements.experiments import TRAJECTORY
 
-TRAJECTORY = "trajectory"
+__all__ = ["BlockSplit", "ExperimentSplit"]
 
 
 def _labels(X, groups, who: str) -> np.ndarray:
