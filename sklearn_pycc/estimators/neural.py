@@ -160,6 +160,13 @@ default="lbfgs"
     differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations
         How measurements without derivatives are used, and output-error
         fitting: see :class:`CCRegressor`.
+    shooting_start_epochs : int or None, default=10
+        With ``fit_mode="simulation"``, epochs of the equation-error fit that
+        starts the output-error stage (at most ``max_epochs``; None uses
+        ``max_epochs``). Derivatives estimated from noisy positions are
+        noisy: networks trained on them to convergence learn wiggles that
+        trajectory matching cannot take out again, so the start is kept
+        short and the shooting stage does the fitting.
     random_state : int, RandomState or None
         Seeds the initial weights and the minibatch order (private
         generators; global random state is never touched).
@@ -202,8 +209,8 @@ default="lbfgs"
                  n_threads: int | None = 1, callbacks: Sequence | None = None,
                  gauge: str = "auto", differentiation="spline", smooth_states: bool = True,
                  fit_mode: str = "equation", shooting_window: int = 40,
-                 shooting_iterations: int = 30, random_state=None,
-                 verbose: int = 0) -> None:
+                 shooting_iterations: int = 30, shooting_start_epochs: int | None = 10,
+                 random_state=None, verbose: int = 0) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
@@ -226,6 +233,7 @@ default="lbfgs"
         self.device = device
         self.n_threads = n_threads
         self.callbacks = callbacks
+        self.shooting_start_epochs = shooting_start_epochs
         self.random_state = random_state
         self.verbose = verbose
 
@@ -274,6 +282,10 @@ default="lbfgs"
             raise ValueError(f"lr must be a positive number, got {self.lr!r}")
         checked["lr"] = float(lr)
         checked["max_epochs"] = _positive_int(self.max_epochs, "max_epochs")
+        start = _positive_int(self.shooting_start_epochs, "shooting_start_epochs",
+                              allow_none=True)
+        if self.fit_mode == "simulation" and start is not None:
+            checked["max_epochs"] = min(checked["max_epochs"], start)
         checked["batch_size"] = _positive_int(self.batch_size, "batch_size", allow_none=True)
         checked["patience"] = _positive_int(self.patience, "patience")
         checked["tol"] = _non_negative(self.tol, "tol")
