@@ -7,7 +7,7 @@ estimator.
 
 from . import datasets
 from .diagnostics import compare_skeletons, diagnose, effects
-from .estimators import CCRegressor, NeuralCCRegressor, PolyCCRegressor
+from .estimators import CCRegressor, NeuralCCRegressor, PolyCCRegressor, SymbolicCCRegressor
 from .exceptions import (
     ExtrapolationWarning,
     GaugeWarning,
@@ -31,6 +31,7 @@ __all__ = [
     "SimulationError",
     "Skeleton",
     "SkeletonError",
+    "SymbolicCCRegressor",
     "compare_skeletons",
     "datasets",
     "diagnose",

@@ -2,7 +2,7 @@
 
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor
+from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, SymbolicCCRegressor
 
 # Without column names, an array's columns are called x0, x1, ...; the check
 # instance's skeleton reads the first one, so it accepts any X the checks build.
@@ -24,6 +24,8 @@ ESTIMATORS = [
     # small and short so that the ~40 checks, each fitting several times, stay quick
     NeuralCCRegressor(equations=CHECK_EQUATIONS, hidden_layer_sizes=(8,), max_epochs=10,
                       random_state=0),
+    SymbolicCCRegressor(equations=CHECK_EQUATIONS, population_size=50, generations=5,
+                        max_iterations=1, maxsize=10, random_state=0),
 ]
 
 

@@ -3,5 +3,6 @@
 from .base import CCRegressor
 from .neural import NeuralCCRegressor
 from .poly import PolyCCRegressor
+from .symbolic import SymbolicCCRegressor
 
-__all__ = ["CCRegressor", "NeuralCCRegressor", "PolyCCRegressor"]
+__all__ = ["CCRegressor", "NeuralCCRegressor", "PolyCCRegressor", "SymbolicCCRegressor"]

@@ -16,7 +16,7 @@ from ..skeleton.equations import Equation, unknown_names
 from ..skeleton.nodes import Node, Unknown, walk
 from ._validation import FitData
 
-__all__ = ["GAUGES", "Problem", "build_skeleton", "gauge_skeleton"]
+__all__ = ["GAUGES", "Problem", "active_residuals", "build_skeleton", "gauge_skeleton"]
 
 GAUGES = ("auto", "warn", "raise")
 
@@ -193,3 +193,23 @@ def gauge_skeleton(skeleton: Skeleton, gauge: str):
         else:
             fixed[fix.name] = fix.value
     return constraints, fixed, zeroed, report.gauge()
+
+
+def active_residuals(problem: Problem) -> tuple[list[Node], list[float]]:
+    """Residuals of the equations with something to fit, and their scales."""
+    slots, env = problem.environment()
+    fixed = problem.fixed_params
+    residuals, weights = [], []
+    for i in problem.active:
+        eq = problem.equations[i]
+        residuals.append(eq.residual)
+        weight = 1.0
+        lhs_curves, lhs_params = unknown_names(eq.lhs)
+        if not lhs_curves and not (lhs_params - set(fixed)):
+            value = compile_expression(eq.lhs, slots, fixed)(env)
+            value = np.broadcast_to(np.asarray(value, dtype=float), (problem.data.n_samples,))
+            rms = float(np.sqrt(np.mean(value * value)))
+            if np.isfinite(rms) and rms > 0:
+                weight = 1.0 / rms
+        weights.append(weight)
+    return residuals, weights

@@ -9,13 +9,10 @@ from numbers import Integral, Real
 import numpy as np
 from sklearn.utils import check_random_state
 
-from ..skeleton.compiler import compile_expression
-from ..skeleton.equations import unknown_names
-from ..skeleton.nodes import Node
 from ._activations import ACTIVATIONS
 from ._basis import ZeroCurve
 from ._numpy_mlp import EXTRAPOLATIONS, NumpyCurve
-from ._setup import Problem
+from ._setup import Problem, active_residuals
 from .base import CCRegressor
 
 __all__ = ["NeuralCCRegressor"]
@@ -315,7 +312,7 @@ default="lbfgs"
         init = problem.starting_values(self.param_init)
         params0 = {a: float(init.get(a, 1.0)) for a in problem.free_params}
         functions: dict = {name: ZeroCurve() for name in problem.zeroed}
-        residuals, weights = _active_residuals(problem)
+        residuals, weights = active_residuals(problem)
         if not residuals:
             self.history_, self.n_epochs_, self.loss_ = [], 0, 0.0
             self.device_ = checked["device"]
@@ -457,23 +454,3 @@ default="lbfgs"
 
 def _silent(*args, **kwargs) -> None:
     return None
-
-
-def _active_residuals(problem: Problem) -> tuple[list[Node], list[float]]:
-    """Residuals of the equations with something to fit, and their scales."""
-    slots, env = problem.environment()
-    fixed = problem.fixed_params
-    residuals, weights = [], []
-    for i in problem.active:
-        eq = problem.equations[i]
-        residuals.append(eq.residual)
-        weight = 1.0
-        lhs_curves, lhs_params = unknown_names(eq.lhs)
-        if not lhs_curves and not (lhs_params - set(fixed)):
-            value = compile_expression(eq.lhs, slots, fixed)(env)
-            value = np.broadcast_to(np.asarray(value, dtype=float), (problem.data.n_samples,))
-            rms = float(np.sqrt(np.mean(value * value)))
-            if np.isfinite(rms) and rms > 0:
-                weight = 1.0 / rms
-        weights.append(weight)
-    return residuals, weights

@@ -1,0 +1,160 @@
+"""Curves written as SymPy expressions of one variable, and their constraint templates.
+
+A symbolic curve is ``f = T(g)``: ``g`` is the expression a search found
+(its numbers free to move), and ``T`` imposes the curve's constraints by
+construction: an odd curve is ``(g(x) - g(-x)) / 2``, an even one
+``(g(x) + g(-x)) / 2``, and point values ``f(a) = b`` are met by adding a
+low-order polynomial of the curve's parity. Numbers are refined by least
+squares through :class:`Template`, which evaluates ``T(g)`` in numpy with
+the numbers of ``g`` as arguments.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy
+
+__all__ = ["VARIABLE", "SymbolicCurve", "Template", "constants_of", "with_constants"]
+
+#: the variable every curve expression is written in
+VARIABLE = sympy.Symbol("x", real=True)
+
+
+def _powers(parity: str | None, count: int) -> list[int]:
+    """Exponents of the polynomial correction that keeps a curve's parity."""
+    if parity == "odd":
+        return [2 * k + 1 for k in range(count)]
+    if parity == "even":
+        return [2 * k for k in range(count)]
+    return list(range(count))
+
+
+class Template:
+    """The constraints of one curve, applied to any ``g``.
+
+    Parameters
+    ----------
+    parity : {"odd", "even"} or None
+    points : list of (float, float)
+        Values ``(at, value)`` the curve must take. For an odd curve, a
+        point ``(0, 0)`` holds already and is skipped.
+    """
+
+    def __init__(self, parity: str | None, points) -> None:
+        self.parity = parity
+        self.points = [(float(a), float(v)) for a, v in points
+                       if not (parity == "odd" and a == 0.0)]
+        powers = _powers(parity, len(self.points))
+        at = np.array([a for a, _ in self.points])
+        self._powers = powers
+        self._matrix = (at[:, None] ** np.array(powers)[None, :]) if self.points else None
+
+    def _symmetric(self, g_of):
+        if self.parity == "odd":
+            return lambda x: (g_of(x) - g_of(-x)) / 2
+        if self.parity == "even":
+            return lambda x: (g_of(x) + g_of(-x)) / 2
+        return g_of
+
+    def _correction(self, h_at: np.ndarray) -> np.ndarray:
+        wanted = np.array([v for _, v in self.points]) - h_at
+        return np.linalg.lstsq(self._matrix, wanted, rcond=None)[0]
+
+    def numeric(self, g_of):
+        """``T(g)`` as a numpy function, ``g_of`` a numpy function of ``x``."""
+        h = self._symmetric(g_of)
+        if not self.points:
+            return h
+        at = np.array([a for a, _ in self.points])
+
+        def f(x):
+            b = self._correction(np.asarray(h(at), dtype=float) * np.ones_like(at))
+            return h(x) + sum(c * x ** p for c, p in zip(b, self._powers))
+
+        return f
+
+    def symbolic(self, g: sympy.Expr) -> sympy.Expr:
+        """``T(g)`` as a SymPy expression in :data:`VARIABLE`."""
+        x = VARIABLE
+        if self.parity == "odd":
+            h = (g - g.subs(x, -x)) / 2
+        elif self.parity == "even":
+            h = (g + g.subs(x, -x)) / 2
+        else:
+            h = g
+        h = sympy.expand(h) if h.is_polynomial(x) else h
+        if not self.points:
+            return h
+        h_at = np.array([float(h.subs(x, a)) for a, _ in self.points])
+        b = self._correction(h_at)
+        return h + sum(sympy.Float(c) * x ** p for c, p in zip(b, self._powers))
+
+
+def constants_of(expression: sympy.Expr) -> list[sympy.Float]:
+    """The floating-point numbers of ``expression``, in a stable order."""
+    return sorted(expression.atoms(sympy.Float), key=lambda c: (float(c), str(c)))
+
+
+def with_constants(expression: sympy.Expr) -> tuple[sympy.Expr, list[sympy.Symbol], np.ndarray]:
+    """Replace every float of ``expression`` by a symbol ``c0, c1, ...``.
+
+    Returns the expression in those symbols, the symbols and their values.
+    Integers and rationals (exponents, the halves of templates) stay fixed.
+    """
+    floats = constants_of(expression)
+    symbols = [sympy.Symbol(f"c{k}") for k in range(len(floats))]
+    return (expression.xreplace(dict(zip(floats, symbols))), symbols,
+            np.array([float(c) for c in floats]))
+
+
+class SymbolicCurve:
+    """A fitted curve given by a SymPy expression of :data:`VARIABLE`.
+
+    Calls evaluate a numpy function compiled once from the expression
+    (rebuilt after unpickling); the expression itself is what pickles.
+
+    Parameters
+    ----------
+    expression : sympy.Expr
+        The curve as a function of :data:`VARIABLE`.
+    domain : tuple of float
+        Range of the argument in training.
+    """
+
+    def __init__(self, expression: sympy.Expr, domain: tuple[float, float]) -> None:
+        self.expression = sympy.sympify(expression) if not isinstance(
+            expression, sympy.Basic) else expression
+        self.domain = (float(domain[0]), float(domain[1]))
+        self._function = None
+
+    def _compiled(self):
+        if self._function is None:
+            self._function = sympy.lambdify(VARIABLE, self.expression, modules="numpy")
+        return self._function
+
+    def __call__(self, x):
+        x = np.asarray(x, dtype=float)
+        with np.errstate(all="ignore"):
+            out = self._compiled()(x)
+        if np.ndim(out) == 0 or np.shape(out) != x.shape:
+            return np.broadcast_to(np.asarray(out, dtype=float), x.shape).copy()
+        return out
+
+    def complexity(self) -> int:
+        """Number of nodes of the expression tree."""
+        return int(sympy.count_ops(self.expression, visual=False)) + len(
+            self.expression.atoms(sympy.Symbol, sympy.Number))
+
+    def text(self, variable: str, precision: int = 6) -> str:
+        """The expression as text, written in ``variable``."""
+        rounded = self.expression.xreplace({c: sympy.Float(c, precision)
+                                            for c in self.expression.atoms(sympy.Float)})
+        return str(rounded.subs(VARIABLE, sympy.Symbol(variable)))
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_function"] = None
+        return state
+
+    def __repr__(self) -> str:
+        return f"SymbolicCurve({self.expression})"

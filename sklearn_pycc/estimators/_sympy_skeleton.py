@@ -1,0 +1,62 @@
+"""Parsed skeleton trees as SymPy expressions (for printing fitted models analytically)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import sympy
+
+from ..skeleton.nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
+from ._symbolic_curves import VARIABLE
+
+__all__ = ["to_sympy"]
+
+_FUNCTIONS = {
+    "sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan, "sinh": sympy.sinh,
+    "cosh": sympy.cosh, "tanh": sympy.tanh, "arcsin": sympy.asin, "arccos": sympy.acos,
+    "arctan": sympy.atan, "asin": sympy.asin, "acos": sympy.acos, "atan": sympy.atan,
+    "exp": sympy.exp, "log": sympy.log, "log10": lambda a: sympy.log(a, 10),
+    "sqrt": sympy.sqrt, "abs": sympy.Abs, "sign": sympy.sign,
+}
+
+
+def to_sympy(node: Node, params: Mapping[str, float],
+             curves: Mapping[str, sympy.Expr]) -> sympy.Expr:
+    """``node`` with parameters replaced by values and curves by their expressions.
+
+    ``curves`` maps a curve's name to its expression in
+    :data:`~._symbolic_curves.VARIABLE`; a curve missing from it stays an
+    undefined function ``f(argument)``.
+    """
+
+    def go(n: Node) -> sympy.Expr:
+        if isinstance(n, Number):
+            value = n.value
+            return sympy.Integer(int(value)) if float(value).is_integer() else sympy.Float(value)
+        if isinstance(n, Symbol):
+            return sympy.pi if n.name == "pi" else sympy.Symbol(n.name)
+        if isinstance(n, Param):
+            return sympy.Float(params[n.name]) if n.name in params else sympy.Symbol(n.name)
+        if isinstance(n, Neg):
+            return -go(n.operand)
+        if isinstance(n, Unknown):
+            arg = go(n.arg)
+            if n.name in curves:
+                return curves[n.name].xreplace({VARIABLE: arg})
+            return sympy.Function(n.name)(arg)
+        if isinstance(n, Apply):
+            return _FUNCTIONS[n.func](go(n.arg))
+        if isinstance(n, BinOp):
+            left, right = go(n.left), go(n.right)
+            if n.op == "+":
+                return left + right
+            if n.op == "-":
+                return left - right
+            if n.op == "*":
+                return left * right
+            if n.op == "/":
+                return left / right
+            return left ** right
+        raise TypeError(f"unexpected node {n!r}")
+
+    return go(node)

@@ -1,0 +1,503 @@
+"""Symbolic backend: each curve an analytic expression found by 1-D symbolic regression."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from numbers import Integral, Real
+
+import numpy as np
+import pandas as pd
+import sympy
+from scipy.optimize import least_squares
+from sklearn.utils import check_random_state
+from sklearn.utils.validation import check_is_fitted
+
+from ..exceptions import SkeletonError
+from ..skeleton.compiler import compile_expression
+from ..skeleton.nodes import Unknown, walk
+from ._setup import Problem, active_residuals
+from ._symbolic_curves import VARIABLE, SymbolicCurve, Template, with_constants
+from ._symbolic_engines import BINARY_OPERATORS, UNARY_OPERATORS, Candidate, make_engine
+from ._sympy_skeleton import to_sympy
+from .base import CCRegressor
+
+__all__ = ["SymbolicCCRegressor"]
+
+MODEL_SELECTIONS = ("best", "accuracy")
+#: a numbers whose removal changes the loss by less than this (relative) is dropped
+PRUNE_TOLERANCE = 1e-9
+
+
+def select(candidates: list[tuple[Candidate, float]], rule: str) -> int:
+    """Index of the chosen candidate among ``(candidate, loss)`` pairs.
+
+    ``"accuracy"`` takes the lowest loss. ``"best"`` (PySR's rule) takes,
+    among the candidates whose loss is within 1.5 times the lowest, the one
+    whose loss fell most steeply (in log) per unit of added complexity.
+    """
+    losses = np.array([loss for _, loss in candidates])
+    if rule == "accuracy":
+        return int(np.argmin(losses))
+    order = sorted(range(len(candidates)), key=lambda k: (candidates[k][0].complexity,
+                                                          losses[k]))
+    floor = float(np.min(losses))
+    best, best_score = order[0], -np.inf
+    previous_loss, previous_size = None, None
+    tiny = np.finfo(float).tiny
+    for k in order:
+        size, loss = candidates[k][0].complexity, max(losses[k], tiny)
+        if previous_loss is None:
+            score = 0.0
+        elif size == previous_size or loss >= previous_loss:
+            continue
+        else:
+            score = -(np.log(loss) - np.log(previous_loss)) / (size - previous_size)
+        if losses[k] <= 1.5 * floor + tiny and score > best_score:
+            best, best_score = k, score
+        previous_loss, previous_size = loss, size
+    return best
+
+
+class _Residuals:
+    """Weighted residuals of the active equations for given curves and parameters."""
+
+    def __init__(self, problem: Problem) -> None:
+        self.problem = problem
+        self.slots, self.env = problem.environment()
+        self.nodes, self.weights = active_residuals(problem)
+        self.n = problem.data.n_samples
+
+    def equation(self, k: int, functions: Mapping, params: Mapping) -> np.ndarray:
+        values = {**self.problem.fixed_params, **params}
+        with np.errstate(all="ignore"):
+            out = compile_expression(self.nodes[k], self.slots, values, functions)(self.env)
+        return self.weights[k] * np.broadcast_to(np.asarray(out, dtype=float), (self.n,))
+
+    def __call__(self, functions: Mapping, params: Mapping) -> np.ndarray:
+        return np.concatenate([self.equation(k, functions, params)
+                               for k in range(len(self.nodes))])
+
+    def loss(self, functions: Mapping, params: Mapping) -> float:
+        r = self(functions, params)
+        value = float(np.mean(r * r))
+        return value if np.isfinite(value) else np.inf
+
+    def argument(self, node, params: Mapping, functions: Mapping) -> np.ndarray:
+        values = {**self.problem.fixed_params, **params}
+        with np.errstate(all="ignore"):
+            out = compile_expression(node, self.slots, values, functions)(self.env)
+        return np.broadcast_to(np.asarray(out, dtype=float), (self.n,))
+
+    def isolated(self, name: str, functions: Mapping, params: Mapping):
+        """``(argument, target, weight)`` samples for the curve ``name``.
+
+        For each equation applying the curve, the value the curve would need
+        for that equation's residual to vanish, given everything else (a
+        Gauss-Newton step, exact when the curve enters linearly), weighted by
+        the squared sensitivity of the residual to the curve.
+        """
+        current = functions[name]
+
+        def bumped(x):
+            return current(x) + 1.0
+
+        xs, targets, weights = [], [], []
+        for k, node in enumerate(self.nodes):
+            uses = [sub for sub in walk(node) if isinstance(sub, Unknown) and sub.name == name]
+            if not uses:
+                continue
+            if len(uses) > 1:
+                eq = self.problem.equations[self.problem.active[k]]
+                raise SkeletonError(
+                    f"SymbolicCCRegressor isolates each curve in each equation, but {name} "
+                    f"appears {len(uses)} times here", equation=eq.index,
+                    position=max(uses[1].pos, 0), text=eq.text)
+            r0 = self.equation(k, functions, params)
+            r1 = self.equation(k, {**functions, name: bumped}, params)
+            slope = r1 - r0
+            x = self.argument(uses[0].arg, params, functions)
+            usable = np.isfinite(slope) & np.isfinite(r0) & np.isfinite(x) & (
+                np.abs(slope) > 1e-12 * max(float(np.nanmax(np.abs(slope))), 1e-300))
+            xs.append(x[usable])
+            targets.append(current(x[usable]) - r0[usable] / slope[usable])
+            weights.append(slope[usable] ** 2)
+        return np.concatenate(xs), np.concatenate(targets), np.concatenate(weights)
+
+
+def _binned(x: np.ndarray, y: np.ndarray, w: np.ndarray, n_bins: int):
+    """Weighted means of ``x`` and ``y`` over equal-count bins of ``x``."""
+    order = np.argsort(x, kind="stable")
+    if x.size <= n_bins:
+        return x[order], y[order]
+    xb, yb = [], []
+    for chunk in np.array_split(order, n_bins):
+        weight = w[chunk]
+        total = weight.sum()
+        if total <= 0:
+            continue
+        xb.append(float(weight @ x[chunk] / total))
+        yb.append(float(weight @ y[chunk] / total))
+    return np.array(xb), np.array(yb)
+
+
+class _Curve:
+    """A curve during fitting: ``T(g)`` with the numbers of ``g`` free."""
+
+    def __init__(self, g: sympy.Expr, template: Template, domain) -> None:
+        self.template = template
+        self.domain = domain
+        self.set_g(g)
+
+    def set_g(self, g: sympy.Expr) -> None:
+        self.g = g
+        self.shape, self.symbols, self.values = with_constants(g)
+        raw = sympy.lambdify([VARIABLE, *self.symbols], self.shape, modules="numpy")
+
+        def g_of(x, c):
+            with np.errstate(all="ignore"):
+                out = raw(x, *c)
+            return np.broadcast_to(np.asarray(out, dtype=float), np.shape(x))
+
+        self._g_of = g_of
+
+    def function(self, values: np.ndarray | None = None):
+        c = self.values if values is None else values
+        return self.template.numeric(lambda x: self._g_of(np.asarray(x, dtype=float), c))
+
+    def expression(self, values: np.ndarray | None = None) -> sympy.Expr:
+        c = self.values if values is None else values
+        g = self.shape.xreplace({s: sympy.Float(v) for s, v in zip(self.symbols, c)})
+        return self.template.symbolic(g)
+
+
+class SymbolicCCRegressor(CCRegressor):
+    """Characteristic curves as analytic expressions (symbolic regression, SymbR-CC).
+
+    Each unknown curve ``f_i`` is found by one-dimensional symbolic
+    regression on its *isolated target*: the values it would need for the
+    equations applying it to hold, given the other curves and parameters.
+    The curves are updated in turn (back-fitting) until the equation
+    residual stops falling, with the skeleton's parameters ``a_i`` refitted
+    by least squares after every update; finally every number of every
+    expression and every parameter are refined jointly. The search starts
+    from a polynomial fit when the skeleton allows one.
+
+    Constraints hold by construction: an odd curve is fitted on mirrored
+    data and written ``(g(x) - g(-x))/2``, an even one ``(g(x) + g(-x))/2``,
+    and point values are met by a polynomial correction of the curve's
+    parity.
+
+    Parameters
+    ----------
+    equations : list of str or Skeleton
+        The structural skeleton.
+    constraints : list of str or dict, optional
+        ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, ...
+    engine : {"operon", "pysr"}, default="operon"
+        Symbolic regression engine: pyoperon (offline, the default) or PySR
+        (needs Julia; imported only when chosen).
+    binary_operators : sequence of str, default=("+", "-", "*")
+        Among ``"+", "-", "*", "/", "^"``.
+    unary_operators : sequence of str, default=("tanh", "sin", "cos")
+        Among ``"tanh", "sin", "cos", "exp", "log", "sqrt", "abs", "square",
+        "sinh", "cosh", "atan", "tan"``.
+    maxsize : int, default=20
+        Largest expression size (nodes) the engine considers.
+    population_size : int, default=500
+        Population of the engine's search.
+    generations : int, default=50
+        Generations (operon) or iterations (PySR) per search.
+    max_iterations : int, default=4
+        Rounds of back-fitting over the curves.
+    tol : float, default=1e-3
+        Back-fitting stops when a round lowers the loss by less than this
+        fraction.
+    n_fit_points : int, default=200
+        Each search sees the isolated target averaged over this many
+        equal-count bins of the curve's argument (the paper's
+        ``N_fit_points``).
+    model_selection : {"best", "accuracy"}, default="best"
+        How the expression is chosen from each search's Pareto front:
+        ``"accuracy"`` takes the lowest loss; ``"best"`` the steepest fall of
+        the loss per unit of complexity among those within 1.5 times the
+        lowest.
+    start_degree : int or None, default=7
+        Degree of the polynomial fit that gives the first isolated targets;
+        None starts from zero curves.
+    engine_options : dict, optional
+        Extra keyword arguments for the engine (pyoperon's
+        ``SymbolicRegressor`` or ``PySRRegressor``).
+    param_init : dict, optional
+        Starting values of the parameters (1.0 otherwise).
+    gauge, differentiation, smooth_states
+        See :class:`CCRegressor`.
+    random_state : int, RandomState or None
+        Seeds every search.
+
+    Attributes
+    ----------
+    expressions_ : dict of str -> sympy.Expr
+        Each curve in its argument (``x2`` for ``f1(x2)``; ``u`` when the
+        argument is not a single variable).
+    pareto_ : dict of str -> DataFrame
+        The last search's candidates per curve: ``complexity``,
+        ``search_loss`` (against the isolated target), ``loss`` (the
+        model's equation loss with the candidate in place), ``expression``
+        and ``chosen``.
+    n_iterations_ : int
+        Back-fitting rounds run.
+    loss_history_ : list of float
+        Equation loss after each round.
+    """
+
+    def __init__(self, equations=None, constraints=None, engine: str = "operon",
+                 binary_operators: Sequence[str] = ("+", "-", "*"),
+                 unary_operators: Sequence[str] = ("tanh", "sin", "cos"),
+                 maxsize: int = 20, population_size: int = 500, generations: int = 50,
+                 max_iterations: int = 4, tol: float = 1e-3, n_fit_points: int = 200,
+                 model_selection: str = "best", start_degree: int | None = 7,
+                 engine_options: Mapping | None = None, param_init: Mapping | None = None,
+                 gauge: str = "auto", differentiation="spline", smooth_states: bool = True,
+                 random_state=None) -> None:
+        super().__init__(equations=equations, constraints=constraints, gauge=gauge,
+                         differentiation=differentiation, smooth_states=smooth_states)
+        self.engine = engine
+        self.binary_operators = binary_operators
+        self.unary_operators = unary_operators
+        self.maxsize = maxsize
+        self.population_size = population_size
+        self.generations = generations
+        self.max_iterations = max_iterations
+        self.tol = tol
+        self.n_fit_points = n_fit_points
+        self.model_selection = model_selection
+        self.start_degree = start_degree
+        self.engine_options = engine_options
+        self.param_init = param_init
+        self.random_state = random_state
+
+    # -- hyperparameter checks -----------------------------------------------------
+    def _check_params(self) -> None:
+        for name in ("maxsize", "population_size", "generations", "max_iterations",
+                     "n_fit_points"):
+            value = getattr(self, name)
+            if not isinstance(value, Integral) or isinstance(value, bool) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if not isinstance(self.tol, Real) or not self.tol >= 0:
+            raise ValueError(f"tol must be a non-negative number, got {self.tol!r}")
+        if self.model_selection not in MODEL_SELECTIONS:
+            raise ValueError(f"model_selection must be one of {MODEL_SELECTIONS}, "
+                             f"got {self.model_selection!r}")
+        for name, table in (("binary_operators", BINARY_OPERATORS),
+                            ("unary_operators", UNARY_OPERATORS)):
+            operators = getattr(self, name)
+            if isinstance(operators, str):
+                raise ValueError(f"{name} must be a list of operators, not the string "
+                                 f"{operators!r}")
+            for k, op in enumerate(operators):
+                if op not in table:
+                    raise ValueError(f"{name}[{k}] is {op!r}, which is not one of "
+                                     f"{sorted(table)}")
+        degree = self.start_degree
+        if degree is not None and (not isinstance(degree, Integral) or degree < 0):
+            raise ValueError(f"start_degree must be None or a non-negative integer, "
+                             f"got {degree!r}")
+        if self.engine_options is not None and not isinstance(self.engine_options, Mapping):
+            raise ValueError(f"engine_options must be a dict, got {self.engine_options!r}")
+
+    # -- fitting -----------------------------------------------------------------
+    def _start(self, problem: Problem) -> tuple[dict, dict]:
+        """Curves and parameters to start from: a polynomial fit when possible."""
+        init = problem.starting_values(self.param_init)
+        params = {a: float(init.get(a, 1.0)) for a in problem.free_params}
+        functions = {f: (lambda x: np.zeros_like(np.asarray(x, dtype=float)))
+                     for f in problem.skeleton.functions}
+        if self.start_degree is None:
+            return functions, params
+        from .poly import PolyCCRegressor
+
+        poly = PolyCCRegressor(degree=self.start_degree, param_init=self.param_init)
+        try:
+            curves, values = poly._fit_problem(problem)
+        except SkeletonError:  # a curve enters nonlinearly: start from zero curves
+            return functions, params
+        functions.update(curves)
+        params.update({a: float(values[a]) for a in problem.free_params if a in values})
+        return functions, params
+
+    def _fit_problem(self, problem: Problem):
+        self._check_params()
+        engine = make_engine(self.engine)
+        rng = check_random_state(self.random_state)
+        residuals = _Residuals(problem)
+        functions, params = self._start(problem)
+        free = problem.free_functions
+        curves: dict[str, _Curve] = {}
+        for name in problem.zeroed:
+            functions[name] = _zero
+        self.pareto_ = {}
+        history = []
+        loss = residuals.loss(functions, params)
+        n_rounds = 0
+        for n_rounds in range(1, int(self.max_iterations) + 1):  # noqa: B007
+            before = loss
+            for name in free:
+                seed = int(rng.randint(0, 2**31 - 1))
+                chosen = self._search_curve(engine, problem, residuals, name, functions,
+                                            params, seed)
+                if chosen is None:
+                    continue
+                trial = {**functions, name: chosen.function()}
+                trial_params = self._refit_params(residuals, problem, trial, params)
+                trial_loss = residuals.loss(trial, trial_params)
+                # the first round replaces the polynomial start whatever it costs
+                if name not in curves or trial_loss <= loss:
+                    curves[name] = chosen
+                    functions, params, loss = trial, trial_params, trial_loss
+            history.append(loss)
+            if not np.isfinite(before) or before - loss <= self.tol * before:
+                break
+        missing = [name for name in free if name not in curves]
+        if missing:
+            raise ValueError(
+                f"no expression was found for {missing[0]}: no sample of the data constrains "
+                "it (its equations do not change when it does), or every candidate of the "
+                "search gave a non-finite residual")
+        params = self._polish(residuals, problem, curves, functions, params)
+        self.n_iterations_ = n_rounds
+        self.loss_history_ = history
+        out = {name: _zero_curve() for name in problem.zeroed}
+        for name, curve in curves.items():
+            out[name] = SymbolicCurve(curve.expression(), curve.domain)
+        return out, params
+
+    def _search_curve(self, engine, problem, residuals, name, functions, params, seed):
+        x, target, weight = residuals.isolated(name, functions, params)
+        if x.size == 0:
+            return None
+        xb, yb = _binned(x, target, weight, int(self.n_fit_points))
+        parity = problem.parity(name)
+        if parity == "odd":
+            xb, yb = np.concatenate([xb, -xb]), np.concatenate([yb, -yb])
+        elif parity == "even":
+            xb, yb = np.concatenate([xb, -xb]), np.concatenate([yb, yb])
+        found = engine.search(xb, yb, binary=tuple(self.binary_operators),
+                              unary=tuple(self.unary_operators), maxsize=self.maxsize,
+                              population_size=self.population_size,
+                              generations=self.generations,
+                              options=dict(self.engine_options or {}), seed=seed)
+        template = Template(parity, problem.points(name))
+        domain = (float(np.min(x)), float(np.max(x)))
+        scored, rows = [], []
+        for candidate in found:
+            curve = _Curve(candidate.expression, template, domain)
+            trial = {**functions, name: curve.function()}
+            loss = residuals.loss(trial, params)
+            if np.isfinite(loss):
+                scored.append((candidate, loss, curve))
+        if not scored:
+            return None
+        k = select([(c, loss) for c, loss, _ in scored], self.model_selection)
+        for j, (candidate, loss, curve) in enumerate(scored):
+            rows.append({"complexity": candidate.complexity, "search_loss": candidate.loss,
+                         "loss": loss, "expression": curve.expression(), "chosen": j == k})
+        self.pareto_[name] = pd.DataFrame(rows).sort_values("complexity", ignore_index=True)
+        return scored[k][2]
+
+    @staticmethod
+    def _refit_params(residuals: _Residuals, problem: Problem, functions, params) -> dict:
+        names = problem.free_params
+        if not names:
+            return dict(params)
+
+        def fun(theta):
+            r = residuals(functions, dict(zip(names, theta)))
+            return np.where(np.isfinite(r), r, 1e150)
+
+        theta0 = np.array([params[a] for a in names])
+        result = least_squares(fun, theta0, method="lm" if len(names) <= fun(
+            theta0).size else "trf")
+        return dict(zip(names, (float(v) for v in result.x)))
+
+    def _polish(self, residuals: _Residuals, problem: Problem, curves: dict, functions,
+                params) -> dict:
+        """Refine every number of every expression and every parameter jointly."""
+        names = problem.free_params
+        sizes = [len(curve.values) for curve in curves.values()]
+        theta0 = np.concatenate([[params[a] for a in names],
+                                 *[curve.values for curve in curves.values()]])
+        if theta0.size == 0:
+            return params
+
+        def unpack(theta):
+            values = dict(zip(names, theta[:len(names)]))
+            current, offset = dict(functions), len(names)
+            for (name, curve), size in zip(curves.items(), sizes):
+                current[name] = curve.function(theta[offset:offset + size])
+                offset += size
+            return values, current
+
+        def fun(theta):
+            values, current = unpack(theta)
+            r = residuals(current, values)
+            return np.where(np.isfinite(r), r, 1e150)
+
+        start = fun(theta0)
+        result = least_squares(fun, theta0, x_scale="jac", max_nfev=200 * theta0.size)
+        theta = result.x if result.cost <= 0.5 * float(start @ start) else theta0
+        # drop numbers that do nothing (an engine's 1e-9 offsets)
+        base = float(np.mean(fun(theta) ** 2))
+        for k in range(len(names), theta.size):
+            if abs(theta[k]) < 1e-6:
+                trial = theta.copy()
+                trial[k] = 0.0
+                if float(np.mean(fun(trial) ** 2)) <= base * (1 + PRUNE_TOLERANCE) + 1e-300:
+                    theta = trial
+        offset = len(names)
+        for (_, curve), size in zip(curves.items(), sizes):
+            curve.values = theta[offset:offset + size]
+            offset += size
+        return {**params, **dict(zip(names, (float(v) for v in theta[:len(names)])))}
+
+    # -- results -------------------------------------------------------------------
+    def _store(self, problem: Problem, functions: Mapping, params: Mapping) -> None:
+        super()._store(problem, functions, params)
+        self.expressions_ = {}
+        for name, curve in self.functions_.items():
+            expression = getattr(curve, "expression", sympy.Integer(0))
+            self.expressions_[name] = expression.xreplace(
+                {VARIABLE: sympy.Symbol(self._variable(name))})
+
+    def _curve_parameters(self, problem, name: str) -> int:
+        curve = self.functions_.get(name) if hasattr(self, "functions_") else None
+        return len(getattr(curve, "expression", sympy.Integer(0)).atoms(sympy.Float))
+
+    def _curve_text(self, name: str, variable: str, precision: int) -> str:
+        curve = self.functions_[name]
+        if isinstance(curve, SymbolicCurve):
+            return curve.text(variable, precision)
+        return "0"
+
+    def to_sympy(self) -> list[sympy.Eq]:
+        """The fitted model as SymPy equations, curves written out."""
+        check_is_fitted(self, "expressions_")
+        curves = {name: getattr(curve, "expression", sympy.Integer(0))
+                  for name, curve in self.functions_.items()}
+        return [sympy.Eq(to_sympy(eq.lhs, self.params_, curves),
+                         to_sympy(eq.rhs, self.params_, curves))
+                for eq in self.skeleton_.parsed]
+
+    def to_latex(self) -> list[str]:
+        """The fitted model as LaTeX, one string per equation."""
+        names = {}
+        for state in self.skeleton_.states:
+            names[sympy.Symbol(f"{state}_dot")] = rf"\dot{{{sympy.latex(sympy.Symbol(state))}}}"
+        return [sympy.latex(eq, symbol_names=names) for eq in self.to_sympy()]
+
+
+def _zero(x):
+    return np.zeros_like(np.asarray(x, dtype=float))
+
+
+def _zero_curve() -> SymbolicCurve:
+    return SymbolicCurve(sympy.Integer(0), (-1.0, 1.0))
