@@ -122,8 +122,9 @@ class SymbolicCurve:
     """
 
     def __init__(self, expression: sympy.Expr, domain: tuple[float, float]) -> None:
-        self.expression = sympy.sympify(expression) if not isinstance(
-            expression, sympy.Basic) else expression
+        if not isinstance(expression, sympy.Basic):
+            raise TypeError(f"expression must be a SymPy expression, got {type(expression)}")
+        self.expression = expression
         self.domain = (float(domain[0]), float(domain[1]))
         self._function = None
 

@@ -34,7 +34,7 @@ def to_sympy(node: Node, params: Mapping[str, float],
             value = n.value
             return sympy.Integer(int(value)) if float(value).is_integer() else sympy.Float(value)
         if isinstance(n, Symbol):
-            return sympy.pi if n.name == "pi" else sympy.Symbol(n.name)
+            return sympy.Symbol(n.name)
         if isinstance(n, Param):
             return sympy.Float(params[n.name]) if n.name in params else sympy.Symbol(n.name)
         if isinstance(n, Neg):

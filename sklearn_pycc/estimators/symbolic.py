@@ -15,6 +15,7 @@ from sklearn.utils.validation import check_is_fitted
 from ..exceptions import SkeletonError
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import Unknown, walk
+from ._basis import ZeroCurve
 from ._setup import Problem, active_residuals
 from ._symbolic_curves import VARIABLE, SymbolicCurve, Template, with_constants
 from ._symbolic_engines import BINARY_OPERATORS, UNARY_OPERATORS, Candidate, make_engine
@@ -59,18 +60,40 @@ def select(candidates: list[tuple[Candidate, float]], rule: str) -> int:
 
 
 class _Residuals:
-    """Weighted residuals of the active equations for given curves and parameters."""
+    """Weighted residuals of the active equations for given curves and parameters.
+
+    Each residual is compiled once per set of parameter values (the
+    compiler folds them in); curves are read through proxies, so trying
+    another curve costs no compilation.
+    """
 
     def __init__(self, problem: Problem) -> None:
         self.problem = problem
         self.slots, self.env = problem.environment()
         self.nodes, self.weights = active_residuals(problem)
         self.n = problem.data.n_samples
+        self._functions: Mapping = {}
+        self._proxies = {name: self._proxy(name) for name in problem.skeleton.functions}
+        self._key: tuple | None = None
+        self._compiled: list = []
+
+    def _proxy(self, name: str):
+        return lambda x: self._functions[name](x)
+
+    def _closures(self, params: Mapping) -> list:
+        values = {**self.problem.fixed_params, **params}
+        key = tuple(sorted(values.items()))
+        if key != self._key:
+            self._compiled = [compile_expression(node, self.slots, values, self._proxies)
+                              for node in self.nodes]
+            self._key = key
+        return self._compiled
 
     def equation(self, k: int, functions: Mapping, params: Mapping) -> np.ndarray:
-        values = {**self.problem.fixed_params, **params}
+        closure = self._closures(params)[k]
+        self._functions = functions
         with np.errstate(all="ignore"):
-            out = compile_expression(self.nodes[k], self.slots, values, functions)(self.env)
+            out = closure(self.env)
         return self.weights[k] * np.broadcast_to(np.asarray(out, dtype=float), (self.n,))
 
     def __call__(self, functions: Mapping, params: Mapping) -> np.ndarray:
@@ -310,8 +333,7 @@ class SymbolicCCRegressor(CCRegressor):
         """Curves and parameters to start from: a polynomial fit when possible."""
         init = problem.starting_values(self.param_init)
         params = {a: float(init.get(a, 1.0)) for a in problem.free_params}
-        functions = {f: (lambda x: np.zeros_like(np.asarray(x, dtype=float)))
-                     for f in problem.skeleton.functions}
+        functions = {f: ZeroCurve() for f in problem.skeleton.functions}
         if self.start_degree is None:
             return functions, params
         from .poly import PolyCCRegressor
@@ -333,8 +355,6 @@ class SymbolicCCRegressor(CCRegressor):
         functions, params = self._start(problem)
         free = problem.free_functions
         curves: dict[str, _Curve] = {}
-        for name in problem.zeroed:
-            functions[name] = _zero
         self.pareto_ = {}
         history = []
         loss = residuals.loss(functions, params)
@@ -366,7 +386,7 @@ class SymbolicCCRegressor(CCRegressor):
         params = self._polish(residuals, problem, curves, functions, params)
         self.n_iterations_ = n_rounds
         self.loss_history_ = history
-        out = {name: _zero_curve() for name in problem.zeroed}
+        out = {name: ZeroCurve() for name in problem.zeroed}
         for name, curve in curves.items():
             out[name] = SymbolicCurve(curve.expression(), curve.domain)
         return out, params
@@ -414,9 +434,7 @@ class SymbolicCCRegressor(CCRegressor):
             r = residuals(functions, dict(zip(names, theta)))
             return np.where(np.isfinite(r), r, 1e150)
 
-        theta0 = np.array([params[a] for a in names])
-        result = least_squares(fun, theta0, method="lm" if len(names) <= fun(
-            theta0).size else "trf")
+        result = least_squares(fun, np.array([params[a] for a in names]))
         return dict(zip(names, (float(v) for v in result.x)))
 
     def _polish(self, residuals: _Residuals, problem: Problem, curves: dict, functions,
@@ -493,11 +511,3 @@ class SymbolicCCRegressor(CCRegressor):
         for state in self.skeleton_.states:
             names[sympy.Symbol(f"{state}_dot")] = rf"\dot{{{sympy.latex(sympy.Symbol(state))}}}"
         return [sympy.latex(eq, symbol_names=names) for eq in self.to_sympy()]
-
-
-def _zero(x):
-    return np.zeros_like(np.asarray(x, dtype=float))
-
-
-def _zero_curve() -> SymbolicCurve:
-    return SymbolicCurve(sympy.Integer(0), (-1.0, 1.0))
