@@ -35,6 +35,13 @@ e.    Time for ``NeuralCCRegressor`` (defaults) to reach the published NN-CC
 f.    ``simulate`` of that fitted neural model against ``solve_ivp`` (LSODA)
       of the true equations in numpy, same tolerances and output times.
 
+i.    ``simulate`` of ``SymbolicCCRegressor`` fitted on the forced Duffing
+      oscillator (noise-free, functional skeleton) against ``solve_ivp``
+      (LSODA) of the true Duffing equations in numpy, over the first 25 s.
+j.    ``simulate`` of the post-SR model (``to_symbolic`` of the neural fit,
+      with the data) of the stick-slip example with 20 dB noise on the
+      force, against ``solve_ivp`` of the true equations in numpy.
+
 Two lines have an absolute goal rather than a reference:
 
 g.    The whole hypothesis loop on 10,000 samples of an oscillator with
@@ -43,6 +50,10 @@ g.    The whole hypothesis loop on 10,000 samples of an oscillator with
       Goal: under 5 s.
 h.    ``diagnose`` alone, on the seed paper's stick-slip example (1000
       samples) fitted with the linear skeleton.
+
+and three lines only report times (no goal): k. ``SymbolicCCRegressor.fit``
+on the Duffing oscillator, l. ``to_symbolic`` of the neural stick-slip fit
+(20 dB on the force) from its curves alone and m. with the data.
 """
 
 from __future__ import annotations
@@ -215,7 +226,7 @@ def _true_rhs(t, y):
     return [y[1], np.cos(t) - 0.1 * y[1] - 0.5 * np.tanh(500 * y[1]) - y[0] - 0.2 * y[0] ** 3]
 
 
-def _simulation_pair(model, t, truth):
+def _simulation_pair(model, t, truth, true_rhs=_true_rhs):
     """``model.simulate`` and ``solve_ivp`` of the true equations, same solver and grid."""
     y0 = list(truth.y0)
     inputs = {"F_ext": truth.inputs["F_ext"]}
@@ -224,7 +235,7 @@ def _simulation_pair(model, t, truth):
         return model.simulate(t, y0=y0, inputs=inputs)
 
     def reference():
-        return solve_ivp(_true_rhs, (t[0], t[-1]), y0, method="LSODA", t_eval=t,
+        return solve_ivp(true_rhs, (t[0], t[-1]), y0, method="LSODA", t_eval=t,
                          rtol=SIM_RTOL, atol=SIM_ATOL)
 
     return ours, reference
@@ -377,6 +388,84 @@ def case_neural_simulate(frame, truth) -> Case:
                 "solve_ivp LSODA, numpy rhs", 3.0, check)
 
 
+# -- symbolic backend and post-SR -----------------------------------------------------
+def _duffing_rhs(t, y):
+    return [y[1], 0.5 * np.cos(1.2 * t) - 0.3 * y[1] + 1.05 * y[0] - 1.02 * y[0] ** 3]
+
+
+def _symbolic_duffing():
+    from sklearn_pycc import SymbolicCCRegressor
+
+    frame, truth = datasets.make_duffing(return_truth=True)
+    X, y = frame[X_COLUMNS], frame[Y_COLUMNS]
+
+    def fit():
+        return SymbolicCCRegressor(equations=FUNCTIONAL, random_state=0).fit(X, y)
+
+    return frame, truth, fit
+
+
+def case_symbolic_simulate() -> Case:
+    frame, truth, fit = _symbolic_duffing()
+    model = fit()
+    t = frame["t"].to_numpy()[:500]
+    ours, reference = _simulation_pair(model, t, truth, _duffing_rhs)
+    sim, ref = ours(), reference()
+    check = (f"max |x1 ours - x1 ref| {np.abs(sim['x1'].to_numpy() - ref.y[0]).max():.1e}; "
+             f"{'; '.join(model.equations()[2:])}")
+    return Case(f"i. simulate Duffing SymbR-CC, {len(t)} pts", ours, reference,
+                "solve_ivp LSODA, numpy rhs", 3.0, check)
+
+
+def _post_sr_stick_slip():
+    from sklearn_pycc import NeuralCCRegressor, to_symbolic
+
+    frame, truth = datasets.make_stick_slip(noise=20, noise_columns=["F_ext"],
+                                            random_state=0, return_truth=True)
+    X, y = frame[X_COLUMNS], frame[Y_COLUMNS]
+    model = NeuralCCRegressor(equations=FUNCTIONAL, constraints=["f1 odd", "f2 odd"],
+                              random_state=0).fit(X, y)
+    return frame, truth, model, (lambda: to_symbolic(model, random_state=0),
+                                 lambda: to_symbolic(model, X, y, random_state=0))
+
+
+def case_post_sr_simulate() -> Case:
+    frame, truth, _, (_, with_data) = _post_sr_stick_slip()
+    model = with_data()
+    t = frame["t"].to_numpy()
+    ours, reference = _simulation_pair(model, t, truth)
+    sim, ref = ours(), reference()
+    check = (f"max |x1 ours - x1 ref| {np.abs(sim['x1'].to_numpy() - ref.y[0]).max():.1e}; "
+             f"{'; '.join(model.equations()[2:])}")
+    return Case(f"j. simulate stick-slip post-SR, {len(t)} pts", ours, reference,
+                "solve_ivp LSODA, numpy rhs", 3.0, check)
+
+
+def _curve_rmse_text(model, truth) -> str:
+    parts = []
+    for name, frame in model.cc_curves(n=200).items():
+        error = frame[name] - truth.functions[name](frame["x"])
+        parts.append(f"{name} {float(np.sqrt(np.mean(error ** 2))):.2e}")
+    return "curve RMSE " + ", ".join(parts)
+
+
+def _symbolic_fit_timing() -> Timing:
+    _, truth, fit = _symbolic_duffing()
+    return Timing("k. SymbolicCCRegressor.fit Duffing, n=2000", fit, None,
+                  _curve_rmse_text(fit(), truth))
+
+
+def _post_sr_timings() -> list[Timing]:
+    _, truth, model, (alone, with_data) = _post_sr_stick_slip()
+    return [
+        Timing("l. to_symbolic NN stick-slip 20 dB, curves", alone, None,
+               f"neural {_curve_rmse_text(model, truth)}; post-SR "
+               f"{_curve_rmse_text(alone(), truth)}"),
+        Timing("m. to_symbolic NN stick-slip 20 dB, with data", with_data, None,
+               f"post-SR {_curve_rmse_text(with_data(), truth)}"),
+    ]
+
+
 # -- absolute goals: the hypothesis loop ---------------------------------------------
 @dataclass
 class Timing:
@@ -497,6 +586,8 @@ def main(argv=None) -> int:
             ("d", case_simulate),
             ("e", lambda: case_neural_accuracy(*datasets.make_stick_slip(return_truth=True))),
             ("f", lambda: case_neural_simulate(*datasets.make_stick_slip(return_truth=True))),
+            ("i", case_symbolic_simulate),
+            ("j", case_post_sr_simulate),
         ]
         for key, build in builders:
             if args.only and key not in args.only:
@@ -509,11 +600,15 @@ def main(argv=None) -> int:
         if results:
             print_table(results)
         timings = []
-        for key, build in [("g", _loop_timing), ("h", _diagnose_timing)]:
-            if args.only and key not in args.only:
+        builders = [("g", _loop_timing), ("h", _diagnose_timing),
+                    ("k", _symbolic_fit_timing), ("lm", _post_sr_timings)]
+        for key, build in builders:
+            if args.only and not set(key) & set(args.only):
                 continue
             try:
-                timings.append(measure_timing(build(), repeat))
+                built = build()
+                for timing in built if isinstance(built, list) else [built]:
+                    timings.append(measure_timing(timing, repeat))
             except Exception as exc:
                 failures.append(f"{key}. could not be measured: {type(exc).__name__}: {exc}")
         if timings:

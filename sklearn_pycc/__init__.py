@@ -7,7 +7,15 @@ estimator.
 
 from . import datasets
 from .diagnostics import compare_skeletons, diagnose, effects
-from .estimators import CCRegressor, NeuralCCRegressor, PolyCCRegressor, SymbolicCCRegressor
+from .estimators import (
+    CCRegressor,
+    InterpolatedCCRegressor,
+    NeuralCCRegressor,
+    PolyCCRegressor,
+    SymbolicCCRegressor,
+    to_interpolated,
+    to_symbolic,
+)
 from .exceptions import (
     ExtrapolationWarning,
     GaugeWarning,
@@ -25,6 +33,7 @@ __all__ = [
     "ExtrapolationWarning",
     "GaugeWarning",
     "IdentifiabilityError",
+    "InterpolatedCCRegressor",
     "NeuralCCRegressor",
     "PolyCCRegressor",
     "RankDeficiencyWarning",
@@ -36,4 +45,6 @@ __all__ = [
     "datasets",
     "diagnose",
     "effects",
+    "to_interpolated",
+    "to_symbolic",
 ]

@@ -2,7 +2,12 @@
 
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, SymbolicCCRegressor
+from sklearn_pycc import (
+    InterpolatedCCRegressor,
+    NeuralCCRegressor,
+    PolyCCRegressor,
+    SymbolicCCRegressor,
+)
 
 # Without column names, an array's columns are called x0, x1, ...; the check
 # instance's skeleton reads the first one, so it accepts any X the checks build.
@@ -26,6 +31,8 @@ ESTIMATORS = [
                       random_state=0),
     SymbolicCCRegressor(equations=CHECK_EQUATIONS, population_size=50, generations=5,
                         max_iterations=1, maxsize=10, random_state=0),
+    InterpolatedCCRegressor(equations=CHECK_EQUATIONS, estimator=PolyCCRegressor(degree=3),
+                            n_points=50),
 ]
 
 

@@ -1,8 +1,18 @@
-"""Estimators: the shared :class:`CCRegressor` base and one module per backend."""
+"""Estimators: the shared :class:`CCRegressor` base, one module per backend, conversions."""
 
 from .base import CCRegressor
+from .conversion import to_interpolated, to_symbolic
+from .interpolated import InterpolatedCCRegressor
 from .neural import NeuralCCRegressor
 from .poly import PolyCCRegressor
 from .symbolic import SymbolicCCRegressor
 
-__all__ = ["CCRegressor", "NeuralCCRegressor", "PolyCCRegressor", "SymbolicCCRegressor"]
+__all__ = [
+    "CCRegressor",
+    "InterpolatedCCRegressor",
+    "NeuralCCRegressor",
+    "PolyCCRegressor",
+    "SymbolicCCRegressor",
+    "to_interpolated",
+    "to_symbolic",
+]

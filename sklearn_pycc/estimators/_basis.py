@@ -179,5 +179,9 @@ class ZeroCurve:
             return np.zeros(x.shape)
         return 0.0
 
+    def text(self, variable: str, precision: int = 6) -> str:
+        """``"0"``."""
+        return "0"
+
     def __repr__(self) -> str:
         return "ZeroCurve()"

@@ -16,7 +16,8 @@ from ..skeleton.equations import Equation, unknown_names
 from ..skeleton.nodes import Node, Unknown, walk
 from ._validation import FitData
 
-__all__ = ["GAUGES", "Problem", "active_residuals", "build_skeleton", "gauge_skeleton"]
+__all__ = ["GAUGES", "Problem", "active_residuals", "build_skeleton", "gauge_skeleton",
+           "parity_of", "points_of"]
 
 GAUGES = ("auto", "warn", "raise")
 
@@ -160,12 +161,22 @@ class Problem:
 
     def parity(self, function: str) -> str | None:
         """``"odd"``, ``"even"`` or None."""
-        kinds = {c.kind for c in self.constraints[function]}
-        return "odd" if "odd" in kinds else "even" if "even" in kinds else None
+        return parity_of(self.constraints[function])
 
     def points(self, function: str) -> list[tuple[float, float]]:
         """Point values ``(at, value)`` the curve must pass through."""
-        return [(c.at, c.value) for c in self.constraints[function] if c.kind == "value"]
+        return points_of(self.constraints[function])
+
+
+def parity_of(constraints: list[Constraint]) -> str | None:
+    """``"odd"``, ``"even"`` or None, from one curve's constraints."""
+    kinds = {c.kind for c in constraints}
+    return "odd" if "odd" in kinds else "even" if "even" in kinds else None
+
+
+def points_of(constraints: list[Constraint]) -> list[tuple[float, float]]:
+    """Point values ``(at, value)`` among one curve's constraints."""
+    return [(c.at, c.value) for c in constraints if c.kind == "value"]
 
 
 def gauge_skeleton(skeleton: Skeleton, gauge: str):

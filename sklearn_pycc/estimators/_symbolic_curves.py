@@ -11,6 +11,8 @@ the numbers of ``g`` as arguments.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import sympy
 
@@ -127,6 +129,7 @@ class SymbolicCurve:
         self.expression = expression
         self.domain = (float(domain[0]), float(domain[1]))
         self._function = None
+        self._scalar = None
 
     def _compiled(self):
         if self._function is None:
@@ -140,6 +143,19 @@ class SymbolicCurve:
         if np.ndim(out) == 0 or np.shape(out) != x.shape:
             return np.broadcast_to(np.asarray(out, dtype=float), x.shape).copy()
         return out
+
+    def scalar(self, x: float) -> float:
+        """The curve at one float, through the ``math`` module (for ODE right-hand sides).
+
+        A domain error or an overflow gives NaN, as numpy would, so that a
+        simulation reaching it stops with a clear error.
+        """
+        if self._scalar is None:
+            self._scalar = sympy.lambdify(VARIABLE, self.expression, modules="math")
+        try:
+            return float(self._scalar(x))
+        except (ValueError, OverflowError, ZeroDivisionError, TypeError):
+            return math.nan
 
     def complexity(self) -> int:
         """Number of nodes of the expression tree."""
@@ -155,6 +171,7 @@ class SymbolicCurve:
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         state["_function"] = None
+        state["_scalar"] = None
         return state
 
     def __repr__(self) -> str:

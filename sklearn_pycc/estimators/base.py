@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import warnings
 from collections.abc import Callable, Mapping
 
@@ -184,7 +185,11 @@ class CCRegressor(RegressorMixin, BaseEstimator):
 
     def _curve_text(self, name: str, variable: str, precision: int) -> str:
         """Text of a fitted curve as a function of ``variable``."""
-        return f"<{type(self.functions_[name]).__name__}>"
+        curve = self.functions_[name]
+        text = getattr(curve, "text", None)
+        if callable(text):
+            return text(variable, precision)
+        return f"<{type(curve).__name__}>"
 
     # -- scikit-learn plumbing -------------------------------------------------
     def __sklearn_tags__(self):
@@ -297,6 +302,25 @@ class CCRegressor(RegressorMixin, BaseEstimator):
     def _curve_parameters(self, problem: Problem, name: str) -> int:
         """Number of numbers fitted for the curve ``name`` (a backend's business)."""
         return 0
+
+    def _adopt(self, source: CCRegressor, functions: Mapping, params: Mapping,
+               n_parameters: int) -> None:
+        """Become fitted with ``functions`` and ``params`` on ``source``'s data.
+
+        Used to convert a fitted model into another representation: the
+        skeleton, gauge, curve ranges and what was learned about ``X`` are
+        ``source``'s.
+        """
+        adopted = ("skeleton_", "gauge_", "curve_ranges_", "n_features_in_",
+                   "feature_names_in_", "measured_states_", "derivative_source_", "_y_1d")
+        for name in adopted:
+            if hasattr(source, name):
+                setattr(self, name, copy.deepcopy(getattr(source, name)))
+        skeleton = self.skeleton_
+        self.params_ = {a: float(params[a]) for a in skeleton.params}
+        self.functions_ = {f: functions[f] for f in skeleton.functions}
+        self.n_parameters_ = int(n_parameters)
+        self._compiled = None
 
     def _argument_ranges(self, problem: Problem) -> dict[str, tuple[float, float]]:
         ranges = {}

@@ -441,8 +441,6 @@ default="lbfgs"
 
     def _curve_text(self, name: str, variable: str, precision: int) -> str:
         curve = self.functions_[name]
-        if isinstance(curve, ZeroCurve):
-            return "0"
         if not isinstance(curve, NumpyCurve):
             return super()._curve_text(name, variable, precision)
         sizes = ", ".join(str(w.shape[0]) for w, _ in curve.layers[:-1])

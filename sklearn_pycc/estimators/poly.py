@@ -364,8 +364,6 @@ class PolyCCRegressor(CCRegressor):
 
     def _curve_text(self, name: str, variable: str, precision: int) -> str:
         curve = self.functions_[name]
-        if isinstance(curve, ZeroCurve):
-            return "0"
         if not isinstance(curve, PolyCurve):
             return super()._curve_text(name, variable, precision)
         coefs = curve.polynomial().coef

@@ -397,15 +397,7 @@ class SymbolicCCRegressor(CCRegressor):
             return None
         xb, yb = _binned(x, target, weight, int(self.n_fit_points))
         parity = problem.parity(name)
-        if parity == "odd":
-            xb, yb = np.concatenate([xb, -xb]), np.concatenate([yb, -yb])
-        elif parity == "even":
-            xb, yb = np.concatenate([xb, -xb]), np.concatenate([yb, yb])
-        found = engine.search(xb, yb, binary=tuple(self.binary_operators),
-                              unary=tuple(self.unary_operators), maxsize=self.maxsize,
-                              population_size=self.population_size,
-                              generations=self.generations,
-                              options=dict(self.engine_options or {}), seed=seed)
+        found = self._run_engine(engine, xb, yb, parity, seed)
         template = Template(parity, problem.points(name))
         domain = (float(np.min(x)), float(np.max(x)))
         scored, rows = [], []
@@ -424,6 +416,19 @@ class SymbolicCCRegressor(CCRegressor):
         self.pareto_[name] = pd.DataFrame(rows).sort_values("complexity", ignore_index=True)
         return scored[k][2]
 
+    def _run_engine(self, engine, x: np.ndarray, y: np.ndarray, parity: str | None,
+                    seed: int) -> list[Candidate]:
+        """Candidates ``y ~ g(x)``, the data mirrored for an odd or even curve."""
+        if parity == "odd":
+            x, y = np.concatenate([x, -x]), np.concatenate([y, -y])
+        elif parity == "even":
+            x, y = np.concatenate([x, -x]), np.concatenate([y, y])
+        return engine.search(x, y, binary=tuple(self.binary_operators),
+                             unary=tuple(self.unary_operators), maxsize=self.maxsize,
+                             population_size=self.population_size,
+                             generations=self.generations,
+                             options=dict(self.engine_options or {}), seed=seed)
+
     @staticmethod
     def _refit_params(residuals: _Residuals, problem: Problem, functions, params) -> dict:
         names = problem.free_params
@@ -437,9 +442,13 @@ class SymbolicCCRegressor(CCRegressor):
         result = least_squares(fun, np.array([params[a] for a in names]))
         return dict(zip(names, (float(v) for v in result.x)))
 
-    def _polish(self, residuals: _Residuals, problem: Problem, curves: dict, functions,
-                params) -> dict:
-        """Refine every number of every expression and every parameter jointly."""
+    @staticmethod
+    def _polish(residuals: _Residuals, problem: Problem, curves: dict, functions,
+                params, effort: int = 200) -> dict:
+        """Refine every number of every expression and every parameter jointly.
+
+        At most ``effort`` residual evaluations per number are spent.
+        """
         names = problem.free_params
         sizes = [len(curve.values) for curve in curves.values()]
         theta0 = np.concatenate([[params[a] for a in names],
@@ -461,7 +470,7 @@ class SymbolicCCRegressor(CCRegressor):
             return np.where(np.isfinite(r), r, 1e150)
 
         start = fun(theta0)
-        result = least_squares(fun, theta0, x_scale="jac", max_nfev=200 * theta0.size)
+        result = least_squares(fun, theta0, x_scale="jac", max_nfev=effort * theta0.size)
         theta = result.x if result.cost <= 0.5 * float(start @ start) else theta0
         # drop numbers that do nothing (an engine's 1e-9 offsets)
         base = float(np.mean(fun(theta) ** 2))
@@ -480,6 +489,9 @@ class SymbolicCCRegressor(CCRegressor):
     # -- results -------------------------------------------------------------------
     def _store(self, problem: Problem, functions: Mapping, params: Mapping) -> None:
         super()._store(problem, functions, params)
+        self._set_expressions()
+
+    def _set_expressions(self) -> None:
         self.expressions_ = {}
         for name, curve in self.functions_.items():
             expression = getattr(curve, "expression", sympy.Integer(0))
@@ -489,12 +501,6 @@ class SymbolicCCRegressor(CCRegressor):
     def _curve_parameters(self, problem, name: str) -> int:
         curve = self.functions_.get(name) if hasattr(self, "functions_") else None
         return len(getattr(curve, "expression", sympy.Integer(0)).atoms(sympy.Float))
-
-    def _curve_text(self, name: str, variable: str, precision: int) -> str:
-        curve = self.functions_[name]
-        if isinstance(curve, SymbolicCurve):
-            return curve.text(variable, precision)
-        return "0"
 
     def to_sympy(self) -> list[sympy.Eq]:
         """The fitted model as SymPy equations, curves written out."""

@@ -1,0 +1,288 @@
+"""Convert the curves of a fitted model: to expressions (post-SR) or to interpolated tables."""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+import sympy
+from sklearn.base import clone
+from sklearn.utils import check_random_state
+from sklearn.utils.validation import check_is_fitted
+
+from ..exceptions import GaugeWarning
+from ._basis import ZeroCurve
+from ._setup import gauge_skeleton, parity_of, points_of
+from ._symbolic_curves import SymbolicCurve, Template
+from ._symbolic_engines import make_engine
+from .base import CCRegressor
+from .interpolated import (
+    InterpolatedCCRegressor,
+    InterpolatedCurve,
+    check_method,
+    check_n_points,
+    tabulate,
+)
+from .symbolic import SymbolicCCRegressor, _Curve, _Residuals, select
+
+__all__ = ["to_interpolated", "to_symbolic"]
+
+#: hyperparameters every backend shares, carried over to the converted model
+SHARED = ("equations", "constraints", "gauge", "differentiation", "smooth_states")
+#: residual evaluations per number when refining a candidate before comparing it
+CANDIDATE_EFFORT = 30
+
+
+def _check_model(model, caller: str) -> dict:
+    if not isinstance(model, CCRegressor):
+        raise TypeError(f"{caller} converts a fitted CCRegressor (PolyCCRegressor, "
+                        f"NeuralCCRegressor, ...), got {type(model).__name__}")
+    check_is_fitted(model, "functions_")
+    params = model.get_params(deep=False)
+    return {name: params[name] for name in SHARED}
+
+
+def _gauged(model: CCRegressor) -> tuple[dict, dict, set]:
+    """Every curve's constraints, the pinned parameters and the curves pinned to zero."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", GaugeWarning)
+        constraints, fixed, zeroed, _ = gauge_skeleton(model.skeleton_, model.gauge)
+    return constraints, fixed, zeroed
+
+
+def _n_free_params(model: CCRegressor) -> int:
+    fixed = _gauged(model)[1]
+    return len([a for a in model.skeleton_.params if a not in fixed])
+
+
+def _grid(model: CCRegressor, name: str, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = model.curve_ranges_[name]
+    if not hi > lo:
+        lo, hi = lo - 0.5, hi + 0.5
+    x = np.linspace(lo, hi, n_points)
+    values = np.broadcast_to(np.asarray(model.functions_[name](x), dtype=float), x.shape)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        raise ValueError(f"the fitted curve {name} is not finite at {x[bad[0]]:.6g}, inside "
+                         f"its training range [{lo:.6g}, {hi:.6g}]")
+    return x, np.array(values)
+
+
+def _rms(values: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(values))))
+
+
+def to_symbolic(
+    model: CCRegressor,
+    X=None,
+    y=None,
+    *,
+    engine: str = "operon",
+    binary_operators: Sequence[str] = ("+", "-", "*"),
+    unary_operators: Sequence[str] = ("tanh", "sin", "cos"),
+    maxsize: int = 20,
+    population_size: int = 500,
+    generations: int = 50,
+    n_points: int = 200,
+    model_selection: str = "best",
+    engine_options: Mapping | None = None,
+    random_state=None,
+) -> SymbolicCCRegressor:
+    """Write the curves of a fitted model as analytic expressions (post-SR).
+
+    Each fitted curve is sampled on ``n_points`` over the range of its
+    argument in training, and a one-dimensional symbolic regression
+    searches expressions for it, under the curve's constraints (an odd
+    curve stays odd, point values hold). The learned curve is a smoothed
+    picture of the data, so searching it is easier than searching the data.
+
+    How an expression is chosen from each search's Pareto front:
+
+    - without data, by its distance to the learned curve;
+    - with ``X`` (and ``y``), the measurements decide: each candidate's
+      numbers (and the skeleton's parameters) are refined by least squares
+      on the equation residuals, the candidate is scored by that residual,
+      and finally every number of every chosen expression and every
+      parameter are refined jointly. This removes what the learned curve got
+      wrong, not only what the search did.
+
+    Parameters
+    ----------
+    model : CCRegressor
+        A fitted model of any backend. It is not modified.
+    X : DataFrame, optional
+        Measurements to choose and refine the expressions on, as for
+        ``fit`` (``t`` needed when ``y`` is None).
+    y : DataFrame or array, optional
+        Measured derivatives, as for ``fit``.
+    engine, binary_operators, unary_operators, maxsize, population_size, generations
+        The search, as for :class:`SymbolicCCRegressor`.
+    n_points : int, default=200
+        Samples of each learned curve given to the search.
+    model_selection : {"best", "accuracy"}, default="best"
+        See :class:`SymbolicCCRegressor`.
+    engine_options : dict, optional
+        Extra keyword arguments for the engine.
+    random_state : int, RandomState or None
+        Seeds every search.
+
+    Returns
+    -------
+    SymbolicCCRegressor
+        Fitted, with the model's skeleton and the hyperparameters above. It
+        predicts and simulates with the compiled expressions. Besides
+        ``expressions_`` and ``pareto_`` (one table of candidates per curve,
+        with ``error``: the RMS distance to the learned curve on the grid),
+        ``conversion_`` is a DataFrame, one row per curve: ``expression``,
+        ``complexity``, ``error`` and ``relative_error`` (``error`` over the
+        RMS of the learned curve). Fitting it again runs the symbolic
+        backend from scratch.
+    """
+    shared = _check_model(model, "to_symbolic")
+    n_points = check_n_points(n_points)
+    target = SymbolicCCRegressor(
+        **shared, engine=engine, binary_operators=binary_operators,
+        unary_operators=unary_operators, maxsize=maxsize, population_size=population_size,
+        generations=generations, n_fit_points=n_points, model_selection=model_selection,
+        engine_options=engine_options, random_state=random_state)
+    target._check_params()
+    search = make_engine(engine)
+    rng = check_random_state(random_state)
+    constraints, _, zeroed = _gauged(model)
+    free = [f for f in model.skeleton_.functions if f not in zeroed]
+    problem = residuals = None
+    if X is not None:
+        problem = target._problem(X, y)
+        residuals = _Residuals(problem)
+    functions = dict(model.functions_)
+    params = dict(model.params_)
+    curves: dict[str, _Curve] = {}
+    pareto, summary = {}, []
+    for name in free:
+        seed = int(rng.randint(0, 2**31 - 1))
+        grid, learned = _grid(model, name, n_points)
+        parity = parity_of(constraints[name])
+        found = target._run_engine(search, grid, learned, parity, seed)
+        template = Template(parity, points_of(constraints[name]))
+        domain = (float(grid[0]), float(grid[-1]))
+        scored = []
+        for candidate in found:
+            curve = _Curve(candidate.expression, template, domain)
+            trial_params = params
+            if residuals is not None:
+                trial_params = SymbolicCCRegressor._polish(
+                    residuals, problem, {name: curve}, functions, params,
+                    effort=CANDIDATE_EFFORT)
+                loss = residuals.loss({**functions, name: curve.function()}, trial_params)
+            error = _rms(curve.function()(grid) - learned)
+            if residuals is None:
+                loss = error**2
+            if np.isfinite(loss) and np.isfinite(error):
+                scored.append((candidate, loss, error, curve, trial_params))
+        if not scored:
+            raise ValueError(f"the search found no finite expression for {name}: widen "
+                             "the operators or raise maxsize, population_size or generations")
+        k = select([(c, loss) for c, loss, *_ in scored], model_selection)
+        rows = []
+        for j, (candidate, loss, error, curve, _) in enumerate(scored):
+            row = {"complexity": candidate.complexity, "search_loss": candidate.loss,
+                   "error": error, "expression": curve.expression(), "chosen": j == k}
+            if residuals is not None:
+                row["loss"] = loss
+            rows.append(row)
+        pareto[name] = pd.DataFrame(rows).sort_values("complexity", ignore_index=True)
+        _, _, _, chosen, params = scored[k]
+        curves[name] = chosen
+        functions[name] = chosen.function()
+    if residuals is not None and curves:
+        params = SymbolicCCRegressor._polish(residuals, problem, curves, functions, params)
+    out = dict(model.functions_)
+    for name, curve in curves.items():
+        grid, learned = _grid(model, name, n_points)
+        expression = curve.expression()
+        out[name] = SymbolicCurve(expression, curve.domain)
+        error = _rms(out[name](grid) - learned)
+        scale = _rms(learned)
+        summary.append({"curve": name, "expression": expression,
+                        "complexity": int(out[name].complexity()), "error": error,
+                        "relative_error": error / scale if scale > 0 else np.inf})
+    for name in model.skeleton_.functions:
+        if name not in curves:
+            out[name] = ZeroCurve()
+    n_parameters = _n_free_params(model) + sum(len(c.expression.atoms(sympy.Float))
+                                       for c in out.values() if isinstance(c, SymbolicCurve))
+    target._adopt(model, out, params, n_parameters)
+    target._set_expressions()
+    target.pareto_ = pareto
+    target.n_iterations_ = 0
+    target.loss_history_ = ([residuals.loss(target.functions_, target.params_)]
+                            if residuals is not None else [])
+    target.conversion_ = pd.DataFrame(summary).set_index("curve") if summary else pd.DataFrame(
+        columns=["expression", "complexity", "error", "relative_error"])
+    return target
+
+
+def _table(name: str, value) -> tuple[np.ndarray, np.ndarray]:
+    if isinstance(value, pd.DataFrame):
+        missing = [c for c in ("x", name) if c not in value.columns]
+        if missing:
+            raise ValueError(f"the table given for {name} has no column {missing[0]!r}; "
+                             f"expected columns 'x' and {name!r} (as cc_curves returns)")
+        return value["x"].to_numpy(dtype=float), value[name].to_numpy(dtype=float)
+    try:
+        x, values = value
+    except (TypeError, ValueError):
+        raise ValueError(f"the table given for {name} must be a DataFrame with columns 'x' "
+                         f"and {name!r}, or a pair (x, values)") from None
+    return np.asarray(x, dtype=float), np.asarray(values, dtype=float)
+
+
+def to_interpolated(model: CCRegressor, curves: Mapping | None = None, *,
+                    n_points: int = 200, method: str = "pchip") -> InterpolatedCCRegressor:
+    """Replace the curves of a fitted model by interpolated tables (the paper's ``Interp``).
+
+    Parameters
+    ----------
+    model : CCRegressor
+        A fitted model of any backend. It is not modified.
+    curves : dict, optional
+        Tables to use instead of the model's own curves, by curve name:
+        a DataFrame with columns ``x`` and the name (as
+        :meth:`CCRegressor.cc_curves` returns) or a pair ``(x, values)``.
+        Curves not named are tabulated from the model.
+    n_points : int, default=200
+        Points of each table taken from the model, over the range of the
+        curve's argument in training.
+    method : {"pchip", "akima", "cubic", "linear"}, default="pchip"
+        How tables are interpolated: PCHIP is monotone cubic.
+
+    Returns
+    -------
+    InterpolatedCCRegressor
+        Fitted, with the model's skeleton and parameters; it predicts and
+        simulates from the tables, continuing each linearly beyond its ends.
+    """
+    shared = _check_model(model, "to_interpolated")
+    n_points = check_n_points(n_points)
+    check_method(method)
+    curves = dict(curves or {})
+    names = model.skeleton_.functions
+    unknown = [name for name in curves if name not in names]
+    if unknown:
+        raise ValueError(f"curves names {unknown[0]!r}, which is not a curve of the skeleton "
+                         f"({', '.join(names)})")
+    target = InterpolatedCCRegressor(**shared, estimator=clone(model), n_points=n_points,
+                                     method=method)
+    out = {}
+    for name in names:
+        if name in curves:
+            out[name] = InterpolatedCurve(*_table(name, curves[name]), method, name)
+        else:
+            lo, hi = model.curve_ranges_[name]
+            out[name] = tabulate(model.functions_[name], lo, hi, n_points, method, name)
+    n_parameters = _n_free_params(model) + sum(c.x.size for c in out.values()
+                                       if isinstance(c, InterpolatedCurve))
+    target._adopt(model, out, model.params_, n_parameters)
+    return target

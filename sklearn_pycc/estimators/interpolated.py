@@ -1,0 +1,232 @@
+"""Curves as interpolated tables: the seed paper's ``Interp`` simulation.
+
+An :class:`InterpolatedCurve` holds a curve's values on a grid and
+interpolates them piecewise-cubically (monotone cubic, PCHIP, by default),
+continuing linearly beyond the table. :class:`InterpolatedCCRegressor`
+fits another backend and tabulates its curves; :func:`to_interpolated`
+(in :mod:`.conversion`) converts an already fitted model.
+"""
+
+from __future__ import annotations
+
+from bisect import bisect_right
+from numbers import Integral
+
+import numpy as np
+import pandas as pd
+from scipy.interpolate import Akima1DInterpolator, CubicSpline, PchipInterpolator
+from sklearn.base import clone
+
+from ._basis import ZeroCurve
+from ._setup import Problem
+from .base import CCRegressor
+
+__all__ = ["INTERPOLATIONS", "InterpolatedCCRegressor", "InterpolatedCurve"]
+
+_CUBIC = {"pchip": PchipInterpolator, "akima": Akima1DInterpolator, "cubic": CubicSpline}
+#: interpolation methods of a table
+INTERPOLATIONS = ("pchip", "akima", "cubic", "linear")
+
+
+def check_method(method: str) -> str:
+    """``method`` if it is one of :data:`INTERPOLATIONS`, else a clear error."""
+    if method not in INTERPOLATIONS:
+        raise ValueError(f"method must be one of {INTERPOLATIONS}, got {method!r}")
+    return method
+
+
+class InterpolatedCurve:
+    """A curve interpolated from a table of values.
+
+    Inside the table the curve is the chosen piecewise polynomial; beyond it
+    the curve continues along the tangent at the nearest end (a cubic
+    extrapolated freely can turn away fast and make a simulation diverge).
+    Evaluation is a ``searchsorted`` and a Horner step in numpy.
+
+    Parameters
+    ----------
+    x, y : array-like of shape (n,)
+        The table: at least two points with ``x`` strictly increasing.
+    method : {"pchip", "akima", "cubic", "linear"}, default="pchip"
+        Monotone cubic (PCHIP: monotone data stay monotone, no overshoot),
+        Akima, a not-a-knot cubic spline, or straight lines.
+    name : str, default="curve"
+        The curve's name, used in error messages.
+    """
+
+    extrapolation = "linear"
+
+    def __init__(self, x, y, method: str = "pchip", name: str = "curve") -> None:
+        check_method(method)
+        x = np.asarray(x, dtype=float)
+        y = np.asarray(y, dtype=float)
+        if x.ndim != 1 or y.shape != x.shape:
+            raise ValueError(f"the table of {name} needs x and y of one same length, got "
+                             f"shapes {x.shape} and {y.shape}")
+        if x.size < 2:
+            raise ValueError(f"the table of {name} has {x.size} point(s); at least 2 are needed")
+        for label, values in (("x", x), ("y", y)):
+            bad = np.flatnonzero(~np.isfinite(values))
+            if bad.size:
+                raise ValueError(f"the table of {name} has a non-finite {label} at position "
+                                 f"{bad[0]} ({values[bad[0]]})")
+        steps = np.flatnonzero(np.diff(x) <= 0)
+        if steps.size:
+            k = int(steps[0]) + 1
+            raise ValueError(f"the table of {name} must have x strictly increasing, but x at "
+                             f"position {k} ({x[k]:.6g}) does not exceed the one before "
+                             f"({x[k - 1]:.6g})")
+        self.x = x
+        self.y = y
+        self.method = method
+        self.domain = (float(x[0]), float(x[-1]))
+        if method == "linear":
+            slopes = np.diff(y) / np.diff(x)
+            self._coefficients = np.vstack([slopes, y[:-1]])
+        else:
+            self._coefficients = np.asarray(_CUBIC[method](x, y).c)
+        self._end_slopes = (self._slope(0, 0.0), self._slope(x.size - 2, x[-1] - x[-2]))
+        # plain Python copies for the float -> float path of ODE right-hand sides
+        self._knot_list = x.tolist()
+        self._end_values = (float(y[0]), float(y[-1]))
+        self._piece_list = self._coefficients.T.tolist()
+
+    def _slope(self, piece: int, dx: float) -> float:
+        c = self._coefficients[:, piece]
+        order = c.size - 1
+        return float(sum(c[k] * (order - k) * dx ** (order - k - 1) for k in range(order)))
+
+    def __call__(self, x):
+        """The curve at ``x`` (array or scalar)."""
+        x = np.asarray(x, dtype=float)
+        knots, c = self.x, self._coefficients
+        piece = np.clip(np.searchsorted(knots, x, side="right") - 1, 0, knots.size - 2)
+        dx = x - knots[piece]
+        out = c[0, piece]
+        for row in c[1:]:
+            out = out * dx + row[piece]
+        below, above = x < knots[0], x > knots[-1]
+        out = np.where(below, self.y[0] + self._end_slopes[0] * (x - knots[0]), out)
+        out = np.where(above, self.y[-1] + self._end_slopes[1] * (x - knots[-1]), out)
+        return out if out.ndim else float(out)
+
+    def scalar(self, x: float) -> float:
+        """The curve at one float, in plain Python (for ODE right-hand sides)."""
+        knots = self._knot_list
+        if x < knots[0]:
+            return self._end_values[0] + self._end_slopes[0] * (x - knots[0])
+        if x > knots[-1]:
+            return self._end_values[1] + self._end_slopes[1] * (x - knots[-1])
+        piece = min(bisect_right(knots, x) - 1, len(knots) - 2)
+        dx = x - knots[piece]
+        out = 0.0
+        for c in self._piece_list[piece]:
+            out = out * dx + c
+        return out
+
+    def text(self, variable: str, precision: int = 6) -> str:
+        """A description of the table as a function of ``variable``."""
+        lo, hi = self.domain
+        return (f"{self.method}({variable}; {self.x.size} points on "
+                f"[{lo:.{precision}g}, {hi:.{precision}g}])")
+
+    def __repr__(self) -> str:
+        return f"InterpolatedCurve(method={self.method!r}, n_points={self.x.size})"
+
+
+def tabulate(curve, lo: float, hi: float, n_points: int, method: str,
+             name: str = "curve"):
+    """``curve`` sampled on ``n_points`` over ``[lo, hi]`` and interpolated.
+
+    A zero curve stays one; a curve whose argument never varied is
+    tabulated on a unit interval around it.
+    """
+    if isinstance(curve, ZeroCurve):
+        return curve
+    if not hi > lo:
+        lo, hi = lo - 0.5, hi + 0.5
+    x = np.linspace(lo, hi, int(n_points))
+    y = np.broadcast_to(np.asarray(curve(x), dtype=float), x.shape)
+    return InterpolatedCurve(x, y, method, name)
+
+
+def check_n_points(n_points) -> int:
+    """``n_points`` if it is an integer of at least 2, else a clear error."""
+    if not isinstance(n_points, Integral) or isinstance(n_points, bool) or n_points < 2:
+        raise ValueError(f"n_points must be an integer of at least 2, got {n_points!r}")
+    return int(n_points)
+
+
+class InterpolatedCCRegressor(CCRegressor):
+    """Characteristic curves as interpolated tables (the paper's ``Interp``).
+
+    Fits ``estimator`` on the skeleton, then replaces each of its curves by
+    an interpolant of its values on ``n_points`` over the range of the
+    curve's argument in the data. The tables are what the model keeps:
+    it predicts and simulates from them, and they are easy to hand to a
+    simulator that takes lookup tables. Convert an already fitted model with
+    :func:`sklearn_pycc.to_interpolated`.
+
+    Parameters
+    ----------
+    equations, constraints, gauge, differentiation, smooth_states
+        See :class:`CCRegressor`. They override the ``estimator``'s own.
+    estimator : CCRegressor, optional
+        The backend whose fitted curves are tabulated (not modified; a
+        clone is fitted). Default ``PolyCCRegressor()``.
+    n_points : int, default=200
+        Points of each table.
+    method : {"pchip", "akima", "cubic", "linear"}, default="pchip"
+        How the table is interpolated (see :class:`InterpolatedCurve`).
+
+    Attributes
+    ----------
+    estimator_ : CCRegressor
+        The fitted clone of ``estimator`` (absent after
+        :func:`~sklearn_pycc.to_interpolated`).
+    tables_ : dict of str -> DataFrame
+        Each curve's table, columns ``x`` and the curve's name.
+    """
+
+    def __init__(self, equations=None, constraints=None, estimator=None, n_points: int = 200,
+                 method: str = "pchip", gauge: str = "auto", differentiation="spline",
+                 smooth_states: bool = True) -> None:
+        super().__init__(equations=equations, constraints=constraints, gauge=gauge,
+                         differentiation=differentiation, smooth_states=smooth_states)
+        self.estimator = estimator
+        self.n_points = n_points
+        self.method = method
+
+    def _fit_problem(self, problem: Problem):
+        n_points = check_n_points(self.n_points)
+        check_method(self.method)
+        if self.estimator is None:
+            from .poly import PolyCCRegressor
+
+            backend = PolyCCRegressor()
+        elif isinstance(self.estimator, CCRegressor):
+            backend = clone(self.estimator)
+        else:
+            raise TypeError(f"estimator must be a CCRegressor backend, got "
+                            f"{type(self.estimator).__name__}")
+        functions, params = backend._fit_problem(problem)
+        backend._store(problem, functions, params)
+        self.estimator_ = backend
+        tables = {}
+        for name, curve in functions.items():
+            lo, hi = backend.curve_ranges_[name]
+            tables[name] = tabulate(curve, lo, hi, n_points, self.method, name)
+        return tables, params
+
+    def _curve_parameters(self, problem, name: str) -> int:
+        curve = self.functions_.get(name) if hasattr(self, "functions_") else None
+        return int(curve.x.size) if isinstance(curve, InterpolatedCurve) else 0
+
+    @property
+    def tables_(self) -> dict:
+        """Each curve's table, columns ``x`` and the curve's name."""
+        out = {}
+        for name, curve in self.functions_.items():
+            if isinstance(curve, InterpolatedCurve):
+                out[name] = pd.DataFrame({"x": curve.x, name: curve.y})
+        return out
