@@ -5,7 +5,7 @@ Write a structural skeleton as text, with unknown one-dimensional curves
 estimator.
 """
 
-from . import datasets
+from . import datasets, pycc
 from .diagnostics import compare_skeletons, diagnose, effects
 from .estimators import (
     CCRegressor,
@@ -45,6 +45,7 @@ __all__ = [
     "datasets",
     "diagnose",
     "effects",
+    "pycc",
     "to_interpolated",
     "to_symbolic",
 ]

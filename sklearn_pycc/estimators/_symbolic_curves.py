@@ -84,7 +84,12 @@ class Template:
             h = (g + g.subs(x, -x)) / 2
         else:
             h = g
-        h = sympy.expand(h) if h.is_polynomial(x) else h
+        if h.is_polynomial(x):
+            h = sympy.expand(h)
+        elif self.parity is not None:  # the two halves often combine when multiplied out
+            expanded = sympy.expand(h)
+            if sympy.count_ops(expanded) < sympy.count_ops(h):
+                h = expanded
         if not self.points:
             return h
         h_at = np.array([float(h.subs(x, a)) for a, _ in self.points])

@@ -14,7 +14,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from ..exceptions import GaugeWarning
 from ._basis import ZeroCurve
-from ._setup import gauge_skeleton, parity_of, points_of
+from ._setup import build_skeleton, gauge_skeleton, parity_of, points_of
 from ._symbolic_curves import SymbolicCurve, Template
 from ._symbolic_engines import make_engine
 from .base import CCRegressor
@@ -27,12 +27,14 @@ from .interpolated import (
 )
 from .symbolic import SymbolicCCRegressor, _Curve, _Residuals, select
 
-__all__ = ["to_interpolated", "to_symbolic"]
+__all__ = ["from_tables", "to_interpolated", "to_symbolic"]
 
 #: hyperparameters every backend shares, carried over to the converted model
 SHARED = ("equations", "constraints", "gauge", "differentiation", "smooth_states")
 #: residual evaluations per number when refining a candidate before comparing it
 CANDIDATE_EFFORT = 30
+#: candidates are compared with the learned curve on this many times the search's points
+CHECK_DENSITY = 10
 
 
 def _check_model(model, caller: str) -> dict:
@@ -134,7 +136,8 @@ def to_symbolic(
         Fitted, with the model's skeleton and the hyperparameters above. It
         predicts and simulates with the compiled expressions. Besides
         ``expressions_`` and ``pareto_`` (one table of candidates per curve,
-        with ``error``: the RMS distance to the learned curve on the grid),
+        with ``error``: the RMS distance to the learned curve on a grid ten
+        times finer than the search's),
         ``conversion_`` is a DataFrame, one row per curve: ``expression``,
         ``complexity``, ``error`` and ``relative_error`` (``error`` over the
         RMS of the learned curve). Fitting it again runs the symbolic
@@ -163,6 +166,9 @@ def to_symbolic(
     for name in free:
         seed = int(rng.randint(0, 2**31 - 1))
         grid, learned = _grid(model, name, n_points)
+        # candidates are judged between the search's points too: an expression that
+        # swings between them (sin of a steep tanh) matches the samples, not the curve
+        dense, dense_learned = _grid(model, name, CHECK_DENSITY * n_points)
         parity = parity_of(constraints[name])
         found = target._run_engine(search, grid, learned, parity, seed)
         template = Template(parity, points_of(constraints[name]))
@@ -176,7 +182,7 @@ def to_symbolic(
                     residuals, problem, {name: curve}, functions, params,
                     effort=CANDIDATE_EFFORT)
                 loss = residuals.loss({**functions, name: curve.function()}, trial_params)
-            error = _rms(curve.function()(grid) - learned)
+            error = _rms(curve.function()(dense) - dense_learned)
             if residuals is None:
                 loss = error**2
             if np.isfinite(loss) and np.isfinite(error):
@@ -200,7 +206,7 @@ def to_symbolic(
         params = SymbolicCCRegressor._polish(residuals, problem, curves, functions, params)
     out = dict(model.functions_)
     for name, curve in curves.items():
-        grid, learned = _grid(model, name, n_points)
+        grid, learned = _grid(model, name, CHECK_DENSITY * n_points)
         expression = curve.expression()
         out[name] = SymbolicCurve(expression, curve.domain)
         error = _rms(out[name](grid) - learned)
@@ -286,3 +292,57 @@ def to_interpolated(model: CCRegressor, curves: Mapping | None = None, *,
                                        if isinstance(c, InterpolatedCurve))
     target._adopt(model, out, model.params_, n_parameters)
     return target
+
+
+def from_tables(equations, curves: Mapping, params: Mapping | None = None, constraints=None,
+                *, method: str = "pchip") -> InterpolatedCCRegressor:
+    """A fitted model whose curves are the given tables (no data needed).
+
+    Parameters
+    ----------
+    equations : list of str or Skeleton
+        The skeleton.
+    curves : dict
+        A table for every curve of the skeleton, by name: a DataFrame with
+        columns ``x`` and the name, or a pair ``(x, values)``.
+    params : dict, optional
+        A value for every parameter ``a_i`` of the skeleton.
+    constraints : list, optional
+        The curves' constraints (kept for conversions such as
+        :func:`to_symbolic`; the tables are used as given).
+    method : {"pchip", "akima", "cubic", "linear"}, default="pchip"
+
+    Returns
+    -------
+    InterpolatedCCRegressor
+        Fitted: it predicts, simulates and converts like any fitted model;
+        it has seen no data (no ``n_features_in_``).
+    """
+    check_method(method)
+    model = InterpolatedCCRegressor(equations=equations, constraints=constraints,
+                                    method=method)
+    skeleton = build_skeleton(model.__dict__.get("equations"), constraints)
+    names = skeleton.functions
+    wrong = [name for name in curves if name not in names]
+    missing = [name for name in names if name not in curves]
+    if wrong or missing:
+        raise ValueError(f"curves must hold a table for each curve of the skeleton "
+                         f"({', '.join(names) or 'none'}): "
+                         + (f"{wrong[0]!r} is not one" if wrong else f"{missing[0]!r} is missing"))
+    params = dict(params or {})
+    unknown = [name for name in params if name not in skeleton.params]
+    absent = [name for name in skeleton.params if name not in params]
+    if unknown or absent:
+        raise ValueError(f"params must give a value for each parameter of the skeleton "
+                         f"({', '.join(skeleton.params) or 'none'}): "
+                         + (f"{unknown[0]!r} is not one" if unknown else
+                            f"{absent[0]!r} is missing"))
+    functions = {name: InterpolatedCurve(*_table(name, curves[name]), method, name)
+                 for name in names}
+    model.skeleton_ = skeleton
+    model.gauge_ = {}
+    model.curve_ranges_ = {name: curve.domain for name, curve in functions.items()}
+    model._y_1d = False
+    model._adopt(model, functions, params,
+                 len(params) + sum(c.x.size for c in functions.values()))
+    return model

@@ -1,0 +1,25 @@
+"""The method's published functional API: ``train``, ``simulate``, ``post_processing``.
+
+Scripts written for the published package run after changing only the
+import::
+
+    from sklearn_pycc import pycc
+
+    models, evals, obtained_coefs = pycc.train(df, eqs, method="NN", params=params_NN)
+    sol, derivatives = pycc.simulate(eqs, method="NN", params=params_NN_simul)
+
+Each call translates the paper's ``params`` onto an estimator
+(:class:`~sklearn_pycc.NeuralCCRegressor`, :class:`~sklearn_pycc.PolyCCRegressor`,
+:class:`~sklearn_pycc.SymbolicCCRegressor`) and returns its results in the
+paper's shapes; ``models.estimator`` is the fitted estimator, to go on with
+the estimator API. Curves are matched by name, never by position. Unlike
+the published package, an unknown ``params`` key is an error naming the
+nearest known one.
+"""
+
+from ._post import post_processing
+from ._shared import Models
+from ._simulate import simulate
+from ._train import train
+
+__all__ = ["Models", "post_processing", "simulate", "train"]
