@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 from sklearn_pycc import (
+    InterpolatedCCRegressor,
     NeuralCCRegressor,
     PolyCCRegressor,
     SimulationError,
@@ -142,6 +143,7 @@ def test_nn_listing_reaches_the_published_workflow_accuracy(listing_data, nn_lis
         'check_nan': True
     }
     sol, _ = pycc.simulate(eqs, method='NN', params=params_NN_simul)
+    assert sol.estimator is models.estimator
     time_sim = sol.t
     x1_sim = sol.y[0]
     assert sol.success
@@ -183,6 +185,8 @@ def test_post_processing_and_interp_listing(listing_data, nn_listing):
     }
     sol, derivs = pycc.simulate(eqs, method='Interp', params=params_sim_interp)
     assert sol.success and derivs.shape == (2, 1000)
+    assert isinstance(sol.estimator, InterpolatedCCRegressor)
+    assert np.allclose(sol.estimator.simulate(t_eval, y0, {'F_ext': F_ext})["x1"], sol.y[0])
     assert float(np.max(np.abs(sol.y[0] - x1_data))) <= 5e-2
     assert "tanh" in models_sr["f1"]["expr"]
     x_f1, f1_sr = evals_sr[0], evals_sr[1]

@@ -57,6 +57,10 @@ class Params:
     def __getitem__(self, key: str):
         return self._values[key]
 
+    def get(self, key: str, default=None):
+        """The value of ``key``, or ``default`` for a key this call does not take."""
+        return self._values.get(key, default)
+
     def supplied(self, key: str) -> bool:
         """Whether the user gave ``key``."""
         return key in self._supplied

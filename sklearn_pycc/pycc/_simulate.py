@@ -7,6 +7,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 from scipy.optimize import OptimizeResult
 
+from ..estimators.conversion import from_tables
 from ..estimators.interpolated import InterpolatedCurve
 from ..exceptions import SimulationError
 from ..skeleton import Skeleton
@@ -77,6 +78,16 @@ def _functions(skeleton: Skeleton, method: str, read: Params, local: dict, where
     return out
 
 
+def _estimator(skeleton: Skeleton, method: str, read: Params, functions: dict, values: dict):
+    """The fitted estimator behind a simulation, when there is one."""
+    if method == "Interp":
+        tables = {name: (curve.x, curve.y) for name, curve in functions.items()}
+        return from_tables(list(skeleton.equations), tables, values,
+                           method=read["interp_method"])
+    models = read.get("models")
+    return getattr(models, "estimator", None)
+
+
 def _times(read: Params, where: str) -> tuple[np.ndarray, bool]:
     """Output times, and whether ``t_span[0]`` was prepended as the start."""
     try:
@@ -125,8 +136,11 @@ def simulate(equations, method: str = "Theoretical", params: dict | None = None)
     -------
     sol : OptimizeResult
         ``sol.t``, ``sol.y`` (one row per state, in the order of the
-        equations), ``sol.success``, ``sol.message`` and ``sol.frame`` (a
-        DataFrame of the trajectory).
+        equations), ``sol.success``, ``sol.message``, ``sol.frame`` (a
+        DataFrame of the trajectory) and ``sol.estimator``: the fitted
+        estimator simulated (that of ``models``, or for Interp an
+        :class:`~sklearn_pycc.InterpolatedCCRegressor` of the tables; None
+        for Theoretical).
     derivatives : ndarray of shape (n_states, n_times)
         The right-hand side along the trajectory.
     """
@@ -177,5 +191,6 @@ def simulate(equations, method: str = "Theoretical", params: dict | None = None)
         frame = frame.iloc[1:].reset_index(drop=True)
     sol = OptimizeResult(t=frame["t"].to_numpy(), y=frame[skeleton.states].to_numpy().T,
                          success=success, status=0 if success else -1, message=message,
-                         frame=frame)
+                         frame=frame, estimator=_estimator(skeleton, method, read, functions,
+                                                           values))
     return sol, frame[skeleton.derivatives].to_numpy().T
