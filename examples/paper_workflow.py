@@ -1,9 +1,10 @@
-"""The seed paper's NN-CC workflow, written against the published package's API.
+"""The seed paper's illustrative example (NN-CC workflow) against the published package's API.
 
 Only the import differs from the paper's listings: ``from sklearn_pycc import
 pycc``. It generates the stick-slip data, identifies f1 and f2 with neural
 networks, simulates the identified model, turns the curves into expressions
-(post-SR) and simulates those through interpolated tables. Run::
+(post-SR) and simulates those through interpolated tables; the figures
+(curves.png, post_sr.png, trajectories.png) go to the output folder. Run::
 
     python examples/paper_workflow.py [output-folder]
 """
@@ -88,6 +89,15 @@ params_sim_interp = {'evals': evals_sr, 'obtained_coefs': obtained_coefs,
                      'local_funcs': {'F_ext': F_ext}, 'interp_method': 'pchip',
                      't_span': t_span, 'y0': y0, 't_eval': t_eval}
 interp, _ = pycc.simulate(eqs, method='Interp', params=params_sim_interp)
+
+fig, ax = plt.subplots(figsize=(8, 4))
+ax.plot(sol.t, sol.y[0], label='x(t) th')
+ax.plot(sim.t, sim.y[0], '--', label='x(t) simulated with NN method')
+ax.plot(interp.t, interp.y[0], ':', label='x(t) post-SR, pchip tables')
+ax.set_xlabel('t')
+ax.set_ylabel('x(t)')
+ax.legend()
+fig.savefig(out / "trajectories.png", dpi=100)
 
 for name in ("f1", "f2"):
     print(f"{name}(x) = {models_sr[name]['expr']}")
