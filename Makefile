@@ -17,7 +17,7 @@ $(BIN)/python:
 $(STAMP): $(BIN)/python pyproject.toml requirements/constraints.txt
 	$(PIP) install --upgrade pip setuptools wheel
 	$(PIP) install "torch==2.13.0"
-	$(PIP) install -e ".[dev,differentiation,symbolic]"
+	$(PIP) install -e ".[dev,differentiation,symbolic,dist]"
 	touch $(STAMP)
 
 install: $(STAMP)
