@@ -405,16 +405,21 @@ def _symbolic_duffing():
     return frame, truth, fit
 
 
-def case_symbolic_simulate() -> Case:
-    frame, truth, fit = _symbolic_duffing()
-    model = fit()
-    t = frame["t"].to_numpy()[:500]
-    ours, reference = _simulation_pair(model, t, truth, _duffing_rhs)
+def _symbolic_simulation_case(label: str, model, t, truth, true_rhs) -> Case:
+    """``simulate`` of a symbolic model against the true equations, its curves in the check."""
+    ours, reference = _simulation_pair(model, t, truth, true_rhs)
     sim, ref = ours(), reference()
     check = (f"max |x1 ours - x1 ref| {np.abs(sim['x1'].to_numpy() - ref.y[0]).max():.1e}; "
              f"{'; '.join(model.equations()[2:])}")
-    return Case(f"i. simulate Duffing SymbR-CC, {len(t)} pts", ours, reference,
-                "solve_ivp LSODA, numpy rhs", 3.0, check)
+    return Case(f"{label}, {len(t)} pts", ours, reference, "solve_ivp LSODA, numpy rhs", 3.0,
+                check)
+
+
+def case_symbolic_simulate() -> Case:
+    frame, truth, fit = _symbolic_duffing()
+    model = fit()
+    return _symbolic_simulation_case("i. simulate Duffing SymbR-CC", model,
+                                     frame["t"].to_numpy()[:500], truth, _duffing_rhs)
 
 
 def _post_sr_stick_slip():
@@ -432,13 +437,8 @@ def _post_sr_stick_slip():
 def case_post_sr_simulate() -> Case:
     frame, truth, _, (_, with_data) = _post_sr_stick_slip()
     model = with_data()
-    t = frame["t"].to_numpy()
-    ours, reference = _simulation_pair(model, t, truth)
-    sim, ref = ours(), reference()
-    check = (f"max |x1 ours - x1 ref| {np.abs(sim['x1'].to_numpy() - ref.y[0]).max():.1e}; "
-             f"{'; '.join(model.equations()[2:])}")
-    return Case(f"j. simulate stick-slip post-SR, {len(t)} pts", ours, reference,
-                "solve_ivp LSODA, numpy rhs", 3.0, check)
+    return _symbolic_simulation_case("j. simulate stick-slip post-SR", model,
+                                     frame["t"].to_numpy(), truth, _true_rhs)
 
 
 def _curve_rmse_text(model, truth) -> str:

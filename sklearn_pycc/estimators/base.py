@@ -316,6 +316,10 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         for name in adopted:
             if hasattr(source, name):
                 setattr(self, name, copy.deepcopy(getattr(source, name)))
+        self._install(functions, params, n_parameters)
+
+    def _install(self, functions: Mapping, params: Mapping, n_parameters: int) -> None:
+        """Set the fitted curves and parameters of ``skeleton_`` (already set)."""
         skeleton = self.skeleton_
         self.params_ = {a: float(params[a]) for a in skeleton.params}
         self.functions_ = {f: functions[f] for f in skeleton.functions}

@@ -23,6 +23,7 @@ from .interpolated import (
     InterpolatedCurve,
     check_method,
     check_n_points,
+    sample_curve,
     tabulate,
 )
 from .symbolic import SymbolicCCRegressor, _Curve, _Residuals, select
@@ -54,22 +55,18 @@ def _gauged(model: CCRegressor) -> tuple[dict, dict, set]:
     return constraints, fixed, zeroed
 
 
-def _n_free_params(model: CCRegressor) -> int:
-    fixed = _gauged(model)[1]
+def _n_free_params(model: CCRegressor, fixed: Mapping) -> int:
     return len([a for a in model.skeleton_.params if a not in fixed])
 
 
 def _grid(model: CCRegressor, name: str, n_points: int) -> tuple[np.ndarray, np.ndarray]:
-    lo, hi = model.curve_ranges_[name]
-    if not hi > lo:
-        lo, hi = lo - 0.5, hi + 0.5
-    x = np.linspace(lo, hi, n_points)
-    values = np.broadcast_to(np.asarray(model.functions_[name](x), dtype=float), x.shape)
+    """The fitted curve ``name`` over its training range; it must be finite there."""
+    x, values = sample_curve(model.functions_[name], *model.curve_ranges_[name], n_points)
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
         raise ValueError(f"the fitted curve {name} is not finite at {x[bad[0]]:.6g}, inside "
-                         f"its training range [{lo:.6g}, {hi:.6g}]")
-    return x, np.array(values)
+                         f"its training range [{x[0]:.6g}, {x[-1]:.6g}]")
+    return x, values
 
 
 def _rms(values: np.ndarray) -> float:
@@ -153,7 +150,7 @@ def to_symbolic(
     target._check_params()
     search = make_engine(engine)
     rng = check_random_state(random_state)
-    constraints, _, zeroed = _gauged(model)
+    constraints, fixed, zeroed = _gauged(model)
     free = [f for f in model.skeleton_.functions if f not in zeroed]
     problem = residuals = None
     if X is not None:
@@ -162,13 +159,14 @@ def to_symbolic(
     functions = dict(model.functions_)
     params = dict(model.params_)
     curves: dict[str, _Curve] = {}
+    checks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     pareto, summary = {}, []
     for name in free:
         seed = int(rng.randint(0, 2**31 - 1))
         grid, learned = _grid(model, name, n_points)
         # candidates are judged between the search's points too: an expression that
         # swings between them (sin of a steep tanh) matches the samples, not the curve
-        dense, dense_learned = _grid(model, name, CHECK_DENSITY * n_points)
+        dense, dense_learned = checks[name] = _grid(model, name, CHECK_DENSITY * n_points)
         parity = parity_of(constraints[name])
         found = target._run_engine(search, grid, learned, parity, seed)
         template = Template(parity, points_of(constraints[name]))
@@ -206,7 +204,7 @@ def to_symbolic(
         params = SymbolicCCRegressor._polish(residuals, problem, curves, functions, params)
     out = dict(model.functions_)
     for name, curve in curves.items():
-        grid, learned = _grid(model, name, CHECK_DENSITY * n_points)
+        grid, learned = checks[name]
         expression = curve.expression()
         out[name] = SymbolicCurve(expression, curve.domain)
         error = _rms(out[name](grid) - learned)
@@ -217,7 +215,7 @@ def to_symbolic(
     for name in model.skeleton_.functions:
         if name not in curves:
             out[name] = ZeroCurve()
-    n_parameters = _n_free_params(model) + sum(len(c.expression.atoms(sympy.Float))
+    n_parameters = _n_free_params(model, fixed) + sum(len(c.expression.atoms(sympy.Float))
                                        for c in out.values() if isinstance(c, SymbolicCurve))
     target._adopt(model, out, params, n_parameters)
     target._set_expressions()
@@ -288,7 +286,7 @@ def to_interpolated(model: CCRegressor, curves: Mapping | None = None, *,
         else:
             lo, hi = model.curve_ranges_[name]
             out[name] = tabulate(model.functions_[name], lo, hi, n_points, method, name)
-    n_parameters = _n_free_params(model) + sum(c.x.size for c in out.values()
+    n_parameters = _n_free_params(model, _gauged(model)[1]) + sum(c.x.size for c in out.values()
                                        if isinstance(c, InterpolatedCurve))
     target._adopt(model, out, model.params_, n_parameters)
     return target
@@ -321,28 +319,13 @@ def from_tables(equations, curves: Mapping, params: Mapping | None = None, const
     check_method(method)
     model = InterpolatedCCRegressor(equations=equations, constraints=constraints,
                                     method=method)
-    skeleton = build_skeleton(model.__dict__.get("equations"), constraints)
-    names = skeleton.functions
-    wrong = [name for name in curves if name not in names]
-    missing = [name for name in names if name not in curves]
-    if wrong or missing:
-        raise ValueError(f"curves must hold a table for each curve of the skeleton "
-                         f"({', '.join(names) or 'none'}): "
-                         + (f"{wrong[0]!r} is not one" if wrong else f"{missing[0]!r} is missing"))
-    params = dict(params or {})
-    unknown = [name for name in params if name not in skeleton.params]
-    absent = [name for name in skeleton.params if name not in params]
-    if unknown or absent:
-        raise ValueError(f"params must give a value for each parameter of the skeleton "
-                         f"({', '.join(skeleton.params) or 'none'}): "
-                         + (f"{unknown[0]!r} is not one" if unknown else
-                            f"{absent[0]!r} is missing"))
-    functions = {name: InterpolatedCurve(*_table(name, curves[name]), method, name)
-                 for name in names}
+    skeleton = build_skeleton(equations, constraints)
+    functions = {name: InterpolatedCurve(*_table(name, table), method, name)
+                 for name, table in curves.items()}
+    functions, params = skeleton.check_values(functions, params)
     model.skeleton_ = skeleton
     model.gauge_ = {}
     model.curve_ranges_ = {name: curve.domain for name, curve in functions.items()}
     model._y_1d = False
-    model._adopt(model, functions, params,
-                 len(params) + sum(c.x.size for c in functions.values()))
+    model._install(functions, params, len(params) + sum(c.x.size for c in functions.values()))
     return model

@@ -21,7 +21,8 @@ from ._basis import ZeroCurve
 from ._setup import Problem
 from .base import CCRegressor
 
-__all__ = ["INTERPOLATIONS", "InterpolatedCCRegressor", "InterpolatedCurve"]
+__all__ = ["INTERPOLATIONS", "InterpolatedCCRegressor", "InterpolatedCurve",
+           "sample_curve", "tabulate"]
 
 _CUBIC = {"pchip": PchipInterpolator, "akima": Akima1DInterpolator, "cubic": CubicSpline}
 #: interpolation methods of a table
@@ -134,20 +135,26 @@ class InterpolatedCurve:
         return f"InterpolatedCurve(method={self.method!r}, n_points={self.x.size})"
 
 
+def sample_curve(curve, lo: float, hi: float, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """``curve`` on ``n_points`` evenly spaced over ``[lo, hi]``.
+
+    A range that never varied is widened to a unit interval around it.
+    """
+    if not hi > lo:
+        lo, hi = lo - 0.5, hi + 0.5
+    x = np.linspace(lo, hi, int(n_points))
+    return x, np.array(np.broadcast_to(np.asarray(curve(x), dtype=float), x.shape))
+
+
 def tabulate(curve, lo: float, hi: float, n_points: int, method: str,
              name: str = "curve"):
     """``curve`` sampled on ``n_points`` over ``[lo, hi]`` and interpolated.
 
-    A zero curve stays one; a curve whose argument never varied is
-    tabulated on a unit interval around it.
+    A zero curve stays one.
     """
     if isinstance(curve, ZeroCurve):
         return curve
-    if not hi > lo:
-        lo, hi = lo - 0.5, hi + 0.5
-    x = np.linspace(lo, hi, int(n_points))
-    y = np.broadcast_to(np.asarray(curve(x), dtype=float), x.shape)
-    return InterpolatedCurve(x, y, method, name)
+    return InterpolatedCurve(*sample_curve(curve, lo, hi, n_points), method, name)
 
 
 def check_n_points(n_points) -> int:

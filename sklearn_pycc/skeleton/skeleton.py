@@ -263,7 +263,13 @@ class Skeleton:
         return analyse(self)
 
     # -- evaluation -------------------------------------------------------------
-    def _check_values(self, functions: Mapping | None, params: Mapping | None):
+    def check_values(self, functions: Mapping | None, params: Mapping | None):
+        """``(functions, params)`` checked to give exactly the skeleton's curves and parameters.
+
+        Raises a ``ValueError`` naming the first missing or unknown name (a
+        ``TypeError`` for a curve that is not callable); parameter values are
+        returned as floats.
+        """
         functions = dict(functions or {})
         params = dict(params or {})
         for kind, given, needed in (("curve", functions, self.functions),
@@ -285,7 +291,7 @@ class Skeleton:
     def compile(self, functions: Mapping[str, Callable] | None = None,
                 params: Mapping[str, float] | None = None) -> CompiledSystem:
         """Compile the right-hand side with given curves and parameter values."""
-        functions, params = self._check_values(functions, params)
+        functions, params = self.check_values(functions, params)
         return CompiledSystem(self._equations, self.states, self.inputs, params, functions)
 
     def simulate(
