@@ -7,9 +7,10 @@ BIN := $(VENV)/bin
 export PIP_CONSTRAINT := $(CURDIR)/requirements/constraints.txt
 PIP := $(BIN)/python -m pip --disable-pip-version-check
 STAMP := $(VENV)/.installed
+DOCS_STAMP := $(VENV)/.docs-installed
 NPROC := $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: install test test-slow demo lint bench clean
+.PHONY: install test test-slow demo lint docs docs-noplot bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -32,8 +33,21 @@ test-slow: $(STAMP)
 demo: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python examples/hypothesis_loop.py demo-output
 
+$(DOCS_STAMP): $(STAMP)
+	$(PIP) install -e ".[docs]"
+	touch $(DOCS_STAMP)
+
+# the documentation, warnings as errors; the gallery runs examples/plot_*.py.
+# Open docs/_build/html/index.html. docs-noplot skips running the examples.
+SPHINXBUILD = OMP_NUM_THREADS=1 MPLBACKEND=Agg $(BIN)/sphinx-build -W --keep-going -b html
+docs: $(DOCS_STAMP)
+	$(SPHINXBUILD) docs docs/_build/html
+
+docs-noplot: $(DOCS_STAMP)
+	$(SPHINXBUILD) -D plot_gallery=0 docs docs/_build/html
+
 lint: $(STAMP)
-	$(BIN)/ruff check sklearn_pycc tests examples asv_benchmarks
+	$(BIN)/ruff check sklearn_pycc tests examples asv_benchmarks docs
 
 # compare.py: side-by-side timings against reference implementations (it
 # reports, never fails); then the asv suite, once (--quick), in .venv itself
@@ -49,4 +63,5 @@ bench: $(STAMP)
 	    $${commit:+--set-commit-hash $$commit}
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache demo-output
+	rm -rf $(VENV) build *.egg-info .pytest_cache demo-output docs/_build docs/generated \
+	  docs/auto_examples docs/sg_execution_times.rst

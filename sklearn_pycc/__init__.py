@@ -5,14 +5,15 @@ Write a structural skeleton as text, with unknown one-dimensional curves
 estimator.
 """
 
-from . import datasets, pycc
-from .diagnostics import compare_skeletons, diagnose, effects
+from . import datasets, effects, pycc
+from .diagnostics import compare_skeletons, diagnose
 from .estimators import (
     CCRegressor,
     InterpolatedCCRegressor,
     NeuralCCRegressor,
     PolyCCRegressor,
     SymbolicCCRegressor,
+    from_tables,
     to_interpolated,
     to_symbolic,
 )
@@ -45,6 +46,7 @@ __all__ = [
     "datasets",
     "diagnose",
     "effects",
+    "from_tables",
     "pycc",
     "to_interpolated",
     "to_symbolic",

@@ -1,7 +1,7 @@
 """Estimators: the shared :class:`CCRegressor` base, one module per backend, conversions."""
 
 from .base import CCRegressor
-from .conversion import to_interpolated, to_symbolic
+from .conversion import from_tables, to_interpolated, to_symbolic
 from .interpolated import InterpolatedCCRegressor
 from .neural import NeuralCCRegressor
 from .poly import PolyCCRegressor
@@ -13,6 +13,7 @@ __all__ = [
     "NeuralCCRegressor",
     "PolyCCRegressor",
     "SymbolicCCRegressor",
+    "from_tables",
     "to_interpolated",
     "to_symbolic",
 ]

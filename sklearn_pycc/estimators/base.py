@@ -56,19 +56,7 @@ class EquationsView(list):
         self._estimator = estimator
 
     def __call__(self, precision: int = 6) -> list[str]:
-        """The fitted model written out.
-
-        Parameters
-        ----------
-        precision : int, default=6
-            Significant digits of the numbers.
-
-        Returns
-        -------
-        list of str
-            One line per equation with the fitted parameters substituted,
-            then one line per curve with its fitted expression.
-        """
+        """The fitted model written out to ``precision`` digits (see ``equations_text``)."""
         return self._estimator.equations_text(precision)
 
 
@@ -95,7 +83,10 @@ class CCRegressor(RegressorMixin, BaseEstimator):
     ----------
     equations : list of str or Skeleton
         The structural skeleton, e.g.
-        ``["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]``.
+        ``["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]``. After
+        ``fit``, calling it, ``model.equations(precision=6)``, returns the
+        fitted model written out (:meth:`equations_text`); the value stays
+        the list given.
     constraints : list of str or dict, optional
         Prior knowledge: ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"`` or
         ``{"constraint": "f1 odd"}``.
@@ -479,7 +470,20 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         return "u"
 
     def equations_text(self, precision: int = 6) -> list[str]:
-        """The fitted model written out (see :meth:`equations`)."""
+        """The fitted model written out; ``model.equations()`` returns the same.
+
+        Parameters
+        ----------
+        precision : int, default=6
+            Significant digits of the numbers.
+
+        Returns
+        -------
+        list of str
+            One line per equation with the fitted parameters substituted,
+            then one line per curve with its fitted expression (a curve of
+            an expression argument is written over ``u``, with ``u`` given).
+        """
         check_is_fitted(self, "functions_")
         lines = []
         for eq in self.skeleton_.parsed:

@@ -99,7 +99,8 @@ class NeuralCCRegressor(CCRegressor):
     Parameters
     ----------
     equations : list of str or Skeleton
-        The structural skeleton.
+        The structural skeleton. After ``fit``, ``model.equations()`` returns
+        the fitted model written out (:meth:`~CCRegressor.equations_text`).
     constraints : list of str or dict, optional
         ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, ...
     hidden_layer_sizes : tuple of int, default=(16, 16)
