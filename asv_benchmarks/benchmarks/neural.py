@@ -11,7 +11,8 @@ class NeuralCCRegressorBenchmark(SystemBenchmark):
     """Fit, predict, simulate and accuracy of NeuralCCRegressor (default settings).
 
     ``case``: the stick-slip oscillator with its functional skeleton (f1, f2
-    odd) or the hybrid one (f1 odd, spring ``a4 x1 + a5 x1^3``).
+    odd) or the hybrid one (f1 odd, spring ``a4 x1 + a5 x1^3``), and the
+    chaotic Duffing oscillator with its functional skeleton (f1, f2 odd).
     """
 
     CASES = {
@@ -25,6 +26,11 @@ class NeuralCCRegressorBenchmark(SystemBenchmark):
             "equations": HYBRID,
             "constraints": ["f1 odd"],
             "curves": stick_slip_curves,
+        },
+        "duffing_functional": {
+            "system": "duffing",
+            "equations": FUNCTIONAL,
+            "constraints": ["f1 odd", "f2 odd"],
         },
     }
     params = (list(CASES),)

@@ -20,11 +20,16 @@ from .systems import FUNCTIONAL, INPUTS, STATES, TARGETS, SystemBenchmark
 class SymbolicCCRegressorBenchmark(SystemBenchmark):
     """Fit, predict, simulate and accuracy of SymbolicCCRegressor (default settings).
 
-    ``case``: the forced Duffing oscillator with its functional skeleton.
+    ``case``: the forced Duffing oscillator and the stick-slip oscillator,
+    each with its functional skeleton (the stick-slip friction odd).
     """
 
-    CASES = {"duffing_functional": {"system": "duffing", "equations": FUNCTIONAL,
-                                    "constraints": None}}
+    CASES = {
+        "duffing_functional": {"system": "duffing", "equations": FUNCTIONAL,
+                               "constraints": None},
+        "stick_slip_functional": {"system": "stick_slip", "equations": FUNCTIONAL,
+                                  "constraints": ["f1 odd"]},
+    }
     params = (list(CASES),)
     # a fit takes seconds: fewer repeats
     repeat = (2, 5, 30.0)
