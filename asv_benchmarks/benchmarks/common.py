@@ -15,9 +15,14 @@ data and its estimator for one combination of ``params``::
         def make_estimator(self, params):
             return PolyCCRegressor(...)
 
+        def setup_cache(self):
+            return self.fit_every_case()
+
 Every estimator is fitted once, in ``setup_cache`` (asv runs it once per
 class and hands its pickled result to every benchmark), so ``time_predict``
-and the ``track_*`` methods do not pay for fitting.
+and the ``track_*`` methods do not pay for fitting. Each concrete class
+writes ``def setup_cache(self): return self.fit_every_case()`` itself: asv
+tells caches apart by where ``setup_cache`` is written.
 """
 
 from __future__ import annotations
@@ -82,8 +87,14 @@ class Estimator(ABC):
         """Every combination of ``params`` as a tuple, in asv's order."""
         return list(itertools.product(*self.params))
 
-    def setup_cache(self):
-        """Fit every estimator once; asv pickles the result for all benchmarks."""
+    def fit_every_case(self):
+        """Fit every estimator once (the body of each class's ``setup_cache``).
+
+        asv keys a ``setup_cache`` by the file and line where it is written,
+        not by class: one defined here would be run for the first class only
+        and its result handed to every other. Each concrete class therefore
+        writes its own one-line ``setup_cache`` returning this.
+        """
         fitted = {}
         for params in self.combinations():
             if self.skip(params):
@@ -94,10 +105,14 @@ class Estimator(ABC):
                 warnings.simplefilter("ignore")
                 estimator.fit(data.X, data.y)
             fitted[params] = (data, estimator)
-        return fitted
+        return {"owner": type(self).__qualname__, "fitted": fitted}
 
-    def setup(self, fitted, *params):
+    def setup(self, cache, *params):
         """Load the data and the fitted estimator of this combination of ``params``."""
+        if cache["owner"] != type(self).__qualname__:
+            raise RuntimeError(f"{type(self).__qualname__} got the cache of {cache['owner']}: "
+                               "define setup_cache in the class itself")
+        fitted = cache["fitted"]
         if params not in fitted:
             raise NotImplementedError(f"skipped: {params}")
         if getattr(self, "blas_threads", None):
