@@ -29,6 +29,10 @@ EXPECTED = {
 }
 
 
+def docstring_of(path: Path) -> str:
+    return ast.get_docstring(ast.parse(path.read_text()), clean=False) or ""
+
+
 def test_the_gallery_holds_every_promised_example():
     assert {path.name for path in GALLERY} >= EXPECTED
 
@@ -40,10 +44,6 @@ def test_every_example_has_a_title_and_an_introduction():
         assert len(lines) >= 4, path.name
         assert set(lines[1].strip()) == {"="} and len(lines[1].strip()) >= len(lines[0].strip()), \
             f"{path.name}: the title must be underlined with '='"
-
-
-def docstring_of(path: Path) -> str:
-    return ast.get_docstring(ast.parse(path.read_text()), clean=False) or ""
 
 
 @pytest.mark.parametrize("path", GALLERY, ids=[path.stem for path in GALLERY])
