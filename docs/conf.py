@@ -8,10 +8,8 @@ from __future__ import annotations
 
 import os
 import warnings
-from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-import sklearn_pycc  # noqa: E402
+import sklearn_pycc
 
 project = "sklearn-pycc"
 author = "the sklearn-pycc developers"
@@ -28,8 +26,7 @@ extensions = [
 ]
 
 templates_path = ["_templates"]
-exclude_patterns = ["_build", "auto_examples/*.ipynb", "auto_examples/*.py",
-                    "auto_examples/*.zip", "auto_examples/*.md5", "auto_examples/*.json"]
+exclude_patterns = ["_build"]
 default_role = "literal"
 root_doc = "index"
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from sklearn_pycc import InterpolatedCCRegressor, PolyCCRegressor
 
-from .systems import FUNCTIONAL, SystemBenchmark
+from .poly import PolyCCRegressorBenchmark
+from .systems import SystemBenchmark
 
 
 class InterpolatedCCRegressorBenchmark(SystemBenchmark):
@@ -15,25 +16,15 @@ class InterpolatedCCRegressorBenchmark(SystemBenchmark):
     oscillator with its functional skeleton.
     """
 
-    CASES = {
-        "stick_slip_functional": {
-            "system": "stick_slip",
-            "equations": FUNCTIONAL,
-            "constraints": ["f1 odd", "f2(0)=0"],
-        },
-        "duffing_functional": {
-            "system": "duffing",
-            "equations": FUNCTIONAL,
-            "constraints": ["f1 odd", "f2 odd"],
-        },
-    }
+    CASES = {name: PolyCCRegressorBenchmark.CASES[name]
+             for name in ("stick_slip_functional", "duffing_functional")}
     params = (list(CASES),)
 
     def setup_cache(self):  # one per class: asv keys the cache by this line
         return self.fit_every_case()
 
     def make_estimator(self, params):
-        (case,) = params
-        return InterpolatedCCRegressor(equations=self.equations(case),
-                                       constraints=self.CASES[case]["constraints"],
+        (name,) = params
+        return InterpolatedCCRegressor(equations=self.equations(name),
+                                       constraints=self.CASES[name]["constraints"],
                                        estimator=PolyCCRegressor(degree=7))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from sklearn_pycc import NeuralCCRegressor
 
-from .systems import FUNCTIONAL, HYBRID, SystemBenchmark, stick_slip_curves
+from .systems import FUNCTIONAL, HYBRID, SystemBenchmark, case, stick_slip_curves
 
 
 class NeuralCCRegressorBenchmark(SystemBenchmark):
@@ -16,31 +16,18 @@ class NeuralCCRegressorBenchmark(SystemBenchmark):
     """
 
     CASES = {
-        "stick_slip_functional": {
-            "system": "stick_slip",
-            "equations": FUNCTIONAL,
-            "constraints": ["f1 odd", "f2 odd"],
-        },
-        "stick_slip_hybrid": {
-            "system": "stick_slip",
-            "equations": HYBRID,
-            "constraints": ["f1 odd"],
-            "curves": stick_slip_curves,
-        },
-        "duffing_functional": {
-            "system": "duffing",
-            "equations": FUNCTIONAL,
-            "constraints": ["f1 odd", "f2 odd"],
-        },
+        "stick_slip_functional": case("stick_slip", FUNCTIONAL, "f1 odd", "f2 odd"),
+        "stick_slip_hybrid": case("stick_slip", HYBRID, "f1 odd", curves=stick_slip_curves),
+        "duffing_functional": case("duffing", FUNCTIONAL, "f1 odd", "f2 odd"),
     }
     params = (list(CASES),)
-
-    def setup_cache(self):  # one per class: asv keys the cache by this line
-        return self.fit_every_case()
     # a fit takes seconds: fewer repeats
     repeat = (2, 5, 20.0)
 
+    def setup_cache(self):  # one per class: asv keys the cache by this line
+        return self.fit_every_case()
+
     def make_estimator(self, params):
-        (case,) = params
-        return NeuralCCRegressor(equations=self.equations(case),
-                                 constraints=self.CASES[case]["constraints"], random_state=0)
+        (name,) = params
+        return NeuralCCRegressor(equations=self.equations(name),
+                                 constraints=self.CASES[name]["constraints"], random_state=0)

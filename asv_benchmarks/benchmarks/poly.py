@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from sklearn_pycc import PolyCCRegressor
 
-from .systems import FUNCTIONAL, SystemBenchmark, stick_slip_curves
+from .systems import FUNCTIONAL, SystemBenchmark, case, stick_slip_curves
 
 
 class PolyCCRegressorBenchmark(SystemBenchmark):
@@ -17,22 +17,9 @@ class PolyCCRegressorBenchmark(SystemBenchmark):
     """
 
     CASES = {
-        "stick_slip_functional": {
-            "system": "stick_slip",
-            "equations": FUNCTIONAL,
-            "constraints": ["f1 odd", "f2(0)=0"],
-        },
-        "stick_slip_parametric": {
-            "system": "stick_slip",
-            "equations": None,
-            "constraints": None,
-            "curves": stick_slip_curves,
-        },
-        "duffing_functional": {
-            "system": "duffing",
-            "equations": FUNCTIONAL,
-            "constraints": ["f1 odd", "f2 odd"],
-        },
+        "stick_slip_functional": case("stick_slip", FUNCTIONAL, "f1 odd", "f2(0)=0"),
+        "stick_slip_parametric": case("stick_slip", None, curves=stick_slip_curves),
+        "duffing_functional": case("duffing", FUNCTIONAL, "f1 odd", "f2 odd"),
     }
     params = (list(CASES),)
 
@@ -40,7 +27,7 @@ class PolyCCRegressorBenchmark(SystemBenchmark):
         return self.fit_every_case()
 
     def make_estimator(self, params):
-        (case,) = params
-        return PolyCCRegressor(equations=self.equations(case),
-                               constraints=self.CASES[case]["constraints"], degree=7,
+        (name,) = params
+        return PolyCCRegressor(equations=self.equations(name),
+                               constraints=self.CASES[name]["constraints"], degree=7,
                                random_state=0)

@@ -14,7 +14,7 @@ from sklearn_pycc import (
     to_symbolic,
 )
 
-from .systems import FUNCTIONAL, INPUTS, STATES, TARGETS, SystemBenchmark
+from .systems import FUNCTIONAL, INPUTS, STATES, TARGETS, SystemBenchmark, case
 
 
 class SymbolicCCRegressorBenchmark(SystemBenchmark):
@@ -25,23 +25,21 @@ class SymbolicCCRegressorBenchmark(SystemBenchmark):
     """
 
     CASES = {
-        "duffing_functional": {"system": "duffing", "equations": FUNCTIONAL,
-                               "constraints": None},
-        "stick_slip_functional": {"system": "stick_slip", "equations": FUNCTIONAL,
-                                  "constraints": ["f1 odd"]},
+        "duffing_functional": case("duffing", FUNCTIONAL),
+        "stick_slip_functional": case("stick_slip", FUNCTIONAL, "f1 odd"),
     }
     params = (list(CASES),)
-
-    def setup_cache(self):  # one per class: asv keys the cache by this line
-        return self.fit_every_case()
     # a fit takes seconds: fewer repeats
     repeat = (2, 5, 30.0)
     timeout = 300
 
+    def setup_cache(self):  # one per class: asv keys the cache by this line
+        return self.fit_every_case()
+
     def make_estimator(self, params):
-        (case,) = params
-        return SymbolicCCRegressor(equations=self.equations(case),
-                                   constraints=self.CASES[case]["constraints"],
+        (name,) = params
+        return SymbolicCCRegressor(equations=self.equations(name),
+                                   constraints=self.CASES[name]["constraints"],
                                    random_state=0)
 
 

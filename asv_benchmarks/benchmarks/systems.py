@@ -25,6 +25,19 @@ TARGETS = ["x1_dot", "x2_dot"]
 ARGUMENTS = {"f1": "x2", "f2": "x1"}
 
 
+def case(system: str, equations, *constraints: str, curves=None) -> dict:
+    """One entry of a benchmark class's ``CASES``.
+
+    ``equations`` None stands for the truth's parametric skeleton; ``curves``
+    computes true-shaped curves from fitted parameters (see
+    :meth:`SystemBenchmark.track_cc_rmse`).
+    """
+    entry = {"system": system, "equations": equations, "constraints": list(constraints) or None}
+    if curves is not None:
+        entry["curves"] = curves
+    return entry
+
+
 @cache
 def dataset(system: str):
     """``(frame, truth)`` of a benchmark system, simulated once per process."""
