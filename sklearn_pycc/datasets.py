@@ -27,6 +27,14 @@ The systems follow the families of the method's papers:
 - :func:`make_two_dof`: two oscillators joined by a nonlinear spring;
 - :func:`make_oscillator`: a linear oscillator with chosen effects of the
   catalogue hidden in it.
+
+and records as a laboratory hands them over (positions only, quantised,
+sampled in closed loop, few samples per period, dropped samples):
+
+- :func:`make_positioning_axis`: a positioning axis under a sampled PD
+  controller, read by an incremental encoder;
+- :func:`make_resonator`: a lightly damped hardening oscillator driven by a
+  multisine and sampled at about ten samples per period.
 """
 
 from __future__ import annotations
@@ -40,6 +48,7 @@ import numpy as np
 import pandas as pd
 from sklearn.utils import Bunch
 
+from ._lab_records import make_positioning_axis, make_resonator
 from .skeleton import Skeleton
 
 __all__ = [
@@ -47,6 +56,8 @@ __all__ = [
     "make_experiments",
     "make_first_order",
     "make_oscillator",
+    "make_positioning_axis",
+    "make_resonator",
     "make_stick_slip",
     "make_two_dof",
     "make_van_der_pol",

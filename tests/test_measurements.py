@@ -86,8 +86,8 @@ def test_bad_differentiation_is_named(spec, message):
 
 
 def test_every_documented_method_is_registered():
-    assert set(DIFFERENTIATION_METHODS) == {"spline", "savgol", "finite_difference", "kalman",
-                                            "trend_filtered"}
+    assert set(DIFFERENTIATION_METHODS) == {"auto", "lowpass", "spline", "savgol",
+                                            "finite_difference", "kalman", "trend_filtered"}
 
 
 # -- experiments and reconstruction --------------------------------------------------
@@ -177,12 +177,16 @@ def test_user_data_are_not_modified(duffing_40db):
 
 
 # -- fitting position-only data ----------------------------------------------------------
-def test_position_only_equation_error_fit_beats_the_published_floor(duffing_40db):
+@pytest.mark.parametrize("differentiation", ["auto", "spline"])
+def test_position_only_equation_error_fit_beats_the_published_floor(duffing_40db,
+                                                                    differentiation):
     frame, truth = duffing_40db
-    model = PolyCCRegressor(equations=SECOND_ORDER, constraints=["f1 odd"], degree=7)
+    model = PolyCCRegressor(equations=SECOND_ORDER, constraints=["f1 odd"], degree=7,
+                            differentiation=differentiation)
     model.fit(frame[["t", "x1", "F_ext"]])
     assert model.measured_states_ == ["x1"]
-    assert "spline" in model.derivative_source_
+    expected = {"auto": "low-pass", "spline": "spline"}[differentiation]
+    assert expected in model.derivative_source_
     assert curve_rmse(model, truth, "f2") < 0.038
 
 

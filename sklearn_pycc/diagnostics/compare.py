@@ -85,11 +85,15 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
         model.set_params(**settings)
         spec = (skeleton if isinstance(skeleton, Skeleton)
                 else Skeleton(skeleton, model.get_params().get("constraints")))
-        data = read_measurements(spec, X, y,
-                                 model.get_params().get("differentiation", "spline"))
+        settings = model.get_params()
+        data = read_measurements(spec, X, y, settings.get("differentiation", "auto"),
+                                 bool(settings.get("smooth_states", True)))
         target = data.derivatives
         start = time.perf_counter()
-        model.fit(data.X, target)
+        if data.estimated:  # the model estimates them as read_measurements did
+            model.fit(X)
+        else:
+            model.fit(data.X, target)
         fit_time = time.perf_counter() - start
         residual = data.derivatives - data.predict(model)
         active = [r.index for r in equation_roles(model.skeleton_)] or list(

@@ -348,8 +348,9 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     _check_options(n_refit, min_improvement, bic_threshold, max_steps)
     check_is_fitted(model, "skeleton_")
     skeleton = model.skeleton_
-    data = read_measurements(skeleton, X, y,
-                             model.get_params().get("differentiation", "spline"))
+    settings = model.get_params()
+    data = read_measurements(skeleton, X, y, settings.get("differentiation", "auto"),
+                             bool(settings.get("smooth_states", True)))
     states, derivs = skeleton.states, skeleton.derivatives
     notes = []
     if data.estimated:
@@ -381,7 +382,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         simulation_rmse = rmse(measured_states, simulated)
         columns = {TIME: data.columns[TIME]}
         if "trajectory" in data.X.columns:
-            columns["trajectory"] = data.X["trajectory"].to_numpy()
+            columns["trajectory"] = data.X["trajectory"].to_numpy()  # labels as given
         for j, s in enumerate(states):
             columns[s] = measured_states[:, j]
             columns[f"{s}_sim"] = simulated[:, j]

@@ -9,12 +9,12 @@ from functools import lru_cache
 import numpy as np
 
 from ..exceptions import GaugeWarning, IdentifiabilityError, SkeletonError
+from ..measurements.columns import FitData
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.constraints import Constraint, parse_constraints
 from ..skeleton.equations import Equation, unknown_names
 from ..skeleton.nodes import Node, Unknown, walk
-from ._validation import FitData
 
 __all__ = ["GAUGES", "Problem", "active_residuals", "build_skeleton", "gauge_skeleton",
            "parity_of", "points_of"]
@@ -82,6 +82,10 @@ class Problem:
     measured, smoothed : dict
         Measured states as given, and every state's smoothed or
         reconstructed values (the same as measured when ``y`` was given).
+    signals : dict
+        The inputs as measured, to drive simulations (``data`` holds them
+        as the equation fit sees them, filtered when the differentiation
+        filtered the states).
     """
 
     skeleton: Skeleton
@@ -95,6 +99,7 @@ class Problem:
     experiments: list | None = None
     measured: dict[str, np.ndarray] = field(default_factory=dict)
     smoothed: dict[str, np.ndarray] = field(default_factory=dict)
+    signals: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def equations(self) -> list[Equation]:

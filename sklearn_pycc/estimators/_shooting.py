@@ -19,9 +19,9 @@ from scipy import sparse
 from scipy.interpolate import PchipInterpolator
 from scipy.optimize import least_squares
 
+from ..measurements.columns import TIME
 from ..skeleton.system import CompiledSystem
 from ._setup import Problem
-from ._validation import TIME
 
 __all__ = ["ShootingPlan", "check_iterations", "fit_shooting"]
 
@@ -112,7 +112,8 @@ class ShootingPlan:
         self.measured_index = [self.states.index(s) for s in self.measured]
         self.targets = np.stack([problem.measured[s][rows] for s in self.measured], axis=-1)
         self.initial = smoothed[rows[:, 0]]
-        self._signals = {name: problem.data[name] for name in self.inputs}
+        self._signals = {name: problem.signals.get(name, problem.data[name])
+                         for name in self.inputs}
         self._experiments = problem.experiments
         self.substeps = 1
         self._fine: dict[str, np.ndarray] = {}

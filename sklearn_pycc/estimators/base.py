@@ -13,12 +13,8 @@ from sklearn.metrics import r2_score
 from sklearn.utils.validation import check_is_fitted
 
 from ..exceptions import ExtrapolationWarning
-from ..measurements import (
-    estimate_states,
-    kinematic_chains,
-    resolve_differentiation,
-    split_experiments,
-)
+from ..measurements import read_record
+from ..measurements.columns import read_X, read_y
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import Symbol
@@ -26,11 +22,11 @@ from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
 from ._setup import Problem, build_skeleton, gauge_skeleton
-from ._validation import TIME, FitData, read_X, read_y
 
 __all__ = ["FIT_MODES", "CCRegressor"]
 
 FIT_MODES = ("equation", "simulation")
+_NEEDS_TIME = "fit_mode='simulation' needs the time column 't' in X"
 
 
 class EquationsView(list):
@@ -93,9 +89,16 @@ class CCRegressor(RegressorMixin, BaseEstimator):
     gauge : {"auto", "warn", "raise"}, default="auto"
         What to do when the skeleton is not identifiable: pin the ambiguity
         and record it in ``gauge_``, only warn, or raise.
-    differentiation : str, dict or callable, default="spline"
-        How derivatives are estimated when ``fit`` gets no ``y``: ``"spline"``
-        (cubic smoothing spline, smoothing chosen by GCV), ``"savgol"``,
+    differentiation : str, dict or callable, default="auto"
+        How derivatives are estimated when ``fit`` gets no ``y``. ``"auto"``
+        reads each experiment's spectrum (sampling rate, noise floor,
+        quantisation, dropped samples) and differentiates it by a zero-phase
+        low-pass at the cutoff that minimises the estimated error of the
+        highest derivative needed, then a band-limited differentiator; the
+        inputs pass the same filter. What it chose, and why, is in
+        ``derivative_source_``. Fixed methods: ``"lowpass"`` (the same with
+        ``{"method": "lowpass", "cutoff": hz}``), ``"spline"`` (cubic
+        smoothing spline, smoothing chosen by GCV), ``"savgol"``,
         ``"finite_difference"``, ``"kalman"``, ``"trend_filtered"`` (these two
         need the ``derivative`` package), ``{"method": name, **options}``, an
         object with ``d(x, t)`` or a callable ``f(x, t) -> dx/dt``. Each
@@ -132,7 +135,10 @@ class CCRegressor(RegressorMixin, BaseEstimator):
     measured_states_ : list of str
         States given as columns of ``X`` in ``fit``.
     derivative_source_ : str
-        ``"measured"``, or how the derivatives were estimated.
+        ``"measured"``, or how the derivatives were estimated: per
+        experiment, the method and its setting and, for ``"auto"``, what the
+        record showed (sampling rate, noise level, quantisation, dropped
+        samples) that led to it.
     shooting_ : dict
         Only after ``fit_mode="simulation"``: segments, iterations, the
         normalised RMSE of the simulated states before and after, and the
@@ -146,7 +152,7 @@ class CCRegressor(RegressorMixin, BaseEstimator):
     equations = _EquationsParameter()
 
     def __init__(self, equations=None, constraints=None, gauge: str = "auto",
-                 differentiation="spline", smooth_states: bool = True,
+                 differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "equation", shooting_window: int = 40,
                  shooting_iterations: int = 30) -> None:
         self.equations = equations
@@ -207,40 +213,16 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         constraints, fixed, zeroed, gauge = gauge_skeleton(skeleton, self.gauge)
         if self.fit_mode not in FIT_MODES:
             raise ValueError(f"fit_mode must be one of {FIT_MODES}, got {self.fit_mode!r}")
-        experiments = None
-        if y is None:
-            reconstructible = set(kinematic_chains(skeleton))
-            data = read_X(self, X, skeleton.variables, reset=True, optional=reconstructible)
-            if TIME not in data:
-                raise ValueError(
-                    f"{type(self).__name__} requires y to be passed, but the target y is None "
-                    f"and X has no time column 't' to estimate the derivatives "
-                    f"{skeleton.derivatives} from: give y, or X with 't'")
-            experiments = split_experiments(data.n_samples, data[TIME], data.trajectory)
-            measured = {s: data[s] for s in skeleton.states if s in data}
-            estimate = estimate_states(skeleton, measured, experiments,
-                                       resolve_differentiation(self.differentiation),
-                                       smooth=bool(self.smooth_states))
-            states, smoothed, targets = estimate.states, estimate.smoothed, estimate.derivatives
-            self._y_1d = False
-            self.derivative_source_ = estimate.description
-        else:
-            data = read_X(self, X, skeleton.variables, reset=True)
-            targets, ndim = read_y(y, skeleton.derivatives, data.n_samples, with_ndim=True)
-            measured = states = smoothed = {s: data[s] for s in skeleton.states if s in data}
-            self._y_1d = ndim == 1
-            self.derivative_source_ = "measured"
-        if self.fit_mode == "simulation" and experiments is None:
-            if TIME not in data:
-                raise ValueError("fit_mode='simulation' needs the time column 't' in X")
-            experiments = split_experiments(data.n_samples, data[TIME], data.trajectory)
-        self.measured_states_ = list(measured)
-        columns = {**data.columns, **states}
-        for j, name in enumerate(skeleton.derivatives):
-            columns[name] = targets[:, j]
-        full = FitData(columns, data.n_samples, data.trajectory)
-        return Problem(skeleton, constraints, fixed, zeroed, full, targets, gauge,
-                       experiments, measured, smoothed)
+        record = read_record(skeleton, X, y, differentiation=self.differentiation,
+                             smooth=bool(self.smooth_states), estimator=self, reset=True,
+                             need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
+                             who=type(self).__name__)
+        self._y_1d = record.y_ndim == 1
+        self.derivative_source_ = record.source
+        self.measured_states_ = list(record.measured)
+        return Problem(skeleton, constraints, fixed, zeroed, record.data, record.derivatives,
+                       gauge, record.experiments, record.measured, record.smoothed,
+                       record.signals)
 
     def fit(self, X, y=None):
         """Fit the unknown curves and parameters of the skeleton.

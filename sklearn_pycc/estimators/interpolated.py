@@ -196,7 +196,7 @@ class InterpolatedCCRegressor(CCRegressor):
     """
 
     def __init__(self, equations=None, constraints=None, estimator=None, n_points: int = 200,
-                 method: str = "pchip", gauge: str = "auto", differentiation="spline",
+                 method: str = "pchip", gauge: str = "auto", differentiation="auto",
                  smooth_states: bool = True) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states)

@@ -205,7 +205,7 @@ default="lbfgs"
                  constraint_weight: float = 1.0, param_init: Mapping | None = None,
                  extrapolation: str = "linear", dtype: str = "float32", device: str = "cpu",
                  n_threads: int | None = 1, callbacks: Sequence | None = None,
-                 gauge: str = "auto", differentiation="spline", smooth_states: bool = True,
+                 gauge: str = "auto", differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "equation", shooting_window: int = 40,
                  shooting_iterations: int = 30, shooting_start_epochs: int | None = 10,
                  random_state=None, verbose: int = 0) -> None:

@@ -281,7 +281,7 @@ class SymbolicCCRegressor(CCRegressor):
                  max_iterations: int = 4, tol: float = 1e-3, n_fit_points: int = 200,
                  model_selection: str = "best", start_degree: int | None = 7,
                  engine_options: Mapping | None = None, param_init: Mapping | None = None,
-                 gauge: str = "auto", differentiation="spline", smooth_states: bool = True,
+                 gauge: str = "auto", differentiation="auto", smooth_states: bool = True,
                  random_state=None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states)

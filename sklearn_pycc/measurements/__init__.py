@@ -1,22 +1,27 @@
 """Measurements as they come: experiments, time grids and estimated derivatives.
 
-This layer sits below the estimators and the diagnostics: it splits a data
-set into experiments (``trajectory`` column), checks each experiment's time
-grid, and estimates the derivatives (and states defined by kinematic
-equations) that were not measured.
+This layer sits below the estimators and the diagnostics: it reads the
+columns of ``X`` and ``y`` (:func:`read_record`, the one path every fit,
+diagnosis and scorer takes), splits a data set into experiments
+(``trajectory`` column), checks each experiment's time grid, and estimates
+the derivatives (and states defined by kinematic equations) that were not
+measured.
 """
 
 from .differentiation import DIFFERENTIATION_METHODS, Differentiator, resolve_differentiation
 from .experiments import Experiment, split_experiments
 from .reconstruct import Estimate, estimate_states, kinematic_chains
+from .record import Record, read_record
 
 __all__ = [
     "DIFFERENTIATION_METHODS",
     "Differentiator",
     "Estimate",
     "Experiment",
+    "Record",
     "estimate_states",
     "kinematic_chains",
+    "read_record",
     "resolve_differentiation",
     "split_experiments",
 ]

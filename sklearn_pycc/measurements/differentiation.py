@@ -2,10 +2,10 @@
 
 A differentiator turns one experiment's samples ``x(t)`` into a smoothed
 ``x`` and its derivatives up to a given order. The hyperparameter is a name
-(``"spline"``, ``"savgol"``, ``"finite_difference"``, ``"kalman"``,
-``"trend_filtered"``), a dict ``{"method": name, **options}``, an object of
-the ``derivative`` package (anything with ``d(x, t)``), or a callable
-``f(x, t) -> dx/dt``.
+(``"auto"``, ``"lowpass"``, ``"spline"``, ``"savgol"``,
+``"finite_difference"``, ``"kalman"``, ``"trend_filtered"``), a dict
+``{"method": name, **options}``, an object of the ``derivative`` package
+(anything with ``d(x, t)``), or a callable ``f(x, t) -> dx/dt``.
 """
 
 from __future__ import annotations
@@ -36,6 +36,23 @@ class Differentiator:
     def derivatives(self, t: np.ndarray, x: np.ndarray, order: int) -> list[np.ndarray]:
         """``[x smoothed, dx/dt, ..., d^order x/dt^order]`` on the times ``t``."""
         raise NotImplementedError
+
+    def for_experiment(self, t: np.ndarray, states: Mapping[str, np.ndarray],
+                       order: int) -> Differentiator:
+        """The differentiator for one experiment (``states``: its measured samples by name).
+
+        A method that adapts to the record (``"auto"``) chooses here; the
+        others are the same for every experiment.
+        """
+        return self
+
+    def smooth_input(self, t: np.ndarray, u: np.ndarray) -> np.ndarray | None:
+        """An input as the fit should see it, or None to use it as measured.
+
+        A method that low-pass filters the states filters the inputs by the
+        same filter, so that the equations hold between filtered signals.
+        """
+        return None
 
 
 class SplineDifferentiator(Differentiator):
@@ -225,8 +242,23 @@ def _trend_filtered(order: int = 2, alpha: float = 1e-4, max_iter: int = 10000) 
                                  min_samples=order + 3)
 
 
+def _auto() -> Differentiator:
+    from .lowpass import AutoDifferentiator
+
+    return AutoDifferentiator()
+
+
+def _lowpass(cutoff: float | None = None, order: int = 6,
+             filter_inputs: bool = True) -> Differentiator:
+    from .lowpass import LowpassDifferentiator
+
+    return LowpassDifferentiator(cutoff, order, filter_inputs)
+
+
 #: name -> factory of its default differentiator (options as keyword arguments)
 DIFFERENTIATION_METHODS: dict[str, Callable[..., Differentiator]] = {
+    "auto": _auto,
+    "lowpass": _lowpass,
     "spline": SplineDifferentiator,
     "savgol": SavgolDifferentiator,
     "finite_difference": FiniteDifferences,

@@ -64,6 +64,11 @@ class Estimate:
         States that were measured (columns of ``X``).
     description : str
         How the estimate was made, in plain words.
+    reconstructed : dict
+        Unmeasured state -> how it was reconstructed.
+    inputs : dict
+        Input -> its values as the fit sees them, for the inputs the method
+        filtered along with the states (the others are used as measured).
     """
 
     states: dict[str, np.ndarray]
@@ -72,38 +77,14 @@ class Estimate:
     measured: list[str]
     description: str = ""
     reconstructed: dict[str, str] = field(default_factory=dict)
+    inputs: dict[str, np.ndarray] = field(default_factory=dict)
 
 
-def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
-                    experiments: Sequence[Experiment], differentiator: Differentiator,
-                    *, smooth: bool = True) -> Estimate:
-    """Estimate every state's derivative, and the states no column holds.
-
-    Parameters
-    ----------
-    skeleton : Skeleton
-        Gives the states, their order and the kinematic equations.
-    columns : dict
-        Measured columns by name (at least one state per kinematic chain).
-    experiments : list of Experiment
-        With times; each is differentiated on its own.
-    differentiator : Differentiator
-        The method.
-    smooth : bool, default=True
-        Fit on the smoothed measurements instead of the raw ones.
-
-    Raises
-    ------
-    ValueError
-        If a state is neither measured nor tied to a measured state by
-        kinematic equations, or if an experiment is too short or unevenly
-        sampled for the method; the message names the state or experiment.
-    """
-    states = skeleton.states
+def _plan(skeleton, columns: Mapping[str, np.ndarray]) -> dict[str, tuple[str, int]]:
+    """State -> (measured root state, order of the derivative it is)."""
     chains = kinematic_chains(skeleton)
-    measured = [s for s in states if s in columns]
     plan: dict[str, tuple[str, int]] = {}
-    for state in states:
+    for state in skeleton.states:
         if state in columns:
             plan[state] = (state, 0)
             continue
@@ -118,22 +99,62 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
                 f"ties it to a measured state; measure it, or give y with the derivatives "
                 f"{skeleton.derivatives}")
         plan[state] = (root, order)
+    return plan
+
+
+def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
+                    experiments: Sequence[Experiment], differentiator: Differentiator,
+                    *, smooth: bool = True,
+                    inputs: Mapping[str, np.ndarray] | None = None) -> Estimate:
+    """Estimate every state's derivative, and the states no column holds.
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+        Gives the states, their order and the kinematic equations.
+    columns : dict
+        Measured columns by name (at least one state per kinematic chain).
+    experiments : list of Experiment
+        With times; each is differentiated on its own.
+    differentiator : Differentiator
+        The method; it may choose per experiment (``"auto"``).
+    smooth : bool, default=True
+        Fit on the smoothed measurements instead of the raw ones.
+    inputs : dict, optional
+        Measured inputs by name; a method that low-pass filters the states
+        filters these too (see :attr:`Estimate.inputs`).
+
+    Raises
+    ------
+    ValueError
+        If a state is neither measured nor tied to a measured state by
+        kinematic equations, if an experiment is too short or unevenly
+        sampled for the method, or if the method fails on an experiment;
+        the message names the state, the experiment and the method.
+    """
+    states = skeleton.states
+    plan = _plan(skeleton, columns)
     depth: dict[str, int] = {}
     for root, order in plan.values():
         depth[root] = max(depth.get(root, 0), order + 1)
     n = len(next(iter(columns.values())))
     series = {root: [np.empty(n) for _ in range(k + 1)] for root, k in depth.items()}
+    inputs = dict(inputs or {})
+    filtered = {name: np.array(values, dtype=float) for name, values in inputs.items()}
+    touched: set[str] = set()
+    described: dict[str, list[str]] = {}
     for experiment in experiments:
-        _check_experiment(experiment, differentiator)
+        chosen = _choose(differentiator, experiment, columns, depth)
+        described.setdefault(chosen.describe(), []).append(experiment.where.strip())
         for root, k in depth.items():
-            values = differentiator.derivatives(experiment.t, columns[root][experiment.rows], k)
+            values = _differentiate(chosen, experiment, columns[root], root, k)
             for order, part in enumerate(values):
-                part = np.asarray(part, dtype=float)
-                if part.shape != experiment.rows.shape or not np.isfinite(part).all():
-                    raise ValueError(
-                        f"{differentiator.describe()} gave non-finite or misshapen values for "
-                        f"the derivative of order {order} of {root!r}{experiment.where}")
                 series[root][order][experiment.rows] = part
+        for name, values in inputs.items():
+            smoothed_input = chosen.smooth_input(experiment.t, values[experiment.rows])
+            if smoothed_input is not None:
+                filtered[name][experiment.rows] = smoothed_input
+                touched.add(name)
     fitted, smoothed, reconstructed = {}, {}, {}
     derivatives = np.empty((n, len(states)))
     for j, state in enumerate(states):
@@ -146,10 +167,64 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
             fitted[state] = smoothed[state]
             reconstructed[state] = (f"derivative of {root}" if order == 1
                                     else f"derivative of order {order} of {root}")
-    text = f"derivatives estimated by {differentiator.describe()} per experiment"
+    text = _description(described)
+    if touched:
+        text += f"; the inputs {', '.join(sorted(touched))} filtered alike"
     if reconstructed:
         text += "; " + ", ".join(f"{s} as the {how}" for s, how in reconstructed.items())
-    return Estimate(fitted, smoothed, derivatives, measured, text, reconstructed)
+    measured = [s for s in states if s in columns]
+    return Estimate(fitted, smoothed, derivatives, measured, text, reconstructed,
+                    {name: filtered[name] for name in touched})
+
+
+def _description(described: dict[str, list[str]]) -> str:
+    if len(described) == 1:
+        return f"derivatives estimated by {next(iter(described))} per experiment"
+    parts = []
+    for text, where in described.items():
+        places = ", ".join(w.removeprefix("in ") for w in where[:3])
+        more = f" and {len(where) - 3} more" if len(where) > 3 else ""
+        parts.append(f"{places}{more}: {text}")
+    return "derivatives estimated per experiment; " + "; ".join(parts)
+
+
+def _choose(differentiator: Differentiator, experiment: Experiment,
+            columns: Mapping[str, np.ndarray], depth: Mapping[str, int]) -> Differentiator:
+    _check_experiment(experiment, differentiator)
+    samples = {root: np.asarray(columns[root], dtype=float)[experiment.rows] for root in depth}
+    try:
+        chosen = differentiator.for_experiment(experiment.t, samples, max(depth.values()))
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        where = experiment.where or " in the data"
+        raise ValueError(f"{differentiator.describe()} could not read the record{where}: "
+                         f"{exc}") from exc
+    if chosen is not differentiator:
+        _check_experiment(experiment, chosen)
+    return chosen
+
+
+def _differentiate(method: Differentiator, experiment: Experiment, column: np.ndarray,
+                   root: str, order: int) -> list[np.ndarray]:
+    """One state's derivatives on one experiment, every failure named."""
+    where = experiment.where or " in the data"
+    try:
+        values = method.derivatives(experiment.t, np.asarray(column, dtype=float)[
+            experiment.rows], order)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        raise ValueError(
+            f"{method.describe()} failed on {root!r}{where}: {exc or type(exc).__name__}. "
+            "Try another differentiation setting (differentiation='auto' chooses from the "
+            "record)") from exc
+    out = []
+    for k, part in enumerate(values):
+        part = np.asarray(part, dtype=float)
+        if part.shape != experiment.rows.shape or not np.isfinite(part).all():
+            raise ValueError(
+                f"{method.describe()} gave non-finite or misshapen values for the derivative "
+                f"of order {k} of {root!r}{where}; try another differentiation setting "
+                "(differentiation='auto' chooses from the record)")
+        out.append(part)
+    return out
 
 
 def _check_experiment(experiment: Experiment, differentiator: Differentiator) -> None:

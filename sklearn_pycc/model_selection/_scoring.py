@@ -9,8 +9,8 @@ import pandas as pd
 from sklearn.utils.validation import check_is_fitted
 
 from ..exceptions import SimulationError
-from ..measurements import estimate_states, resolve_differentiation, split_experiments
-from ..measurements.experiments import TIME, TRAJECTORY
+from ..measurements import read_record
+from ..measurements.experiments import TIME
 
 __all__ = ["SimulationScorer", "make_simulation_scorer"]
 
@@ -55,26 +55,21 @@ class SimulationScorer:
         if TIME not in X.columns:
             raise ValueError("the simulation scorer needs the time column 't' in X")
         compared = self._compared(skeleton, X)
-        missing = [name for name in skeleton.inputs if name != TIME and name not in X.columns]
-        if missing:
-            raise ValueError(f"X lacks the input column {missing[0]!r} the model is driven by")
-        t = X[TIME].to_numpy(dtype=float)
-        trajectory = X[TRAJECTORY].to_numpy() if TRAJECTORY in X.columns else None
-        experiments = split_experiments(len(X), t, trajectory)
-        measured = {s: X[s].to_numpy(dtype=float) for s in skeleton.states if s in X.columns}
         spec = self.differentiation
+        settings = estimator.get_params()
         if spec is None:
-            spec = estimator.get_params().get("differentiation", "spline")
-        starts = estimate_states(skeleton, measured, experiments,
-                                 resolve_differentiation(spec)).smoothed
+            spec = settings.get("differentiation", "auto")
+        record = read_record(skeleton, X, None, differentiation=spec,
+                             smooth=bool(settings.get("smooth_states", True)),
+                             need_time="the simulation scorer needs the time column 't' in X")
+        measured, starts, experiments = record.measured, record.smoothed, record.experiments
         total, count = 0.0, 0
         for experiment in experiments:
             rows = experiment.rows
             if len(rows) < 2:
                 continue
             y0 = [float(starts[s][rows[0]]) for s in skeleton.states]
-            signals = {name: X[name].to_numpy(dtype=float)[rows]
-                       for name in skeleton.inputs if name != TIME}
+            signals = {name: values[rows] for name, values in record.signals.items()}
             try:
                 frame = estimator.simulate(experiment.t, y0, signals, rtol=self.rtol,
                                            atol=self.atol, max_steps=self.max_steps)

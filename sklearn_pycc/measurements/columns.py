@@ -1,4 +1,4 @@
-"""Input validation shared by every estimator: columns by name, culprits named."""
+"""Columns of X and y read by name, as float64 copies, with every culprit named."""
 
 from __future__ import annotations
 
@@ -8,10 +8,9 @@ import numpy as np
 import pandas as pd
 from sklearn.utils.validation import check_array, validate_data
 
-from ..measurements.experiments import TIME, TRAJECTORY
+from .experiments import TIME, TRAJECTORY
 
 __all__ = ["TIME", "TRAJECTORY", "FitData", "read_X", "read_y"]
-
 
 
 class FitData:
@@ -61,12 +60,15 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X",
     DataFrame whose column names are not all strings) are called
     ``x0, x1, ...``. Columns the skeleton does not use are left alone.
     ``t`` and ``trajectory`` are read when present. Names in ``optional``
-    may be missing.
+    may be missing. With ``estimator=None`` nothing is recorded about ``X``
+    (``validate_data`` is for estimators learning their input).
     """
     named = isinstance(X, pd.DataFrame) and all(isinstance(c, str) for c in X.columns)
     if named:
         fitted_names = getattr(estimator, "feature_names_in_", None)
-        if reset or fitted_names is None or list(fitted_names) == list(X.columns):
+        if estimator is None:
+            pass  # a diagnosis or a scorer: nothing is learned about X
+        elif reset or fitted_names is None or list(fitted_names) == list(X.columns):
             validate_data(estimator, X, reset=reset, skip_check_array=True)
         # otherwise columns are matched by name below, whatever their order
         if len(X) == 0:
@@ -92,8 +94,12 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X",
             _finite_column(values, f"{who} column 't'", trajectory)
             columns[TIME] = values
         return FitData(columns, len(X), trajectory)
-    array = validate_data(estimator, X, reset=reset, dtype=np.float64,
-                          ensure_all_finite=False, ensure_2d=True, copy=True)
+    if estimator is None:
+        array = check_array(X, dtype=np.float64, ensure_all_finite=False, ensure_2d=True,
+                            copy=True, input_name=who)
+    else:
+        array = validate_data(estimator, X, reset=reset, dtype=np.float64,
+                              ensure_all_finite=False, ensure_2d=True, copy=True)
     names = [f"x{j}" for j in range(array.shape[1])]
     columns = {}
     for name in needed:

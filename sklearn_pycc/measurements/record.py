@@ -1,0 +1,186 @@
+"""One path from a user's ``X`` and ``y`` to what a model is fitted and judged on.
+
+``fit``, :func:`~sklearn_pycc.diagnose`, :func:`~sklearn_pycc.compare_skeletons`
+and the simulation scorer all read measurements through :func:`read_record`,
+so they see the same columns, the same experiments and the same estimated
+derivatives for the same data and settings.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from .columns import FitData, read_X, read_y
+from .differentiation import resolve_differentiation
+from .experiments import TIME, TRAJECTORY, Experiment, split_experiments
+from .reconstruct import estimate_states, kinematic_chains
+
+__all__ = ["Record", "read_record"]
+
+MEASURED = "measured"
+
+
+@dataclass
+class Record:
+    """Measurements lined up against a skeleton.
+
+    Attributes
+    ----------
+    data : FitData
+        What the model is fitted and judged on: the states (smoothed when
+        derivatives were estimated and smoothing is on, reconstructed when
+        unmeasured), the inputs (filtered when the differentiation filters
+        them), ``t``, and the derivatives ``NAME_dot``.
+    derivatives : ndarray of shape (n_samples, n_states)
+        Measured or estimated derivatives, in equation order.
+    y_ndim : int
+        1 when ``y`` was one-dimensional.
+    experiments : list of Experiment or None
+        Experiments with their times (None without ``t``).
+    measured : dict
+        The states ``X`` holds, as measured.
+    smoothed : dict
+        Every state, smoothed or reconstructed (initial states of simulations).
+    signals : dict
+        The inputs as measured (what drives a simulation).
+    source : str
+        ``"measured"``, or how the derivatives were obtained, in words.
+    """
+
+    data: FitData
+    derivatives: np.ndarray
+    y_ndim: int
+    experiments: list[Experiment] | None
+    measured: dict[str, np.ndarray]
+    smoothed: dict[str, np.ndarray]
+    signals: dict[str, np.ndarray]
+    source: str = MEASURED
+    reconstructed: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of rows."""
+        return self.data.n_samples
+
+    @property
+    def columns(self) -> dict[str, np.ndarray]:
+        """Name -> values of every column of :attr:`data`."""
+        return self.data.columns
+
+    @property
+    def estimated(self) -> bool:
+        """Whether the derivatives were estimated from the states."""
+        return self.source != MEASURED
+
+    def frame(self, names) -> pd.DataFrame:
+        """A DataFrame of some columns (with ``t`` and ``trajectory`` when known)."""
+        out = {}
+        if TIME in self.data:
+            out[TIME] = self.data[TIME]
+        if self.data.trajectory is not None:
+            out[TRAJECTORY] = self.data.trajectory
+        for name in names:
+            out[name] = self.data[name]
+        return pd.DataFrame(out)
+
+
+def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = True,
+                estimator=None, reset: bool = False, derivatives_from_X: bool = False,
+                need_time: str | None = None, split: bool = False,
+                who: str | None = None) -> Record:
+    """Read ``X`` (and ``y``) against a skeleton; estimate what was not measured.
+
+    Every state of the skeleton that ``X`` holds is read, whether or not a
+    right-hand side uses it. Without ``y`` (and, with
+    ``derivatives_from_X``, without ``NAME_dot`` columns in ``X``) the
+    derivatives are estimated per experiment by ``differentiation``, and a
+    state missing from ``X`` but defined by a kinematic equation is
+    reconstructed.
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+        What is read: its states, inputs and derivatives.
+    X : DataFrame or array
+        The measurements (an array's columns are called ``x0, x1, ...``).
+    y : DataFrame or array, optional
+        Measured derivatives.
+    differentiation : str, dict or callable, default="auto"
+        See :func:`~sklearn_pycc.measurements.resolve_differentiation`.
+    smooth : bool, default=True
+        Fit on smoothed states rather than raw ones when derivatives are estimated.
+    estimator : estimator, optional
+        Learns ``n_features_in_`` and ``feature_names_in_`` when ``reset``.
+    reset : bool, default=False
+        Whether ``estimator`` learns ``X`` (in ``fit``).
+    derivatives_from_X : bool, default=False
+        Read the derivatives from ``NAME_dot`` columns of ``X`` when ``y`` is None.
+    need_time : str, optional
+        Why experiments must be split: a time column is then required, and
+        its absence is reported with this reason.
+    split : bool, default=False
+        Split experiments whenever ``X`` has ``t`` (they are split anyway
+        when derivatives are estimated).
+    who : str, optional
+        Names the caller in the message when ``y`` is None and ``X`` has no ``t``.
+
+    Raises
+    ------
+    ValueError
+        For a missing or non-numeric column, non-finite values, a bad time
+        grid, or a state that can be neither read nor reconstructed; the
+        message names the column, the row or the experiment.
+    """
+    states = skeleton.states
+    given = y is not None
+    if not given and derivatives_from_X and isinstance(X, pd.DataFrame):
+        given = all(d in X.columns for d in skeleton.derivatives)
+    # states no right-hand side reads are read when present; without y, so are
+    # states a kinematic equation defines (they can be reconstructed)
+    optional = set(states) - set(skeleton.variables)
+    if not given:
+        optional |= set(kinematic_chains(skeleton))
+    needed = list(dict.fromkeys([*skeleton.variables, *states]))
+    data = read_X(estimator, X, needed, reset=reset, optional=optional)
+    experiments = None
+    if TIME not in data and (need_time or not given):
+        raise ValueError(need_time if given and need_time else
+                         _no_time_message(skeleton, who))
+    if TIME in data and (split or need_time or not given):
+        experiments = split_experiments(data.n_samples, data[TIME], data.trajectory)
+    measured = {s: data[s] for s in states if s in data}
+    signals = {name: data[name] for name in skeleton.inputs if name != TIME}
+    columns = dict(data.columns)
+    if given:
+        if y is not None:
+            derivatives, ndim = read_y(y, skeleton.derivatives, data.n_samples,
+                                       with_ndim=True)
+        else:
+            derivatives = read_y(X[list(skeleton.derivatives)], skeleton.derivatives,
+                                 data.n_samples)
+            ndim = 2
+        smoothed = dict(measured)
+        source, reconstructed = MEASURED, {}
+    else:
+        estimate = estimate_states(skeleton, measured, experiments,
+                                   resolve_differentiation(differentiation),
+                                   smooth=bool(smooth), inputs=signals)
+        derivatives, ndim = estimate.derivatives, 2
+        columns.update(estimate.states)
+        columns.update(estimate.inputs)
+        smoothed, source = estimate.smoothed, estimate.description
+        reconstructed = estimate.reconstructed
+    for j, name in enumerate(skeleton.derivatives):
+        columns[name] = derivatives[:, j]
+    return Record(FitData(columns, data.n_samples, data.trajectory), derivatives, ndim,
+                  experiments, measured, smoothed, signals, source, reconstructed)
+
+
+def _no_time_message(skeleton, who: str | None) -> str:
+    lead = f"{who} requires y to be passed, but the target y is None and" if who else \
+        "y is None and"
+    return (f"{lead} X has no time column 't' to estimate the derivatives "
+            f"{skeleton.derivatives} from: give y, or X with 't'")

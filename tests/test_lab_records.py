@@ -1,0 +1,151 @@
+"""Records as a laboratory hands them over: one measurement path, derivatives chosen from data."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from sklearn_pycc import PolyCCRegressor, compare_skeletons, datasets, diagnose
+from sklearn_pycc.measurements import resolve_differentiation
+from sklearn_pycc.measurements.lowpass import central_derivative, even_grid
+from sklearn_pycc.measurements.spectral import find_quantum
+from sklearn_pycc.model_selection import make_simulation_scorer
+
+AXIS = ["x1_dot = x2", "x2_dot = a1 F - a2 x2"]
+
+
+def relative(estimate, truth):
+    return abs(estimate / truth - 1)
+
+
+@pytest.fixture(scope="module")
+def axis():
+    return datasets.make_positioning_axis(random_state=1, return_truth=True)
+
+
+# -- a state on no right-hand side ---------------------------------------------------
+def test_a_state_no_right_hand_side_reads_is_read_everywhere(axis):
+    frame, truth = axis
+    X = frame.iloc[:5000]
+    model = PolyCCRegressor(equations=AXIS).fit(X)
+    assert model.measured_states_ == ["x1"]
+    report = diagnose(model, X)
+    assert np.isfinite(report.simulation_rmse)
+    table = compare_skeletons({"viscous": AXIS}, X, estimator=PolyCCRegressor())
+    assert np.isfinite(table.loc["viscous", "derivative_rmse"])
+    assert np.isfinite(make_simulation_scorer()(model, X))
+    simulated = PolyCCRegressor(equations=AXIS, fit_mode="simulation",
+                                shooting_iterations=5).fit(X)
+    assert simulated.shooting_["segments"] > 1
+    # with y given, x1 (read by no right-hand side) is still read, and judged
+    measured = X.assign(x2=truth.velocity[:5000])
+    y = pd.DataFrame({"x1_dot": truth.velocity[:5000], "x2_dot": truth.acceleration[:5000]})
+    fitted = PolyCCRegressor(equations=AXIS).fit(measured, y)
+    assert fitted.measured_states_ == ["x1", "x2"]
+    assert np.isfinite(diagnose(fitted, measured, y).simulation_rmse)
+    table = compare_skeletons({"viscous": AXIS}, measured, y, estimator=PolyCCRegressor())
+    assert np.isfinite(table.loc["viscous", "simulation_rmse"])
+
+
+# -- derivatives chosen from the record ---------------------------------------------
+def test_auto_recovers_a_fast_clean_resonator():
+    frame, truth = datasets.make_resonator(random_state=0, return_truth=True)
+    model = PolyCCRegressor(equations=truth.equations).fit(frame)
+    for name in ("a1", "a2", "a3"):
+        assert relative(model.params_[name], truth.params[name]) < 0.01, name
+    assert "616 Hz sampling" in model.derivative_source_
+    # the smoothing spline, the former default, smooths the oscillation away
+    spline = PolyCCRegressor(equations=truth.equations, differentiation="spline").fit(
+        frame.iloc[:4000])
+    assert relative(spline.params_["a3"], truth.params["a3"]) > 0.5
+
+
+@pytest.mark.parametrize("noise, drop", [(30.0, 0.0), (60.0, 0.02), (30.0, 0.02)])
+def test_auto_recovers_the_resonator_with_noise_and_dropped_samples(noise, drop):
+    frame, truth = datasets.make_resonator(noise=noise, drop_fraction=drop, random_state=0,
+                                           return_truth=True)
+    model = PolyCCRegressor(equations=truth.equations).fit(frame)
+    for name in ("a1", "a2", "a3"):
+        assert relative(model.params_[name], truth.params[name]) < 0.05, name
+    if drop:
+        assert "dropped samples filled" in model.derivative_source_
+
+
+def test_auto_reads_an_encoder_in_closed_loop(axis):
+    frame, truth = axis
+    model = PolyCCRegressor(equations=truth.equations, param_init={"a4": 500.0}).fit(frame)
+    mass = 1 / model.params_["a1"]
+    viscous = model.params_["a2"] * mass
+    coulomb = model.params_["a3"] * mass
+    physical = truth.physical
+    assert "quantised in steps of 2e-05" in model.derivative_source_
+    assert "the inputs F filtered alike" in model.derivative_source_
+    # tolerances of this stage; the issue's 2 % for mass and viscous is not reached yet
+    assert relative(mass, physical["mass"]) < 0.04
+    assert relative(viscous, physical["viscous"]) < 0.04
+    assert relative(coulomb, physical["coulomb"]) < 0.05
+
+
+def test_auto_beats_the_spline_on_noisy_positions():
+    frame = datasets.make_duffing(noise=40, noise_columns=["x1"], random_state=0)
+    t, x = frame["t"].to_numpy(), frame["x1"].to_numpy()
+    errors = {}
+    for method in ("auto", "spline"):
+        chosen = resolve_differentiation(method).for_experiment(t, {"x1": x}, 2)
+        _, _, acceleration = chosen.derivatives(t, x, 2)
+        truth = frame["x2_dot"].to_numpy()
+        errors[method] = np.sqrt(np.mean((acceleration - truth) ** 2) / np.mean(truth**2))
+    assert errors["auto"] < 0.8 * errors["spline"]
+
+
+def test_band_limited_derivative_is_exact_near_nyquist():
+    t = np.arange(400) * 0.1
+    omega = 0.6 * np.pi / 0.1  # 0.6 of the Nyquist frequency
+    d = central_derivative(np.sin(omega * t), 0.1)
+    assert np.max(np.abs(d[20:-20] - omega * np.cos(omega * t[20:-20]))) < 1e-3 * omega
+
+
+def test_grids_with_dropped_and_irregular_samples():
+    t = np.arange(100) * 0.5
+    kept = np.delete(t, [10, 11, 50])
+    grid = even_grid(kept)
+    assert grid.dropped == 3 and not grid.resampled
+    irregular = np.cumsum(np.random.default_rng(0).uniform(0.5, 1.5, 100))
+    assert even_grid(irregular).resampled
+    x = np.sin(0.2 * irregular)
+    method = resolve_differentiation("auto")
+    _, d1 = method.for_experiment(irregular, {"x": x}, 1).derivatives(irregular, x, 1)
+    inner = slice(10, -10)
+    assert np.max(np.abs(d1[inner] - 0.2 * np.cos(0.2 * irregular[inner]))) < 2e-3
+
+
+def test_quantum_is_found_only_on_a_lattice():
+    x = np.round(np.sin(np.linspace(0, 20, 2000)) / 1e-3) * 1e-3
+    assert find_quantum(x).step == pytest.approx(1e-3, rel=1e-6)
+    assert find_quantum(np.sin(np.linspace(0, 20, 2000))) is None
+
+
+def test_lowpass_options_and_errors_are_named():
+    with pytest.raises(ValueError, match="lowpass cutoff must be a positive frequency"):
+        resolve_differentiation({"method": "lowpass", "cutoff": -1})
+    frame = datasets.make_duffing(n_samples=300, t_span=(0, 15))
+    model = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
+                            degree=3, differentiation={"method": "lowpass", "cutoff": 1.0})
+    model.fit(frame[["t", "x1", "F_ext"]])
+    assert "low-pass at 1 Hz" in model.derivative_source_
+
+
+def test_a_failing_method_names_the_experiment_and_the_setting():
+    frame = datasets.make_experiments(datasets.make_duffing, 2, n_samples=200, t_span=(0, 10))
+    frame.loc[frame.trajectory == 1, "t"] += 100.0
+    X = frame[["t", "trajectory", "x1", "F_ext"]]
+
+    def broken(x, t):
+        if t[0] > 0.0:  # only the second experiment's grid starts late
+            raise np.linalg.LinAlgError("singular matrix")
+        return np.gradient(x, t)
+
+    model = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
+                            degree=3, differentiation=broken)
+    message = r"the callable broken failed on 'x1' in experiment 1: singular matrix"
+    with pytest.raises(ValueError, match=message):
+        model.fit(X)
