@@ -16,43 +16,24 @@ import numpy as np
 import pandas as pd
 from sklearn.utils import Bunch
 
+from ._generation import (
+    _add_noise,
+    _check_n_samples,
+    _check_noise,
+    _check_noise_columns,
+    _check_random_state,
+    _check_real,
+    _check_t_span,
+)
+
 __all__ = ["make_positioning_axis", "make_resonator"]
 
 
-def _rng(random_state) -> np.random.Generator:
-    try:
-        return np.random.default_rng(random_state)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"random_state must be None, an integer or a numpy Generator, "
-                         f"got {random_state!r}") from exc
-
-
-def _positive(name: str, value, *, integer: bool = False, minimum: float = 0.0):
-    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
-    if not ok or not math.isfinite(value) or value <= minimum or (integer and value != int(value)):
-        kind = "an integer" if integer else "a number"
-        raise ValueError(f"{name} must be {kind} greater than {minimum:g}, got {value!r}")
-    return int(value) if integer else float(value)
-
-
-def _span(t_span) -> tuple[float, float]:
-    try:
-        start, end = (float(v) for v in t_span)
-    except (TypeError, ValueError):
-        raise ValueError(f"t_span must be a pair of numbers (start, end), "
-                         f"got {t_span!r}") from None
-    if not (math.isfinite(start) and math.isfinite(end) and end > start):
-        raise ValueError(f"t_span must be finite with end > start, got {t_span!r}")
-    return start, end
-
-
-def _columns(names, allowed: tuple[str, ...]) -> list[str]:
-    names = [names] if isinstance(names, str) else list(names)
-    for name in names:
-        if name not in allowed:
-            raise ValueError(f"noise_columns names {name!r}; the record's columns are "
-                             f"{list(allowed)}")
-    return names
+def _positive(name: str, value, *, minimum: float = 0.0) -> float:
+    value = _check_real(name, value)
+    if value <= minimum:
+        raise ValueError(f"{name} must be greater than {minimum:g}, got {value!r}")
+    return value
 
 
 def _fraction(name: str, value) -> float:
@@ -70,13 +51,6 @@ def _drop(frame: pd.DataFrame, fraction: float, rng: np.random.Generator) -> pd.
     gone = rng.choice(np.arange(1, n - 1), size=k, replace=False)
     keep = np.setdiff1d(np.arange(n), gone)
     return frame.iloc[keep].reset_index(drop=True)
-
-
-def _white(values: np.ndarray, snr_db: float | None, rng: np.random.Generator) -> np.ndarray:
-    if snr_db is None:
-        return values
-    sigma = float(np.std(values)) / 10.0 ** (snr_db / 20.0)
-    return values + rng.normal(0.0, sigma, size=values.shape)
 
 
 def _sweep_reference(t: np.ndarray, stroke: float, rng: np.random.Generator) -> np.ndarray:
@@ -135,10 +109,10 @@ def make_positioning_axis(
     At every sample the controller reads the quantised encoder
     position and sets the voltage ``v = kp (r - x) - kd x'_est`` (velocity
     from encoder differences through a first-order filter), saturated at
-    ``saturation`` and held until the next sample; ``r`` moves between random
-    targets. The record holds what a lab would log: ``t``, the encoder
-    position ``x1`` and the applied force ``F`` (``gain sat(v)``); no
-    velocity, no acceleration.
+    ``saturation`` and held until the next sample; ``r`` is a random sweep or
+    random point-to-point moves (``reference``). The record holds what a lab
+    would log: ``t``, the encoder position ``x1`` and the applied force ``F``
+    (``gain sat(v)``); no velocity, no acceleration.
 
     Parameters
     ----------
@@ -163,7 +137,7 @@ def make_positioning_axis(
     bandwidth : float, default=8.0
         Closed-loop natural frequency in Hz the controller gains are tuned for.
     stroke : float, default=0.1
-        Targets are drawn in ``[-stroke, stroke]``.
+        The reference stays within ``[-stroke, stroke]``.
     encoder_step : float, default=2e-5
         Position quantum (``1e-4`` of the range by default); 0 for none.
     coulomb_velocity : float, default=1e-3
@@ -174,7 +148,7 @@ def make_positioning_axis(
         dwells (a production cycle; at rest the Coulomb friction is only
         bounded, not determined, so dwells carry no information on it).
     random_state : int, Generator or None
-        Seeds the reference moves.
+        Seeds the reference and the noise.
     return_truth : bool, default=False
         Also return a Bunch with the skeleton, its parameters (``a1 = gain /
         mass`` per volt is folded: ``a1 = 1 / mass`` per newton), the
@@ -192,17 +166,18 @@ def make_positioning_axis(
     ValueError
         For a setting out of its range, named.
     """
-    n = _positive("n_samples", n_samples, integer=True, minimum=16)
-    start, end = _span(t_span)
+    n = _check_n_samples(n_samples)
+    start, end = _check_t_span(t_span)
     fs = (n - 1) / (end - start)
-    columns = _columns(noise_columns, ("x1", "F"))
+    noise = _check_noise(noise)
+    noisy = _check_noise_columns(noise_columns, ["t", "x1", "F"], ["x1"])
     m = _positive("mass", mass)
     c, fc, f0 = float(viscous), float(coulomb), float(offset)
     k_motor = _positive("gain", gain)
     v_max = _positive("saturation", saturation)
     eps = _positive("coulomb_velocity", coulomb_velocity)
     q = float(encoder_step)
-    rng = _rng(random_state)
+    rng = _check_random_state(random_state)
     h = 1.0 / fs
     t = start + np.arange(n) * h
     if reference not in ("sweep", "moves"):
@@ -213,8 +188,10 @@ def make_positioning_axis(
     kp, kd = m * wn**2 / k_motor, 2 * 0.7 * wn * m / k_motor
     alpha = math.exp(-2 * math.pi * 200.0 * h)  # 200 Hz filter on the encoder velocity
 
+    tanh = math.tanh
+
     def accel(v, force):
-        return (force - c * v - fc * math.tanh(v / eps) - f0) / m
+        return (force - c * v - fc * tanh(v / eps) - f0) / m
 
     substeps = 8
     dt = h / substeps
@@ -222,7 +199,6 @@ def make_positioning_axis(
     reading_before = round(x / q) * q if q > 0 else x
     xs, vs, forces, accels = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     velocity_est = 0.0
-    tanh = math.tanh
     for i in range(n):
         reading = round(x / q) * q if q > 0 else x
         velocity_est = alpha * velocity_est + (1 - alpha) * (reading - reading_before) / h
@@ -232,18 +208,18 @@ def make_positioning_axis(
         xs[i], vs[i], forces[i] = reading, v, force
         accels[i] = accel(v, force)
         for _ in range(substeps):  # RK4 with the force held over the sample
-            k1x, k1v = v, (force - c * v - fc * tanh(v / eps) - f0) / m
-            va = v + 0.5 * dt * k1v
-            k2x, k2v = va, (force - c * va - fc * tanh(va / eps) - f0) / m
-            vb = v + 0.5 * dt * k2v
-            k3x, k3v = vb, (force - c * vb - fc * tanh(vb / eps) - f0) / m
-            vc = v + dt * k3v
-            k4x, k4v = vc, (force - c * vc - fc * tanh(vc / eps) - f0) / m
-            x += dt * (k1x + 2 * k2x + 2 * k3x + k4x) / 6
-            v += dt * (k1v + 2 * k2v + 2 * k3v + k4v) / 6
+            a1 = accel(v, force)
+            va = v + 0.5 * dt * a1
+            a2 = accel(va, force)
+            vb = v + 0.5 * dt * a2
+            a3 = accel(vb, force)
+            vc = v + dt * a3
+            a4 = accel(vc, force)
+            x += dt * (v + 2 * va + 2 * vb + vc) / 6
+            v += dt * (a1 + 2 * a2 + 2 * a3 + a4) / 6
     frame = pd.DataFrame({"t": t, "x1": xs, "F": forces})
-    for name in columns:
-        frame[name] = _white(frame[name].to_numpy(), noise, rng)
+    if noise is not None and noisy:
+        frame = _add_noise(frame, noise, noisy, rng)
     if not return_truth:
         return frame
     equations = ["x1_dot = x2", "x2_dot = a1 F - a2 x2 - a3 tanh(a4 x2) - a5"]
@@ -385,7 +361,7 @@ def make_resonator(
     ValueError
         For a setting out of its range, named.
     """
-    n = _positive("n_samples", n_samples, integer=True, minimum=16)
+    n = _check_n_samples(n_samples)
     f_n = _positive("natural_frequency", natural_frequency)
     if t_span is not None and samples_per_period is not None:
         raise ValueError("give t_span or samples_per_period, not both")
@@ -394,13 +370,14 @@ def make_resonator(
                         else samples_per_period, minimum=2.0)
         start = 0.0
     else:
-        start, end = _span(t_span)
+        start, end = _check_t_span(t_span)
         per = (n - 1) / (end - start) / f_n
-    columns = _columns(noise_columns, ("x1", "u"))
+    noise = _check_noise(noise)
+    noisy = _check_noise_columns(noise_columns, ["t", "x1", "u"], ["x1"])
     zeta = _positive("damping_ratio", damping_ratio)
     g = _positive("input_gain", input_gain)
     drop = _fraction("drop_fraction", drop_fraction)
-    rng = _rng(random_state)
+    rng = _check_random_state(random_state)
     k = (2 * math.pi * f_n) ** 2
     c = 2 * zeta * math.sqrt(k)
     h = 1.0 / (per * f_n)
@@ -414,12 +391,11 @@ def make_resonator(
 
     x1, x2 = _duffing_rk4(h, n, u, g, c, k, k3, substeps=16, y0=y0, start=start)
     frame = pd.DataFrame({"t": t, "x1": x1, "u": u(t)})
-    for name in columns:
-        frame[name] = _white(frame[name].to_numpy(), noise, rng)
+    if noise is not None and noisy:
+        frame = _add_noise(frame, noise, noisy, rng)
     states = pd.DataFrame({"x1": x1, "x2": x2})
     if drop:
-        keep_rng = np.random.default_rng(rng.integers(2**32))
-        frame = _drop(frame.assign(_x1=x1, _x2=x2), drop, keep_rng)
+        frame = _drop(frame.assign(_x1=x1, _x2=x2), drop, rng)
         states = frame[["_x1", "_x2"]].set_axis(["x1", "x2"], axis=1)
         frame = frame[["t", "x1", "u"]]
     if not return_truth:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -10,7 +10,7 @@ import pandas as pd
 from ..measurements import read_record
 from ..measurements.experiments import TIME
 
-__all__ = ["TIME", "Measurements", "read_measurements"]
+__all__ = ["Measurements", "read_measurements"]
 
 
 @dataclass
@@ -46,7 +46,7 @@ class Measurements:
     groups: list[tuple[object, np.ndarray]]
     has_time: bool
     estimated: str = ""
-    signals: dict[str, np.ndarray] | None = None
+    signals: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def n_samples(self) -> int:

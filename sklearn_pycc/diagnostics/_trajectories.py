@@ -52,8 +52,7 @@ def simulate_experiments(model, data: Measurements, *, max_steps: int,
             simulated[rows] = np.column_stack([data.columns[s][rows] for s in states])
             continue
         y0 = [float(data.columns[s][rows[0]]) for s in states]
-        source = data.signals or data.columns
-        signals = {name: source[name][rows] for name in inputs}
+        signals = {name: data.signals.get(name, data.columns[name])[rows] for name in inputs}
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:

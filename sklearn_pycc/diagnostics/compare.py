@@ -85,9 +85,9 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
         model.set_params(**settings)
         spec = (skeleton if isinstance(skeleton, Skeleton)
                 else Skeleton(skeleton, model.get_params().get("constraints")))
-        settings = model.get_params()
-        data = read_measurements(spec, X, y, settings.get("differentiation", "auto"),
-                                 bool(settings.get("smooth_states", True)))
+        params = model.get_params()
+        data = read_measurements(spec, X, y, params.get("differentiation", "auto"),
+                                 bool(params.get("smooth_states", True)))
         target = data.derivatives
         start = time.perf_counter()
         if data.estimated:  # the model estimates them as read_measurements did

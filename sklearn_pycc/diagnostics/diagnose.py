@@ -382,7 +382,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         simulation_rmse = rmse(measured_states, simulated)
         columns = {TIME: data.columns[TIME]}
         if "trajectory" in data.X.columns:
-            columns["trajectory"] = data.X["trajectory"].to_numpy()  # labels as given
+            columns["trajectory"] = data.X["trajectory"].to_numpy()
         for j, s in enumerate(states):
             columns[s] = measured_states[:, j]
             columns[f"{s}_sim"] = simulated[:, j]

@@ -147,10 +147,13 @@ class LowpassDifferentiator(Differentiator):
         Butterworth order of each of the two passes.
     filter_inputs : bool, default=True
         Filter the inputs with the same filter.
+    note : str, default=""
+        What the record showed, appended to :meth:`describe` (``"auto"``
+        writes its reading of the spectrum here).
     """
 
     def __init__(self, cutoff: float | None = None, order: int = FILTER_ORDER,
-                 filter_inputs: bool = True) -> None:
+                 filter_inputs: bool = True, *, note: str = "") -> None:
         if cutoff is not None and not (np.isfinite(cutoff) and cutoff > 0):
             raise ValueError(f"lowpass cutoff must be a positive frequency or None, "
                              f"got {cutoff!r}")
@@ -159,7 +162,7 @@ class LowpassDifferentiator(Differentiator):
         self.cutoff = cutoff
         self.order = int(order)
         self.filter_inputs = bool(filter_inputs)
-        self.note = ""
+        self.note = note
 
     def min_samples(self, n: int) -> int:
         """Three samples."""
@@ -175,11 +178,16 @@ class LowpassDifferentiator(Differentiator):
                     "differentiator")
         return what + (f"; {self.note}" if self.note else "")
 
+    def _filters(self, grid: _Grid) -> bool:
+        """Whether the low-pass does anything on this grid."""
+        return (self.cutoff is not None and grid.size >= 8
+                and self.cutoff < NO_FILTER_ABOVE / (2 * grid.step))
+
     def _filter(self, t: np.ndarray, x: np.ndarray, grid: _Grid) -> np.ndarray:
         z = grid.fill(t, x)
-        fs = 1.0 / grid.step
-        if self.cutoff is None or self.cutoff >= NO_FILTER_ABOVE * fs / 2 or len(z) < 8:
+        if not self._filters(grid):
             return z
+        fs = 1.0 / grid.step
         sos = signal.butter(self.order, self.cutoff, fs=fs, output="sos")
         padlen = int(min(len(z) - 1, max(6 * self.order, 4 * fs / self.cutoff)))
         return signal.sosfiltfilt(sos, z, padtype="odd", padlen=padlen)
@@ -198,7 +206,7 @@ class LowpassDifferentiator(Differentiator):
         if not self.filter_inputs or self.cutoff is None:
             return None
         grid = even_grid(t)
-        if self.cutoff >= NO_FILTER_ABOVE / (2 * grid.step):
+        if not self._filters(grid):
             return None
         return grid.read(t, self._filter(t, np.asarray(u, dtype=float), grid))
 
@@ -225,9 +233,8 @@ class AutoDifferentiator(Differentiator):
                        order: int) -> Differentiator:
         """A :class:`LowpassDifferentiator` set from this experiment's spectrum."""
         if len(t) < MIN_SPECTRUM_SAMPLES or not states:
-            chosen = LowpassDifferentiator(None)
-            chosen.note = f"{len(t)} samples are too few to read a spectrum"
-            return chosen
+            return LowpassDifferentiator(
+                None, note=f"{len(t)} samples are too few to read a spectrum")
         grid = even_grid(t)
         fs = 1.0 / grid.step
         cutoffs, notes = {}, []
@@ -246,6 +253,5 @@ class AutoDifferentiator(Differentiator):
             sampling += f", {grid.dropped} dropped samples filled by cubic interpolation"
         elif grid.resampled:
             sampling += ", uneven: resampled on an even grid"
-        chosen = LowpassDifferentiator(None if cutoff >= NO_FILTER_ABOVE * fs / 2 else cutoff)
-        chosen.note = f"{sampling}; " + "; ".join(notes)
-        return chosen
+        return LowpassDifferentiator(None if cutoff >= NO_FILTER_ABOVE * fs / 2 else cutoff,
+                                     note=f"{sampling}; " + "; ".join(notes))

@@ -179,7 +179,7 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
 
 def _description(described: dict[str, list[str]]) -> str:
     if len(described) == 1:
-        return f"derivatives estimated by {next(iter(described))} per experiment"
+        return f"derivatives estimated per experiment by {next(iter(described))}"
     parts = []
     for text, where in described.items():
         places = ", ".join(w.removeprefix("in ") for w in where[:3])

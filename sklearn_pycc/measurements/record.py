@@ -8,7 +8,7 @@ derivatives for the same data and settings.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -58,7 +58,6 @@ class Record:
     smoothed: dict[str, np.ndarray]
     signals: dict[str, np.ndarray]
     source: str = MEASURED
-    reconstructed: dict[str, str] = field(default_factory=dict)
 
     @property
     def n_samples(self) -> int:
@@ -162,8 +161,7 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
             derivatives = read_y(X[list(skeleton.derivatives)], skeleton.derivatives,
                                  data.n_samples)
             ndim = 2
-        smoothed = dict(measured)
-        source, reconstructed = MEASURED, {}
+        smoothed, source = dict(measured), MEASURED
     else:
         estimate = estimate_states(skeleton, measured, experiments,
                                    resolve_differentiation(differentiation),
@@ -172,11 +170,10 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
         columns.update(estimate.states)
         columns.update(estimate.inputs)
         smoothed, source = estimate.smoothed, estimate.description
-        reconstructed = estimate.reconstructed
     for j, name in enumerate(skeleton.derivatives):
         columns[name] = derivatives[:, j]
     return Record(FitData(columns, data.n_samples, data.trajectory), derivatives, ndim,
-                  experiments, measured, smoothed, signals, source, reconstructed)
+                  experiments, measured, smoothed, signals, source)
 
 
 def _no_time_message(skeleton, who: str | None) -> str:

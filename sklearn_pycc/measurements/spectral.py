@@ -96,13 +96,15 @@ def read_spectrum(x: np.ndarray, step: float, quantum: Quantum | None = None) ->
     x = np.asarray(x, dtype=float)
     n = len(x)
     fs = 1.0 / step
-    frequencies, density = signal.welch(x, fs=fs, nperseg=_segment_length(n),
-                                        detrend="linear", scaling="density")
-    segments = max(1, (n - _segment_length(n) // 2) // max(1, _segment_length(n) // 2))
+    length = _segment_length(n)
+    frequencies, density = signal.welch(x, fs=fs, nperseg=length, detrend="linear",
+                                        scaling="density")
+    # the fewer segments Welch averages, the wider the median across bins
+    segments = 1 + (n - length) // max(1, length // 2)
     width = max(3, round(15 / np.sqrt(segments)) | 1)
     smoothed = ndimage.median_filter(density, size=width, mode="nearest")
     top = frequencies >= (1.0 - FLOOR_BAND) * frequencies[-1]
-    top[-1] = len(frequencies) <= 8  # the Nyquist bin is biased by the window; skip it
+    top[-1] = False  # the Nyquist bin is biased by the window
     floor = float(np.median(smoothed[top])) if top.any() else float(smoothed[-1])
     if quantum is not None:
         floor = max(floor, 2.0 * quantum.noise_variance / fs)
