@@ -9,6 +9,7 @@ trajectory can be returned with the error.
 from __future__ import annotations
 
 import bisect
+import contextlib
 import math
 import numbers
 from collections.abc import Callable, Mapping, Sequence
@@ -19,7 +20,8 @@ from scipy import integrate
 
 from .exceptions import SimulationError
 
-__all__ = ["DEFAULT_MAX_STEPS", "Diverged", "InputSignals", "check_time_grid", "integrate_system"]
+__all__ = ["DEFAULT_MAX_STEPS", "INPUT_HOLDS", "Diverged", "InputSignals", "check_time_grid",
+           "integrate_sampled", "integrate_system", "progress_bar"]
 
 _SOLVERS = {
     "LSODA": integrate.LSODA,
@@ -39,28 +41,55 @@ class Diverged(ArithmeticError):
     """Raised inside a right-hand side that produced a non-finite value."""
 
 
+#: how a sampled input is held between its samples
+INPUT_HOLDS = ("foh", "zoh")
+
+
 class _Sampled:
-    """Piecewise-linear interpolation of a signal sampled on a time grid (fast on scalars)."""
+    """A signal sampled on a time grid, held between samples (fast on scalars).
 
-    __slots__ = ("last", "n", "t", "t_list", "v", "v_list")
+    ``"foh"`` (first-order hold) joins the samples by straight lines;
+    ``"zoh"`` (zero-order hold) keeps each sample's value until the next
+    one, as a digital-to-analogue converter does. Inside a known sample
+    interval (:meth:`within`) no search is needed, and a zero-order hold
+    keeps the interval's value up to its right end.
+    """
 
-    def __init__(self, t: np.ndarray, values: np.ndarray) -> None:
+    __slots__ = ("hold", "n", "t", "t_list", "v", "v_list")
+
+    def __init__(self, t: np.ndarray, values: np.ndarray, hold: str = "foh") -> None:
         self.t, self.v = t, values
         self.t_list, self.v_list = t.tolist(), values.tolist()
         self.n = len(self.t_list)
+        self.hold = hold
 
     def __call__(self, t):
         if not isinstance(t, float):
+            if self.hold == "zoh":
+                index = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, self.n - 1)
+                return self.v[index]
             return np.interp(t, self.t, self.v)
-        ts = self.t_list
-        i = bisect.bisect_right(ts, t)
+        i = bisect.bisect_right(self.t_list, t)
         if i <= 0:
             return self.v_list[0]
         if i >= self.n:
             return self.v_list[-1]
-        t0, t1 = ts[i - 1], ts[i]
-        v0 = self.v_list[i - 1]
-        return v0 + (self.v_list[i] - v0) * (t - t0) / (t1 - t0)
+        return self.within(i - 1, t)
+
+    def within(self, i: int, t: float) -> float:
+        """The value at ``t`` inside the interval from sample ``i`` to sample ``i + 1``."""
+        v0 = self.v_list[i]
+        if self.hold == "zoh":
+            return v0
+        t0 = self.t_list[i]
+        return v0 + (self.v_list[i + 1] - v0) * (t - t0) / (self.t_list[i + 1] - t0)
+
+
+def _ignoring_interval(signal: Callable) -> Callable[[int, float], float]:
+    def read(_: int, t: float) -> float:
+        return float(signal(t))
+
+    return read
 
 
 def _constant(value: float) -> Callable:
@@ -83,9 +112,17 @@ class InputSignals:
         Name -> callable of ``t``, array sampled on ``t``, or a constant.
     t : ndarray
         The output time grid (arrays are sampled on it).
+    hold : {"foh", "zoh"}, default="foh"
+        How an array input is held between its samples.
     """
 
-    def __init__(self, names: Sequence[str], inputs: Mapping | None, t: np.ndarray) -> None:
+    def __init__(self, names: Sequence[str], inputs: Mapping | None, t: np.ndarray,
+                 hold: str = "foh") -> None:
+        if hold not in INPUT_HOLDS:
+            raise ValueError(f"input_hold must be one of {INPUT_HOLDS}, got {hold!r}")
+        self.hold = hold
+        #: sample interval the integrator is in (None: search for it)
+        self.interval: int | None = None
         inputs = {} if inputs is None else inputs
         if not isinstance(inputs, Mapping):
             raise TypeError(
@@ -107,10 +144,18 @@ class InputSignals:
         self.names = list(names)
         self.signals: list[Callable] = []
         for name in self.names:
-            self.signals.append(self._signal(name, inputs[name], t))
+            self.signals.append(self._signal(name, inputs[name], t, hold))
+        # readers inside a known sample interval, fixed once
+        self._within = [s.within if isinstance(s, _Sampled) else _ignoring_interval(s)
+                        for s in self.signals]
+
+    @property
+    def sampled(self) -> bool:
+        """Whether some input is an array sampled on the time grid."""
+        return any(isinstance(s, _Sampled) for s in self.signals)
 
     @staticmethod
-    def _signal(name: str, value, t: np.ndarray) -> Callable:
+    def _signal(name: str, value, t: np.ndarray, hold: str) -> Callable:
         if callable(value):
             probe = np.asarray(value(float(t[0])), dtype=float)
             if probe.size != 1:
@@ -135,11 +180,14 @@ class InputSignals:
         if not np.isfinite(values).all():
             bad = int(np.flatnonzero(~np.isfinite(values))[0])
             raise ValueError(f"input {name!r} is not finite at position {bad}")
-        return _Sampled(np.asarray(t, dtype=float), values)
+        return _Sampled(np.asarray(t, dtype=float), values, hold)
 
     def at(self, t: float) -> list[float]:
-        """Values of every input at the scalar time ``t``."""
-        return [float(s(t)) for s in self.signals]
+        """Values of every input at the scalar time ``t`` (inside :attr:`interval` when set)."""
+        i = self.interval
+        if i is None:
+            return [float(s(t)) for s in self.signals]
+        return [read(i, t) for read in self._within]
 
     def on(self, t: np.ndarray) -> list[np.ndarray]:
         """Values of every input on the time array ``t``."""
@@ -177,6 +225,7 @@ def integrate_system(
     rtol: float = 1e-6,
     atol: float = 1e-8,
     max_steps: int | None = DEFAULT_MAX_STEPS,
+    progress: Callable[[int], None] | None = None,
     **options,
 ) -> pd.DataFrame:
     """Integrate ``y' = fun(t, y)`` and sample it on ``t``.
@@ -187,6 +236,7 @@ def integrate_system(
     ``max_steps`` solver steps (a model chattering on a discontinuity, or
     stuck at a singularity) raises :class:`~sklearn_pycc.SimulationError`
     carrying the partial trajectory. ``max_steps=None`` removes the limit.
+    ``progress(k)`` is called as output samples are reached.
 
     Returns
     -------
@@ -239,6 +289,176 @@ def integrate_system(
             values = solver.dense_output()(t[k:j])
             out[k:j] = values.T
             k = j
+            if progress is not None:
+                progress(k - 1)
+    frame = pd.DataFrame(out, columns=list(names))
+    frame.insert(0, "t", t)
+    return frame
+
+
+@contextlib.contextmanager
+def progress_bar(n_samples: int, show: bool):
+    """A ``progress(k)`` callback drawing a tqdm bar over ``n_samples`` (None when not shown)."""
+    if not show:
+        yield None
+        return
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=n_samples - 1, unit="sample", desc="simulate")
+
+    def progress(reached: int) -> None:
+        bar.update(reached - bar.n)
+
+    try:
+        yield progress
+    finally:
+        bar.close()
+
+
+# Dormand-Prince 5(4): nodes, stage weights, fifth-order weights and the error weights
+# (fifth minus embedded fourth order; the last one for the first-same-as-last stage)
+_C2, _C3, _C4, _C5 = 1 / 5, 3 / 10, 4 / 5, 8 / 9
+_A21 = 1 / 5
+_A31, _A32 = 3 / 40, 9 / 40
+_A41, _A42, _A43 = 44 / 45, -56 / 15, 32 / 9
+_A51, _A52, _A53, _A54 = 19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729
+_A61, _A62, _A63, _A64, _A65 = 9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656
+_B1, _B3, _B4, _B5, _B6 = 35 / 384, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84
+_E1, _E3, _E4, _E5, _E6, _E7 = (71 / 57600, -71 / 16695, 71 / 1920, -17253 / 339200,
+                                22 / 525, -1 / 40)
+
+
+#: explicit steps within one sample interval after which it is finished implicitly
+STIFF_STEPS = 16
+
+
+def _stiff_interval(fun, start: float, end: float, y: list, rtol: float, atol: float,
+                    budget: float) -> tuple[list, int]:
+    """Integrate one sample interval with LSODA; return the state at its end and the steps."""
+    solver = integrate.LSODA(lambda time, state: fun(time, state.tolist()), start,
+                             np.array(y), end, rtol=rtol, atol=atol)
+    used = 0
+    while solver.status == "running":
+        if used >= budget:
+            raise Diverged(f"the model is stiff and needed more than the step limit by "
+                           f"t={solver.t:.6g}")
+        message = solver.step()
+        used += 1
+        if solver.status == "failed":
+            raise Diverged(f"the implicit solver failed: {message}")
+    if not np.isfinite(solver.y).all():
+        raise Diverged("the state is no longer finite")
+    return solver.y.tolist(), used
+
+
+def integrate_sampled(
+    fun: Callable[[float, list], Sequence[float]],
+    t: np.ndarray,
+    y0: np.ndarray,
+    names: Sequence[str],
+    signals: InputSignals,
+    rtol: float = 1e-6,
+    atol: float = 1e-8,
+    max_steps: int | None = DEFAULT_MAX_STEPS,
+    progress: Callable[[int], None] | None = None,
+) -> pd.DataFrame:
+    """Integrate ``y' = fun(t, y)`` driven by sampled inputs, sample interval by interval.
+
+    An adaptive Dormand-Prince 5(4) method whose steps end on every sample
+    time, so that each step sees the input held smoothly (a zero-order hold
+    jumps, a first-order hold kinks, only at samples) and no step straddles
+    a jump. The step size carries over from one interval to the next: the
+    solver is not restarted at samples, and a slow model takes one step per
+    sample. An interval that needs more than ``STIFF_STEPS`` explicit steps
+    (a stiff stretch, such as a steep friction law near zero velocity) is
+    finished by LSODA. ``fun`` takes the state as a list of floats (see
+    :meth:`~sklearn_pycc.skeleton.system.CompiledSystem.make_rhs`). Errors
+    and limits are those of :func:`integrate_system`; ``progress(k)`` is
+    called as samples are reached.
+    """
+    if max_steps is not None and (not isinstance(max_steps, numbers.Integral)
+                                  or isinstance(max_steps, bool) or max_steps < 1):
+        raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
+    n, m = len(t), len(y0)
+    times = t.tolist()
+    out = np.empty((n, m))
+    out[0] = y0
+    y = [float(v) for v in y0]
+    reached, steps = 0, 0
+    limit = math.inf if max_steps is None else max_steps
+    every = max(1, n // 100)
+    # a zero-order hold jumps at every sample: the first stage is evaluated anew there
+    jumps = signals.hold == "zoh"
+
+    def partial(reason: str, t_reached: float) -> SimulationError:
+        frame = pd.DataFrame(out[:reached + 1], columns=list(names))
+        frame.insert(0, "t", t[:reached + 1])
+        return SimulationError(reason, t_reached=t_reached, partial=frame)
+
+    h = times[1] - times[0]
+    try:
+        signals.interval = 0
+        k1 = list(fun(times[0], y))
+        for i in range(n - 1):
+            signals.interval = i
+            now, end = times[i], times[i + 1]
+            if jumps and i:
+                k1 = list(fun(now, y))
+            here = 0
+            while now < end:
+                if here == STIFF_STEPS:
+                    # stability, not accuracy, limits the step: finish this interval with
+                    # an implicit method (the input is held as in the explicit steps)
+                    y, used = _stiff_interval(fun, now, end, y, rtol, atol, limit - steps)
+                    steps += used
+                    now, k1 = end, list(fun(end, y))
+                    break
+                here += 1
+                if steps >= limit:
+                    raise partial(
+                        f"the solver took {steps} steps and reached only t={now:.6g} of "
+                        f"{times[-1]:.6g}: the model may chatter on a discontinuity or be "
+                        "stiff (raise max_steps, or pass method='LSODA')", now)
+                steps += 1
+                last = end - now <= h * (1 + 1e-12)
+                s = end - now if last else h
+                k2 = fun(now + _C2 * s, [a + s * _A21 * b for a, b in zip(y, k1)])
+                k3 = fun(now + _C3 * s, [a + s * (_A31 * b + _A32 * c)
+                                         for a, b, c in zip(y, k1, k2)])
+                k4 = fun(now + _C4 * s, [a + s * (_A41 * b + _A42 * c + _A43 * d)
+                                         for a, b, c, d in zip(y, k1, k2, k3)])
+                k5 = fun(now + _C5 * s, [a + s * (_A51 * b + _A52 * c + _A53 * d + _A54 * e)
+                                         for a, b, c, d, e in zip(y, k1, k2, k3, k4)])
+                k6 = fun(now + s, [a + s * (_A61 * b + _A62 * c + _A63 * d + _A64 * e + _A65 * f)
+                                   for a, b, c, d, e, f in zip(y, k1, k2, k3, k4, k5)])
+                new = [a + s * (_B1 * b + _B3 * d + _B4 * e + _B5 * f + _B6 * g)
+                       for a, b, d, e, f, g in zip(y, k1, k3, k4, k5, k6)]
+                k7 = fun(now + s, new)
+                total = 0.0
+                for a, z, b, d, e, f, g, w in zip(y, new, k1, k3, k4, k5, k6, k7):
+                    err = s * (_E1 * b + _E3 * d + _E4 * e + _E5 * f + _E6 * g + _E7 * w) / (
+                        atol + rtol * max(abs(a), abs(z)))
+                    total += err * err
+                error = math.sqrt(total / m)
+                if not math.isfinite(error):
+                    raise Diverged("the state is no longer finite")
+                factor = 5.0 if error == 0 else min(5.0, max(0.2, 0.9 * error ** -0.2))
+                if error <= 1.0:
+                    now = end if last else now + s
+                    y, k1 = new, list(k7)  # first same as last
+                    # a step cut short to land on a sample does not shrink the next one
+                    h = max(h, s * factor) if last else s * factor
+                else:
+                    h = s * factor
+            out[i + 1] = y
+            reached = i + 1
+            if progress is not None and (reached % every == 0 or reached == n - 1):
+                progress(reached)
+    except (ArithmeticError, ValueError) as exc:
+        reason = str(exc) or type(exc).__name__
+        raise partial(f"the simulation diverged: {reason}", times[reached]) from exc
+    finally:
+        signals.interval = None
     frame = pd.DataFrame(out, columns=list(names))
     frame.insert(0, "t", t)
     return frame

@@ -149,3 +149,90 @@ def test_a_failing_method_names_the_experiment_and_the_setting():
     message = r"the callable broken failed on 'x1' in experiment 1: singular matrix"
     with pytest.raises(ValueError, match=message):
         model.fit(X)
+
+
+# -- sampled inputs -----------------------------------------------------------------
+def _integrator():
+    from sklearn_pycc import Skeleton
+
+    return Skeleton(["x1_dot = a1 u"])
+
+
+def test_input_hold_zero_and_first_order_integrate_exactly():
+    t = np.linspace(0.0, 2.0, 41)
+    u = np.sin(3 * t) + (t > 1)
+    skeleton = _integrator()
+    h = t[1] - t[0]
+    zoh = skeleton.simulate(t, [0.0], params={"a1": 1.0}, inputs={"u": u}, input_hold="zoh")
+    foh = skeleton.simulate(t, [0.0], params={"a1": 1.0}, inputs={"u": u})
+    assert np.allclose(zoh["x1"], np.r_[0, np.cumsum(u[:-1] * h)], atol=1e-9)
+    assert np.allclose(foh["x1"], np.r_[0, np.cumsum((u[:-1] + u[1:]) / 2 * h)], atol=1e-9)
+    with pytest.raises(ValueError, match=r"input_hold must be one of \('foh', 'zoh'\)"):
+        skeleton.simulate(t, [0.0], params={"a1": 1.0}, inputs={"u": u}, input_hold="hold")
+
+
+def test_sampled_inputs_agree_with_lsoda_and_take_few_steps():
+    from sklearn_pycc.simulation import InputSignals, integrate_sampled
+
+    frame, truth = datasets.make_resonator(n_samples=3000, noise=None, random_state=0,
+                                           return_truth=True)
+    from sklearn_pycc import Skeleton
+
+    skeleton = Skeleton(truth.equations)
+    t, u = frame["t"].to_numpy(), frame["u"].to_numpy()
+    ours = skeleton.simulate(t, [0, 0], params=truth.params, inputs={"u": u})
+    scipy = skeleton.simulate(t, [0, 0], params=truth.params, inputs={"u": u},
+                              method="LSODA", rtol=1e-9, atol=1e-12)
+    assert np.max(np.abs(ours["x1"] - scipy["x1"])) < 1e-4 * np.ptp(scipy["x1"])
+    # a slow model driven by a long sampled record: about one step per sample
+    slow = Skeleton(["x1_dot = u - x1"]).compile({}, {})
+    t = np.linspace(0, 100, 20_000)
+    signals = InputSignals(["u"], {"u": np.sin(0.3 * t)}, t)
+    calls = []
+    rhs = slow.make_rhs(signals.at, list_states=True)
+
+    def counted(time, state):
+        calls.append(time)
+        return rhs(time, state)
+
+    integrate_sampled(counted, t, np.zeros(1), ["x1"], signals)
+    assert len(calls) <= 7 * len(t)
+
+
+def test_stiff_friction_with_sampled_inputs_is_finished_implicitly(monkeypatch):
+    from sklearn_pycc import Skeleton, simulation
+
+    implicit = []
+    original = simulation._stiff_interval
+
+    def counted(*args):
+        implicit.append(args[1])
+        return original(*args)
+
+    monkeypatch.setattr(simulation, "_stiff_interval", counted)
+
+    frame = datasets.make_stick_slip()
+    skeleton = Skeleton(["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 tanh(a3 x2) - a4 x1"])
+    params = {"a1": 0.1, "a2": 0.5, "a3": 1e4, "a4": 1.0}
+    t, force = frame["t"].to_numpy(), frame["F_ext"].to_numpy()
+    ours = skeleton.simulate(t, [0, 0], params=params, inputs={"F_ext": force})
+    scipy = skeleton.simulate(t, [0, 0], params=params, inputs={"F_ext": force},
+                              method="LSODA", rtol=1e-9, atol=1e-12)
+    assert np.max(np.abs(ours["x1"] - scipy["x1"])) < 1e-3 * np.ptp(scipy["x1"])
+    assert 0 < len(implicit) < 0.1 * len(t)  # only the sticking stretches
+
+
+def test_sampled_divergence_and_progress(capsys):
+    from sklearn_pycc import SimulationError, Skeleton
+
+    t = np.linspace(0, 10, 2001)
+    skeleton = Skeleton(["x1_dot = x1^2 + u"])
+    with pytest.raises(SimulationError) as caught:
+        skeleton.simulate(t, [1.0], inputs={"u": np.zeros_like(t)})
+    assert 0.9 < caught.value.t_reached < 1.0
+    assert len(caught.value.partial) > 100
+    model = PolyCCRegressor(equations=["x1_dot = a1 u - a2 x1"]).fit(
+        pd.DataFrame({"x1": np.sin(t), "u": np.sin(t) + np.cos(t)}),
+        pd.DataFrame({"x1_dot": np.cos(t)}))
+    model.simulate(t, [0.0], inputs={"u": np.sin(t)}, verbose=True)
+    assert "sample" in capsys.readouterr().err

@@ -353,10 +353,12 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         y0,
         inputs: Mapping | None = None,
         *,
-        method: str = "LSODA",
+        method: str | None = None,
         rtol: float = 1e-6,
         atol: float = 1e-8,
         return_derivatives: bool = False,
+        input_hold: str = "foh",
+        verbose: bool = False,
         **solver_options,
     ) -> pd.DataFrame:
         """Simulate the fitted model.
@@ -369,8 +371,19 @@ class CCRegressor(RegressorMixin, BaseEstimator):
             Initial state, in the order of the equations or by state name.
         inputs : dict, optional
             Input name -> callable of ``t``, array sampled on ``t``, or constant.
-        method : str, default="LSODA"
-            SciPy solver: LSODA, RK45, RK23, DOP853, Radau or BDF.
+        method : str, optional
+            How to integrate. By default, an input given as an array sampled on
+            ``t`` selects the sampled-input integrator (an adaptive
+            Dormand-Prince 5(4) whose steps end on the samples, so that the
+            held input never forces a restart; one step per sample for a slow
+            model), and otherwise SciPy's LSODA. Name a SciPy solver (LSODA,
+            RK45, RK23, DOP853, Radau, BDF) to use it whatever the inputs.
+        input_hold : {"foh", "zoh"}, default="foh"
+            How an array input is held between its samples: joined by
+            straight lines (first-order hold), or kept constant until the next
+            sample (zero-order hold, what a digital controller's output does).
+        verbose : bool, default=False
+            Show a progress bar (tqdm) over the samples.
         rtol, atol : float
             Solver tolerances.
         return_derivatives : bool
@@ -411,7 +424,7 @@ class CCRegressor(RegressorMixin, BaseEstimator):
                    if getattr(curve, "extrapolation", None)}
         frame = simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
                                 return_derivatives=return_derivatives or bool(watched),
-                                **solver_options)
+                                input_hold=input_hold, verbose=verbose, **solver_options)
         if watched:
             self._warn_outside_domain(frame, watched)
             if not return_derivatives:

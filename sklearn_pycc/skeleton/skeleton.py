@@ -9,7 +9,14 @@ import numpy as np
 import pandas as pd
 
 from ..exceptions import SkeletonError
-from ..simulation import InputSignals, check_time_grid, integrate_system
+from ..simulation import (
+    DEFAULT_MAX_STEPS,
+    InputSignals,
+    check_time_grid,
+    integrate_sampled,
+    integrate_system,
+    progress_bar,
+)
 from .constraints import Constraint, check_constraints, parse_constraints
 from .equations import TIME, Equation, classify, evaluation_order, state_of
 from .nodes import BinOp, Param, Symbol, Unknown, rename, walk
@@ -302,10 +309,12 @@ class Skeleton:
         params: Mapping[str, float] | None = None,
         inputs: Mapping | None = None,
         *,
-        method: str = "LSODA",
+        method: str | None = None,
         rtol: float = 1e-6,
         atol: float = 1e-8,
         return_derivatives: bool = False,
+        input_hold: str = "foh",
+        verbose: bool = False,
         **solver_options,
     ) -> pd.DataFrame:
         """Simulate the skeleton with given curves and parameters (the paper's ``Theoretical``).
@@ -322,8 +331,21 @@ class Skeleton:
             Parameter name -> value.
         inputs : dict, optional
             Input name -> callable of ``t``, array sampled on ``t``, or constant.
-        method, rtol, atol :
-            Passed to the SciPy solver (LSODA by default).
+        method : str, optional
+            How to integrate. By default, an input given as an array sampled on
+            ``t`` selects the sampled-input integrator (an adaptive
+            Dormand-Prince 5(4) whose steps end on the samples, so that the
+            held input never forces a restart; one step per sample for a slow
+            model), and otherwise SciPy's LSODA. Name a SciPy solver (LSODA,
+            RK45, RK23, DOP853, Radau, BDF) to use it whatever the inputs.
+        input_hold : {"foh", "zoh"}, default="foh"
+            How an array input is held between its samples: joined by
+            straight lines (first-order hold), or kept constant until the next
+            sample (zero-order hold, what a digital controller's output does).
+        verbose : bool, default=False
+            Show a progress bar (tqdm) over the samples.
+        rtol, atol : float
+            Solver tolerances.
         return_derivatives : bool
             Also return the ``NAME_dot`` columns evaluated on the trajectory.
         **solver_options
@@ -343,12 +365,18 @@ class Skeleton:
         """
         system = self.compile(functions, params)
         return simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
-                               return_derivatives=return_derivatives, **solver_options)
+                               return_derivatives=return_derivatives, input_hold=input_hold,
+                               verbose=verbose, **solver_options)
 
 
-def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method="LSODA", rtol=1e-6,
-                    atol=1e-8, return_derivatives=False, **solver_options) -> pd.DataFrame:
-    """Simulate a compiled system (shared by :class:`Skeleton` and the estimators)."""
+def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method=None, rtol=1e-6,
+                    atol=1e-8, return_derivatives=False, input_hold="foh", verbose=False,
+                    **solver_options) -> pd.DataFrame:
+    """Simulate a compiled system (shared by :class:`Skeleton` and the estimators).
+
+    ``method=None`` integrates sampled inputs by :func:`integrate_sampled`
+    and everything else by LSODA.
+    """
     t = check_time_grid(t)
     y0 = np.asarray(y0, dtype=float)
     if y0.ndim != 1 or len(y0) != len(system.states):
@@ -357,10 +385,24 @@ def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method="LSODA
             f"({', '.join(system.states)}), got shape {y0.shape}")
     if not np.isfinite(y0).all():
         raise ValueError("y0 contains NaN or infinity")
-    signals = InputSignals(system.inputs, inputs, t)
-    rhs = system.make_rhs(signals.at)
-    frame = integrate_system(rhs, t, y0, system.states, method=method, rtol=rtol, atol=atol,
-                             **solver_options)
+    signals = InputSignals(system.inputs, inputs, t, input_hold)
+    sampled = method is None and signals.sampled
+    rhs = system.make_rhs(signals.at, list_states=sampled)
+    with progress_bar(len(t), verbose) as progress:
+        if sampled:
+            unknown = set(solver_options) - {"max_steps"}
+            if unknown:
+                raise ValueError(f"the sampled-input integrator takes no option "
+                                 f"{sorted(unknown)[0]!r}; pass method='LSODA' (or another "
+                                 "SciPy solver) to use SciPy's options")
+            # a long record earns its steps: at least 50 per sample
+            limit = solver_options.get("max_steps", max(DEFAULT_MAX_STEPS, 50 * len(t)))
+            frame = integrate_sampled(rhs, t, y0, system.states, signals, rtol=rtol, atol=atol,
+                                      max_steps=limit, progress=progress)
+        else:
+            frame = integrate_system(rhs, t, y0, system.states, method=method or "LSODA",
+                                     rtol=rtol, atol=atol, progress=progress,
+                                     **solver_options)
     if return_derivatives:
         data = {name: frame[name].to_numpy() for name in system.states}
         values = signals.on(t)

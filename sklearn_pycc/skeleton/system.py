@@ -90,8 +90,14 @@ class CompiledSystem:
         return np.column_stack([env[s] for s in self._output_slots])
 
     # -- scalar right-hand side for ODE solvers ----------------------------
-    def make_rhs(self, input_at: Callable[[float], list[float]]) -> Callable:
-        """Return ``rhs(t, y)`` for a SciPy solver; inputs come from ``input_at(t)``."""
+    def make_rhs(self, input_at: Callable[[float], list[float]], *,
+                 list_states: bool = False) -> Callable:
+        """Return ``rhs(t, y)`` for a SciPy solver; inputs come from ``input_at(t)``.
+
+        With ``list_states`` the state ``y`` is a list of floats (the
+        project's own integrators), otherwise a numpy array.
+        """
+        to_list = list if list_states else np.ndarray.tolist
         plan = self._plan_scalar
         outputs = self._output_slots
         pick = itemgetter(*outputs) if len(outputs) > 1 else (lambda env: (env[outputs[0]],))
@@ -101,7 +107,7 @@ class CompiledSystem:
 
         def rhs(t, y):
             t = float(t)
-            env = y.tolist()
+            env = to_list(y)
             if has_inputs:
                 env += input_at(t)
             env.append(t)

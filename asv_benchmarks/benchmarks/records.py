@@ -1,0 +1,78 @@
+"""Benchmarks of laboratory records: position-only fits at real sizes, sampled inputs."""
+
+from __future__ import annotations
+
+import warnings
+
+from threadpoolctl import threadpool_limits
+
+from sklearn_pycc import PolyCCRegressor, Skeleton, datasets, diagnose
+
+
+class PositionOnly:
+    """Position-only fit (``differentiation="auto"``) of the resonator, and its diagnosis.
+
+    The goal: linear in ``n_samples``, fit plus diagnose under 3 s at 100,000.
+    The diagnosis runs at 10,000 and 100,000 samples only (it simulates).
+    """
+
+    param_names = ["n_samples"]
+    params = ([10_000, 100_000, 1_000_000],)
+    processes = 1
+    repeat = (1, 3, 60.0)
+    timeout = 300
+
+    def setup(self, n_samples):
+        self._limits = threadpool_limits(limits=1)
+        warnings.simplefilter("ignore")
+        self.frame, self.truth = datasets.make_resonator(n_samples=n_samples, random_state=0,
+                                                         return_truth=True)
+        self.model = PolyCCRegressor(equations=self.truth.base_equations).fit(self.frame)
+
+    def teardown(self, n_samples):
+        self._limits.restore_original_limits()
+
+    def _fit(self):
+        return PolyCCRegressor(equations=self.truth.equations).fit(self.frame)
+
+    def time_fit(self, n_samples):
+        self._fit()
+
+    def peakmem_fit(self, n_samples):
+        self._fit()
+
+    def time_diagnose(self, n_samples):
+        if n_samples > 100_000:
+            raise NotImplementedError  # asv skips it
+        diagnose(self.model, self.frame)
+
+    def track_stiffness_error(self, n_samples):
+        """Relative error of the fitted linear stiffness ``a3``."""
+        return abs(self._fit().params_["a3"] / self.truth.params["a3"] - 1)
+
+
+class SampledInput:
+    """``simulate`` with a 100,000-sample input array (compare.py lines n and o give its ratio
+    to a hand-written numpy RK4 at the sample rate, measured side by side)."""
+
+    processes = 1
+    repeat = (1, 3, 60.0)
+    timeout = 300
+
+    def setup(self):
+        self._limits = threadpool_limits(limits=1)
+        frame, self.truth = datasets.make_resonator(n_samples=100_000, noise=None,
+                                                    random_state=0, return_truth=True)
+        self.skeleton = Skeleton(self.truth.equations)
+        self.t, self.u = frame["t"].to_numpy(), frame["u"].to_numpy()
+
+    def teardown(self):
+        self._limits.restore_original_limits()
+
+    def time_simulate(self):
+        self.skeleton.simulate(self.t, [0.0, 0.0], params=self.truth.params,
+                               inputs={"u": self.u})
+
+    def time_simulate_rtol_1e3(self):
+        self.skeleton.simulate(self.t, [0.0, 0.0], params=self.truth.params,
+                               inputs={"u": self.u}, rtol=1e-3)
