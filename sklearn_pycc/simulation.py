@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 from scipy import integrate
 
+from ._bandlimited import bandlimited_slopes
 from .exceptions import SimulationError
 
 __all__ = ["DEFAULT_MAX_STEPS", "INPUT_HOLDS", "Diverged", "InputSignals", "check_time_grid",
@@ -42,32 +43,39 @@ class Diverged(ArithmeticError):
 
 
 #: how a sampled input is held between its samples
-INPUT_HOLDS = ("foh", "zoh")
+INPUT_HOLDS = ("bandlimited", "foh", "zoh")
 
 
 class _Sampled:
     """A signal sampled on a time grid, held between samples (fast on scalars).
 
-    ``"foh"`` (first-order hold) joins the samples by straight lines;
-    ``"zoh"`` (zero-order hold) keeps each sample's value until the next
-    one, as a digital-to-analogue converter does. Inside a known sample
-    interval (:meth:`within`) no search is needed, and a zero-order hold
-    keeps the interval's value up to its right end.
+    ``"bandlimited"`` reads the samples as a signal band-limited below the
+    Nyquist frequency (a measured, anti-aliased record; a generator's
+    output): cubic Hermite pieces whose slopes at the samples are those of
+    the band-limited signal. ``"foh"`` (first-order hold) joins the samples
+    by straight lines; ``"zoh"`` (zero-order hold) keeps each sample's
+    value until the next one, as a digital-to-analogue converter does.
+    Inside a known sample interval (:meth:`within`) no search is needed,
+    and a zero-order hold keeps the interval's value up to its right end.
     """
 
-    __slots__ = ("hold", "n", "t", "t_list", "v", "v_list")
+    __slots__ = ("d_list", "hold", "n", "slopes", "t", "t_list", "v", "v_list")
 
-    def __init__(self, t: np.ndarray, values: np.ndarray, hold: str = "foh") -> None:
+    def __init__(self, t: np.ndarray, values: np.ndarray, hold: str = "bandlimited") -> None:
         self.t, self.v = t, values
         self.t_list, self.v_list = t.tolist(), values.tolist()
         self.n = len(self.t_list)
         self.hold = hold
+        self.slopes = bandlimited_slopes(t, values) if hold == "bandlimited" else None
+        self.d_list = None if self.slopes is None else self.slopes.tolist()
 
     def __call__(self, t):
         if not isinstance(t, float):
             if self.hold == "zoh":
                 index = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, self.n - 1)
                 return self.v[index]
+            if self.hold == "bandlimited" and self.n > 1:
+                return self._hermite(np.asarray(t, dtype=float))
             return np.interp(t, self.t, self.v)
         i = bisect.bisect_right(self.t_list, t)
         if i <= 0:
@@ -82,7 +90,23 @@ class _Sampled:
         if self.hold == "zoh":
             return v0
         t0 = self.t_list[i]
-        return v0 + (self.v_list[i + 1] - v0) * (t - t0) / (self.t_list[i + 1] - t0)
+        width = self.t_list[i + 1] - t0
+        s = (t - t0) / width
+        v1 = self.v_list[i + 1]
+        if self.d_list is None:
+            return v0 + (v1 - v0) * s
+        # cubic Hermite: values and band-limited slopes at both ends
+        d0, d1 = self.d_list[i] * width, self.d_list[i + 1] * width
+        return v0 + s * (d0 + s * (3 * (v1 - v0) - 2 * d0 - d1 + s * (2 * (v0 - v1) + d0 + d1)))
+
+    def _hermite(self, t: np.ndarray) -> np.ndarray:
+        inside = np.clip(t, self.t[0], self.t[-1])
+        i = np.clip(np.searchsorted(self.t, inside, side="right") - 1, 0, self.n - 2)
+        t0, width = self.t[i], self.t[i + 1] - self.t[i]
+        s = (inside - t0) / width
+        v0, v1 = self.v[i], self.v[i + 1]
+        d0, d1 = self.slopes[i] * width, self.slopes[i + 1] * width
+        return v0 + s * (d0 + s * (3 * (v1 - v0) - 2 * d0 - d1 + s * (2 * (v0 - v1) + d0 + d1)))
 
 
 def _ignoring_interval(signal: Callable) -> Callable[[int, float], float]:
@@ -112,12 +136,12 @@ class InputSignals:
         Name -> callable of ``t``, array sampled on ``t``, or a constant.
     t : ndarray
         The output time grid (arrays are sampled on it).
-    hold : {"foh", "zoh"}, default="foh"
+    hold : {"bandlimited", "foh", "zoh"}, default="bandlimited"
         How an array input is held between its samples.
     """
 
     def __init__(self, names: Sequence[str], inputs: Mapping | None, t: np.ndarray,
-                 hold: str = "foh") -> None:
+                 hold: str = "bandlimited") -> None:
         if hold not in INPUT_HOLDS:
             raise ValueError(f"input_hold must be one of {INPUT_HOLDS}, got {hold!r}")
         self.hold = hold

@@ -80,9 +80,8 @@ def test_neural_output_error_refines_the_networks():
                                          noise_columns=["x1"], random_state=0,
                                          return_truth=True)
     X = frame[["t", "x1", "F_ext"]]
-    # the shooting stage is judged from the start it was built for (spline derivatives)
     settings = dict(equations=SECOND_ORDER, constraints=["f1 odd"], hidden_layer_sizes=(8,),
-                    max_epochs=60, random_state=0, differentiation="spline")
+                    max_epochs=60, random_state=0)
     equation = NeuralCCRegressor(**settings).fit(X)
     output = NeuralCCRegressor(**settings, fit_mode="simulation", shooting_window=20,
                                shooting_iterations=15).fit(X)
@@ -109,10 +108,7 @@ def test_neural_stick_slip_position_only_at_30_db():
     # the equation-error start is short; the shooting stage does the fitting
     assert model.n_epochs_ == 10
     info = model.shooting_
-    # from the default ("auto") derivatives the start is already at the output-error
-    # optimum: the shooting lowers its loss (not reverted) by trading at most a
-    # percent of segment fit for continuity between segments
-    assert info["nrmse_after"] <= 1.01 * info["nrmse_before"] and not info["reverted"]
+    assert info["nrmse_after"] < info["nrmse_before"] and not info["reverted"]
 
 
 def test_neural_shooting_start_epochs_is_checked():

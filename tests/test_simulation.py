@@ -94,10 +94,11 @@ def test_input_as_array_sampled_on_t():
     np.testing.assert_allclose(sim["x1"], 1.0 + t**2, atol=1e-7)
 
 
-def test_input_as_array_is_interpolated_linearly():
+def test_input_as_array_is_interpolated_linearly_by_a_first_order_hold():
     t = np.array([0.0, 1.0, 2.0])
     u = np.array([0.0, 2.0, 0.0])  # a triangle: the integral is t^2 then 2 - (2 - t)^2
-    sim = Skeleton(["x1_dot = u"]).simulate(t, [0.0], inputs={"u": u}, **TOL)
+    sim = Skeleton(["x1_dot = u"]).simulate(t, [0.0], inputs={"u": u}, input_hold="foh",
+                                            **TOL)
     np.testing.assert_allclose(sim["x1"], [0.0, 1.0, 2.0], atol=1e-6)
 
 

@@ -216,11 +216,14 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         record = read_record(skeleton, X, y, differentiation=self.differentiation,
                              smooth=bool(self.smooth_states), estimator=self, reset=True,
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
-                             who=type(self).__name__)
+                             who=type(self).__name__, trim=False)
         self._y_1d = record.y_ndim == 1
         self.derivative_source_ = record.source
         self.measured_states_ = list(record.measured)
-        return Problem(skeleton, constraints, fixed, zeroed, record.data, record.derivatives,
+        # the equations are fitted where the derivatives can be trusted; an
+        # output-error stage simulates the whole record
+        trusted = record.keep()
+        return Problem(skeleton, constraints, fixed, zeroed, trusted.data, trusted.derivatives,
                        gauge, record.experiments, record.measured, record.smoothed,
                        record.signals)
 
@@ -357,7 +360,7 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         rtol: float = 1e-6,
         atol: float = 1e-8,
         return_derivatives: bool = False,
-        input_hold: str = "foh",
+        input_hold: str = "bandlimited",
         verbose: bool = False,
         **solver_options,
     ) -> pd.DataFrame:
@@ -372,16 +375,12 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         inputs : dict, optional
             Input name -> callable of ``t``, array sampled on ``t``, or constant.
         method : str, optional
-            How to integrate. By default, an input given as an array sampled on
-            ``t`` selects the sampled-input integrator (an adaptive
-            Dormand-Prince 5(4) whose steps end on the samples, so that the
-            held input never forces a restart; one step per sample for a slow
-            model), and otherwise SciPy's LSODA. Name a SciPy solver (LSODA,
-            RK45, RK23, DOP853, Radau, BDF) to use it whatever the inputs.
-        input_hold : {"foh", "zoh"}, default="foh"
-            How an array input is held between its samples: joined by
-            straight lines (first-order hold), or kept constant until the next
-            sample (zero-order hold, what a digital controller's output does).
+            How to integrate; as in :meth:`Skeleton.simulate
+            <sklearn_pycc.Skeleton.simulate>` (the sampled-input integrator
+            for array inputs, else LSODA).
+        input_hold : {"bandlimited", "foh", "zoh"}, default="bandlimited"
+            How an array input is read between its samples; see
+            :meth:`Skeleton.simulate <sklearn_pycc.Skeleton.simulate>`.
         verbose : bool, default=False
             Show a progress bar (tqdm) over the samples.
         rtol, atol : float

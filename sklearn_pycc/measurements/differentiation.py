@@ -46,6 +46,15 @@ class Differentiator:
         """
         return self
 
+    def settling(self, t: np.ndarray) -> float:
+        """Time at each end of an experiment where the estimate is not to be trusted.
+
+        A filter settles and a differentiator runs out of neighbours at the
+        ends of a record; samples within this time of either end are left
+        out of fits and diagnoses. None of the fixed methods needs it (0).
+        """
+        return 0.0
+
     def smooth_input(self, t: np.ndarray, u: np.ndarray) -> np.ndarray | None:
         """An input as the fit should see it, or None to use it as measured.
 

@@ -17,122 +17,25 @@ per experiment from the record's spectrum (see :mod:`.spectral`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from scipy import signal
-from scipy.interpolate import CubicSpline
 
+from .._bandlimited import _HALF, EvenGrid, central_derivative, even_grid
 from .differentiation import Differentiator
 from .spectral import choose_cutoff, find_quantum, read_spectrum
 
-__all__ = ["AutoDifferentiator", "LowpassDifferentiator", "central_derivative"]
+__all__ = ["AutoDifferentiator", "LowpassDifferentiator", "central_derivative", "even_grid"]
 
-#: half-length of the band-limited differentiator (41 taps)
-_HALF = 20
-#: Kaiser window of the differentiator: error below 1e-4 up to 0.84 of the Nyquist frequency
-_BETA = 10.0
-#: sixth-order central first derivative (near the ends), weights of x[i-3] ... x[i+3]
-_STENCIL = np.array([-1 / 60, 3 / 20, -3 / 4, 0.0, 3 / 4, -3 / 20, 1 / 60])
-
-
-def _differentiator_taps() -> np.ndarray:
-    """The ideal differentiator ``(-1)^(k+1) / k``, Kaiser-windowed, as convolution taps."""
-    k = np.arange(-_HALF, _HALF + 1)
-    taps = np.zeros(len(k))
-    nonzero = k != 0
-    taps[nonzero] = (-1.0) ** (k[nonzero] + 1) / k[nonzero]
-    taps *= signal.windows.kaiser(len(k), _BETA)
-    return taps[::-1]  # np.convolve flips its kernel
-
-
-_TAPS = _differentiator_taps()
 #: Butterworth order of the low-pass (applied twice: forward and backward)
 FILTER_ORDER = 6
 #: above this share of the Nyquist frequency a low-pass is not worth applying
 NO_FILTER_ABOVE = 0.8
 #: the filter's cutoff sits this far above the chosen brick-wall cutoff (its transition band)
 CUTOFF_MARGIN = 1.2
+#: periods of the cutoff a filtered record's ends are left to settle
+SETTLING_PERIODS = 2.0
 #: samples an experiment needs for a spectrum; shorter ones get plain central differences
 MIN_SPECTRUM_SAMPLES = 16
-
-
-def central_derivative(z: np.ndarray, step: float) -> np.ndarray:
-    """First derivative of evenly spaced samples, accurate up to 0.84 of the Nyquist frequency.
-
-    A 41-tap Kaiser-windowed ideal differentiator (relative error below
-    1e-4 up to 0.84 of the Nyquist frequency, where the sixth-order central
-    difference is off by a part in 10^3 at a quarter of it); the samples
-    within 20 of an end use sixth-order central differences, and the three
-    at each end second-order one-sided ones.
-    """
-    z = np.asarray(z, dtype=float)
-    n = len(z)
-    out = np.gradient(z, step, edge_order=2) if n >= 3 else np.gradient(z, step)
-    if n > 6:
-        inner = np.zeros(n - 6)
-        for k, w in enumerate(_STENCIL):
-            if w:
-                inner += w * z[k:n - 6 + k]
-        out[3:-3] = inner / step
-    if n > 2 * _HALF:
-        out[_HALF:-_HALF] = np.convolve(z, _TAPS, mode="valid") / step
-    return out
-
-
-@dataclass(frozen=True)
-class _Grid:
-    """An even grid carrying one experiment's samples."""
-
-    t0: float
-    step: float
-    size: int
-    #: grid positions of the samples (None: the samples are the grid)
-    index: np.ndarray | None
-    #: True when the samples are not on any even grid and are resampled
-    resampled: bool
-
-    @property
-    def dropped(self) -> int:
-        """Samples missing from the grid."""
-        return 0 if self.index is None or self.resampled else self.size - len(self.index)
-
-    def times(self) -> np.ndarray:
-        """The grid's times."""
-        return self.t0 + self.step * np.arange(self.size)
-
-    def fill(self, t: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """Samples on the grid (missing ones interpolated)."""
-        if self.index is None:
-            return np.asarray(x, dtype=float)
-        if self.resampled:
-            return CubicSpline(t, x)(self.times())
-        out = CubicSpline(t, x)(self.times())
-        out[self.index] = x
-        return out
-
-    def read(self, t: np.ndarray, z: np.ndarray) -> np.ndarray:
-        """Grid values back at the samples' own times."""
-        if self.index is None:
-            return z
-        if self.resampled:
-            return CubicSpline(self.times(), z)(t)
-        return z[self.index]
-
-
-def even_grid(t: np.ndarray, tolerance: float = 0.05) -> _Grid:
-    """The even grid of ``t``: itself, itself with dropped samples, or a resampling."""
-    t = np.asarray(t, dtype=float)
-    steps = np.diff(t)
-    step = float(np.median(steps))
-    if np.ptp(steps) <= 1e-3 * step:
-        return _Grid(float(t[0]), float((t[-1] - t[0]) / (len(t) - 1)), len(t), None, False)
-    position = (t - t[0]) / step
-    index = np.round(position).astype(np.int64)
-    if np.all(np.abs(position - index) <= tolerance) and np.all(np.diff(index) >= 1):
-        return _Grid(float(t[0]), step, int(index[-1]) + 1, index, False)
-    size = int(np.floor((t[-1] - t[0]) / step)) + 1
-    return _Grid(float(t[0]), step, size, np.arange(len(t)), True)
 
 
 class LowpassDifferentiator(Differentiator):
@@ -178,12 +81,12 @@ class LowpassDifferentiator(Differentiator):
                     "differentiator")
         return what + (f"; {self.note}" if self.note else "")
 
-    def _filters(self, grid: _Grid) -> bool:
+    def _filters(self, grid: EvenGrid) -> bool:
         """Whether the low-pass does anything on this grid."""
         return (self.cutoff is not None and grid.size >= 8
                 and self.cutoff < NO_FILTER_ABOVE / (2 * grid.step))
 
-    def _filter(self, t: np.ndarray, x: np.ndarray, grid: _Grid) -> np.ndarray:
+    def _filter(self, t: np.ndarray, x: np.ndarray, grid: EvenGrid) -> np.ndarray:
         z = grid.fill(t, x)
         if not self._filters(grid):
             return z
@@ -200,6 +103,19 @@ class LowpassDifferentiator(Differentiator):
         for _ in range(order):
             series.append(central_derivative(series[-1], grid.step))
         return [grid.read(t, s) for s in series]
+
+    def settling(self, t: np.ndarray) -> float:
+        """Two periods of the cutoff (at least the differentiator's half-length), when filtering.
+
+        At the ends the filter sees padding instead of the record, and the
+        differentiator runs out of neighbours: a record starting in a
+        transient (a controller switched on, a saturated drive) would
+        otherwise bias the fit by several per cent.
+        """
+        grid = even_grid(t)
+        if not self._filters(grid):
+            return 0.0
+        return max(SETTLING_PERIODS / self.cutoff, _HALF * grid.step)
 
     def smooth_input(self, t: np.ndarray, u: np.ndarray) -> np.ndarray | None:
         """The input through the same filter (None when nothing is filtered)."""

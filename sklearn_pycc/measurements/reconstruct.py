@@ -69,6 +69,9 @@ class Estimate:
     inputs : dict
         Input -> its values as the fit sees them, for the inputs the method
         filtered along with the states (the others are used as measured).
+    trusted : ndarray of bool or None
+        Rows whose estimate can be trusted: False within the method's
+        settling time of an experiment's ends (None when every row can).
     """
 
     states: dict[str, np.ndarray]
@@ -78,6 +81,18 @@ class Estimate:
     description: str = ""
     reconstructed: dict[str, str] = field(default_factory=dict)
     inputs: dict[str, np.ndarray] = field(default_factory=dict)
+    trusted: np.ndarray | None = None
+
+
+#: at most this share of an experiment's duration is left out at each end
+MAX_SETTLING_SHARE = 0.05
+
+
+def _settled(method: Differentiator, experiment: Experiment) -> np.ndarray:
+    """Which of an experiment's rows lie beyond the method's settling time of both ends."""
+    t = experiment.t
+    margin = min(method.settling(t), MAX_SETTLING_SHARE * (t[-1] - t[0]))
+    return (t >= t[0] + margin) & (t <= t[-1] - margin)
 
 
 def _plan(skeleton, columns: Mapping[str, np.ndarray]) -> dict[str, tuple[str, int]]:
@@ -143,9 +158,11 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
     filtered = {name: np.array(values, dtype=float) for name, values in inputs.items()}
     touched: set[str] = set()
     described: dict[str, list[str]] = {}
+    trusted = np.ones(n, dtype=bool)
     for experiment in experiments:
         chosen = _choose(differentiator, experiment, columns, depth)
         described.setdefault(chosen.describe(), []).append(experiment.where.strip())
+        trusted[experiment.rows] = _settled(chosen, experiment)
         for root, k in depth.items():
             values = _differentiate(chosen, experiment, columns[root], root, k)
             for order, part in enumerate(values):
@@ -172,9 +189,14 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
         text += f"; the inputs {', '.join(sorted(touched))} filtered alike"
     if reconstructed:
         text += "; " + ", ".join(f"{s} as the {how}" for s, how in reconstructed.items())
+    left_out = int(n - np.count_nonzero(trusted))
+    if left_out:
+        text += (f"; {left_out} samples at the ends of the experiments left out while the "
+                 "filter settles")
     measured = [s for s in states if s in columns]
     return Estimate(fitted, smoothed, derivatives, measured, text, reconstructed,
-                    {name: filtered[name] for name in touched})
+                    {name: filtered[name] for name in touched},
+                    None if left_out == 0 else trusted)
 
 
 def _description(described: dict[str, list[str]]) -> str:

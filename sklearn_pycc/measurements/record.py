@@ -46,8 +46,16 @@ class Record:
         Every state, smoothed or reconstructed (initial states of simulations).
     signals : dict
         The inputs as measured (what drives a simulation).
+    trusted : ndarray of bool or None
+        Rows whose estimated derivatives can be trusted (None: all of them).
     source : str
         ``"measured"``, or how the derivatives were obtained, in words.
+
+    When the derivatives were estimated by a filter, the rows within its
+    settling time of an experiment's ends cannot be trusted (see
+    :meth:`Differentiator.settling`): equation fits, diagnoses and scores
+    judge only the others (:meth:`keep`); an output-error fit, which needs
+    no derivatives, uses every row.
     """
 
     data: FitData
@@ -58,6 +66,7 @@ class Record:
     smoothed: dict[str, np.ndarray]
     signals: dict[str, np.ndarray]
     source: str = MEASURED
+    trusted: np.ndarray | None = None
 
     @property
     def n_samples(self) -> int:
@@ -85,11 +94,37 @@ class Record:
             out[name] = self.data[name]
         return pd.DataFrame(out)
 
+    def keep(self, rows: np.ndarray | None = None) -> Record:
+        """The record restricted to some rows (a boolean mask; the trusted ones by default).
+
+        Experiments are renumbered; the result has every row trusted.
+        """
+        rows = self.trusted if rows is None else rows
+        if rows is None:
+            return self
+        position = np.cumsum(rows) - 1
+        data = FitData({name: values[rows] for name, values in self.data.columns.items()},
+                       int(np.count_nonzero(rows)),
+                       None if self.data.trajectory is None else self.data.trajectory[rows])
+        experiments = None
+        if self.experiments is not None:
+            experiments = []
+            for e in self.experiments:
+                inside = rows[e.rows]
+                experiments.append(Experiment(e.label, position[e.rows[inside]],
+                                              None if e.t is None else e.t[inside], e.part))
+
+        def cut(values: dict) -> dict:
+            return {name: v[rows] for name, v in values.items()}
+
+        return Record(data, self.derivatives[rows], self.y_ndim, experiments,
+                      cut(self.measured), cut(self.smoothed), cut(self.signals), self.source)
+
 
 def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = True,
                 estimator=None, reset: bool = False, derivatives_from_X: bool = False,
                 need_time: str | None = None, split: bool = False,
-                who: str | None = None) -> Record:
+                who: str | None = None, trim: bool = True) -> Record:
     """Read ``X`` (and ``y``) against a skeleton; estimate what was not measured.
 
     Every state of the skeleton that ``X`` holds is read, whether or not a
@@ -125,6 +160,9 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
         when derivatives are estimated).
     who : str, optional
         Names the caller in the message when ``y`` is None and ``X`` has no ``t``.
+    trim : bool, default=True
+        Leave out the rows whose estimated derivatives cannot be trusted
+        (else they are only marked, in :attr:`Record.trusted`).
 
     Raises
     ------
@@ -172,8 +210,10 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
         smoothed, source = estimate.smoothed, estimate.description
     for j, name in enumerate(skeleton.derivatives):
         columns[name] = derivatives[:, j]
-    return Record(FitData(columns, data.n_samples, data.trajectory), derivatives, ndim,
-                  experiments, measured, smoothed, signals, source)
+    record = Record(FitData(columns, data.n_samples, data.trajectory), derivatives, ndim,
+                    experiments, measured, smoothed, signals, source,
+                    None if given else estimate.trusted)
+    return record.keep() if trim else record
 
 
 def _no_time_message(skeleton, who: str | None) -> str:

@@ -313,7 +313,7 @@ class Skeleton:
         rtol: float = 1e-6,
         atol: float = 1e-8,
         return_derivatives: bool = False,
-        input_hold: str = "foh",
+        input_hold: str = "bandlimited",
         verbose: bool = False,
         **solver_options,
     ) -> pd.DataFrame:
@@ -338,10 +338,13 @@ class Skeleton:
             held input never forces a restart; one step per sample for a slow
             model), and otherwise SciPy's LSODA. Name a SciPy solver (LSODA,
             RK45, RK23, DOP853, Radau, BDF) to use it whatever the inputs.
-        input_hold : {"foh", "zoh"}, default="foh"
-            How an array input is held between its samples: joined by
-            straight lines (first-order hold), or kept constant until the next
-            sample (zero-order hold, what a digital controller's output does).
+        input_hold : {"bandlimited", "foh", "zoh"}, default="bandlimited"
+            How an array input is read between its samples: as a signal
+            band-limited below the Nyquist frequency (cubic pieces with the
+            band-limited signal's slopes; right for a measured or generated
+            input even at a few samples per period), joined by straight lines
+            (first-order hold), or kept constant until the next sample
+            (zero-order hold, what a digital controller's output does).
         verbose : bool, default=False
             Show a progress bar (tqdm) over the samples.
         rtol, atol : float
@@ -370,7 +373,7 @@ class Skeleton:
 
 
 def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method=None, rtol=1e-6,
-                    atol=1e-8, return_derivatives=False, input_hold="foh", verbose=False,
+                    atol=1e-8, return_derivatives=False, input_hold="bandlimited", verbose=False,
                     **solver_options) -> pd.DataFrame:
     """Simulate a compiled system (shared by :class:`Skeleton` and the estimators).
 
