@@ -302,15 +302,19 @@ def test_missing_columns_are_named(coulomb_report):
         diagnose(model, bad, y)
 
 
-def test_a_diverging_simulation_is_reported_not_raised():
+def _blowing_up():
+    """``x1' = x1^2`` fitted, and measurements from a larger start (blow-up at t = 0.5)."""
     t = np.linspace(0.0, 0.5, 200)
     train = pd.DataFrame({"t": t, "x1": 1.0 / (1.0 - t)})
     model = PolyCCRegressor(equations=["x1_dot = a1 x1^2"])
     model.fit(train, (train.x1**2).rename("x1_dot"))
-    # new measurements, from a larger start: the fitted model blows up at t = 0.5
     t = np.linspace(0.0, 0.9, 300)
-    test = pd.DataFrame({"t": t, "x1": 2.0 * np.exp(t)})
-    report = diagnose(model, test, test.x1.rename("x1_dot"))
+    return model, t, pd.DataFrame({"t": t, "x1": 2.0 * np.exp(t)})
+
+
+def test_a_diverging_simulation_is_reported_not_raised():
+    model, _, test = _blowing_up()
+    report = diagnose(model, test, test.x1.rename("x1_dot"), horizon=None)
     assert len(report.divergences) == 1
     assert report.divergences[0].t_reached == pytest.approx(0.5, abs=0.02)
     assert report.windows.iloc[0].note.startswith("simulation diverged")
@@ -319,9 +323,24 @@ def test_a_diverging_simulation_is_reported_not_raised():
     assert "FAILURE" in report.summary()
 
 
+def test_a_window_diverging_within_its_horizon_is_reported():
+    model, t, test = _blowing_up()
+    report = diagnose(model, test, test.x1.rename("x1_dot"), horizon=0.3)
+    assert report.horizon.time == pytest.approx(0.3, abs=t[1])  # a whole number of steps
+    # restarted from the measured x1 = 2 exp(t0), a window blows up 1 / (2 exp(t0))
+    # later: only the one from t0 = 0.6 does so within 0.3, near t = 0.87
+    assert len(report.divergences) == 1
+    assert report.divergences[0].t_reached == pytest.approx(0.87, abs=0.02)
+    assert "windows of the horizon left the states' range" in report.divergences[0].reason
+    assert report.simulation.x1_sim.iloc[-1] != report.simulation.x1_sim.iloc[-1]  # NaN
+    assert "FAILURE" in report.summary() and "windows of 0.301" in report.summary()
+    with pytest.raises(ValueError, match="horizon must be 'auto', None or a positive time"):
+        diagnose(model, test, test.x1.rename("x1_dot"), horizon=-1.0)
+
+
 def test_a_chattering_simulation_is_stopped(coulomb_report):
     model, X, y, _ = coulomb_report
-    report = diagnose(model, X, y, max_steps=5, n_refit=0)
+    report = diagnose(model, X, y, max_steps=5, n_refit=0, horizon=None)
     assert report.divergences and "steps" in report.divergences[0].reason
 
 

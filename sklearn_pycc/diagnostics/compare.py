@@ -16,7 +16,7 @@ from ._candidates import rss_floor
 from ._data import read_measurements
 from ._metrics import rmse
 from ._roles import equation_roles
-from ._trajectories import simulate_experiments
+from ._trajectories import horizon_of, simulate_against
 
 __all__ = ["compare_skeletons"]
 
@@ -38,7 +38,7 @@ def _named(skeletons) -> dict[str, object]:
 
 
 def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
-                      simulate: bool = True) -> pd.DataFrame:
+                      simulate: bool = True, horizon="auto") -> pd.DataFrame:
     """Fit each skeleton with a clone of ``estimator`` and tabulate its errors.
 
     This is the "watch the error fall" table of the hypothesis loop; draw it
@@ -61,6 +61,11 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
         passed as ``groups`` when X has a ``trajectory`` column).
     simulate : bool, default=True
         Simulate each fitted model from the measured initial states.
+    horizon : "auto", float or None, default="auto"
+        Simulate windows of this time, each restarted from the measured
+        state (see :func:`~sklearn_pycc.diagnose`); ``"auto"`` chooses it
+        from the first skeleton's model (the baseline) and the record, and
+        the same horizon judges every row. None simulates whole experiments.
 
     Returns
     -------
@@ -70,13 +75,15 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
         ``simulation_rmse`` (over the states; inf when the simulation
         diverges), ``n_params`` (numbers fitted), ``bic`` (Bayesian
         information criterion of the derivative residual), ``cv_score``
-        (when ``cv`` is given) and ``fit_time`` in seconds.
+        (when ``cv`` is given) and ``fit_time`` in seconds. ``table.attrs
+        ["horizon"]`` says what horizon the simulations ran over.
     """
     from ..estimators import PolyCCRegressor
 
     named = _named(skeletons)
     base = PolyCCRegressor() if estimator is None else estimator
     rows = []
+    window = None
     for skeleton in named.values():
         model = clone(base)
         settings = {"equations": skeleton}
@@ -107,8 +114,10 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
                "simulation_rmse": math.nan, "n_params": int(model.n_parameters_),
                "bic": bic}
         if simulate and data.has_time:
-            simulated, divergences, _ = simulate_experiments(
-                model, data, max_steps=50 * n + 10_000)
+            if window is None:
+                window = horizon_of(model, data, horizon)
+            simulated, divergences, _ = simulate_against(model, data, window,
+                                                         max_steps=50 * n + 10_000)
             states = np.column_stack([data.columns[s] for s in model.skeleton_.states])
             row["simulation_rmse"] = math.inf if divergences else rmse(states, simulated)
         if cv is not None:
@@ -118,4 +127,7 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
             row["cv_score"] = float(np.mean(scores))
         row["fit_time"] = fit_time
         rows.append(row)
-    return pd.DataFrame(rows, index=pd.Index(list(named), name="skeleton"))
+    table = pd.DataFrame(rows, index=pd.Index(list(named), name="skeleton"))
+    if window is not None:
+        table.attrs["horizon"] = str(window)
+    return table

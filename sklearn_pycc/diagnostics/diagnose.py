@@ -27,7 +27,7 @@ from ._failures import (
 )
 from ._metrics import error_table_row, rmse
 from ._roles import EquationRoles, equation_roles
-from ._trajectories import Divergence, simulate_experiments
+from ._trajectories import Divergence, Horizon, horizon_of, simulate_against
 
 __all__ = ["Diagnosis", "Suggestion", "diagnose"]
 
@@ -132,6 +132,9 @@ class Diagnosis:
         RMSE of the simulated states over every experiment.
     notes : list of str
         Things worth knowing (estimated derivatives, extrapolation).
+    horizon : Horizon or None
+        How far each simulation ran before it was restarted from the
+        measured state (``horizon.time`` None: whole experiments).
     """
 
     model: object
@@ -147,6 +150,7 @@ class Diagnosis:
     best: Suggestion | None
     simulation_rmse: float
     notes: list[str] = field(default_factory=list)
+    horizon: Horizon | None = None
     _candidates: list[Candidate] = field(default_factory=list, repr=False)
     _data: Measurements | None = field(default=None, repr=False)
     # values of the explaining variables, by equation and label (for the figures)
@@ -174,8 +178,12 @@ class Diagnosis:
             lines.append(f"    {name}: R2 {row.r2:.4f}, RMSE {row.rmse:.4g} "
                          f"(NRMSE {row.nrmse:.3g})")
         if not self.trajectories.empty:
-            lines.append("Simulation from the measured initial state with the measured "
-                         "inputs:")
+            if self.horizon is None or self.horizon.time is None:
+                lines.append("Simulation from the measured initial state with the measured "
+                             "inputs:")
+            else:
+                lines.append(f"Simulation over {self.horizon}, each restarted from the "
+                             "measured state, with the measured inputs:")
             for name, row in self.trajectories.iterrows():
                 lines.append(f"    {name}: fit {row.fit_percent:.1f} %, RMSE {row.rmse:.4g} "
                              f"(NRMSE {row.nrmse:.3g})")
@@ -271,7 +279,7 @@ def _check_options(n_refit, min_improvement, bic_threshold, max_steps) -> None:
 
 def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1,
              bic_threshold: float = 10.0, simulate: bool = True,
-             max_steps: int | None = None) -> Diagnosis:
+             max_steps: int | None = None, horizon="auto") -> Diagnosis:
     """Compare a fitted model with measurements and name the physical effect it lacks.
 
     The diagnosis has three parts:
@@ -321,8 +329,19 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     simulate : bool, default=True
         Simulate the model and the leading candidates (needs ``t``).
     max_steps : int, optional
-        Solver step limit per simulation; default 50 per sample plus 10000.
-        A simulation stopped by it (or diverging) is reported as a failure.
+        Solver step limit per whole-experiment simulation (``horizon=None``);
+        default 50 per sample plus 10000. A simulation stopped by it (or
+        diverging) is reported as a failure, as is a window of the horizon
+        that leaves the states' range.
+    horizon : "auto", float or None, default="auto"
+        Simulate windows of this time, each restarted from the measured
+        (estimated) state, and pool their errors: the open-loop simulation
+        of an integrator drifts, a lightly damped phase slips and chaos
+        separates over a whole record, whatever the model. ``"auto"``
+        chooses it from the model and the record (two periods of its
+        oscillation, or three time constants; see :attr:`Diagnosis.horizon`),
+        and the same horizon judges every candidate; None simulates whole
+        experiments.
 
     Returns
     -------
@@ -365,9 +384,11 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     # -- simulation ---------------------------------------------------------------
     steps = max_steps or 50 * data.n_samples + 10_000
     run_simulation = simulate and data.has_time
-    simulated, divergences = None, []
+    simulated, divergences, window = None, [], None
     if run_simulation:
-        simulated, divergences, warned = simulate_experiments(model, data, max_steps=steps)
+        window = horizon_of(model, data, horizon)
+        simulated, divergences, warned = simulate_against(model, data, window,
+                                                          max_steps=steps)
         notes.extend(warned)
     elif simulate:
         notes.append("X has no time column 't': the model was not simulated.")
@@ -416,13 +437,14 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         refit_candidate(model, candidate, data, residuals, rss_before)
     refitted = [c for c in screened[:n_refit] if c.refit is not None]
     if run_simulation:
-        _simulate_leaders(refitted, data, measured_states, steps, divergences)
+        _simulate_leaders(refitted, data, measured_states, window, steps, divergences)
     ordered = _ordered(candidates)
     ranking = _ranking(ordered, explained)
     best = _choose(ordered, skeleton, min_improvement, bic_threshold)
     return Diagnosis(model, derivative_table, trajectory_table, simulation_frame,
                      pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
-                     maps, ranking, best, simulation_rmse, notes, candidates, data, variables)
+                     maps, ranking, best, simulation_rmse, notes, window, candidates, data,
+                     variables)
 
 
 def _map_of(roles: EquationRoles, residuals, data: Measurements, inputs) -> ResidualMap | None:
@@ -440,11 +462,13 @@ def _map_of(roles: EquationRoles, residuals, data: Measurements, inputs) -> Resi
 
 
 def _simulate_leaders(refitted: list[Candidate], data: Measurements, measured: np.ndarray,
-                      steps: int, base_divergences: list[Divergence], count: int = 3) -> None:
+                      horizon: Horizon, steps: int, base_divergences: list[Divergence],
+                      count: int = 3) -> None:
     """Simulate the leading plausible refits; a new divergence makes a candidate implausible."""
     leaders = sorted((c for c in refitted if c.plausible), key=lambda c: c.delta_bic)[:count]
     for candidate in leaders:
-        simulated, divergences, _ = simulate_experiments(candidate.refit, data, max_steps=steps)
+        simulated, divergences, _ = simulate_against(candidate.refit, data, horizon,
+                                                     max_steps=steps)
         candidate.simulation_rmse = rmse(measured, simulated)
         if divergences and not base_divergences:
             candidate.plausible = False

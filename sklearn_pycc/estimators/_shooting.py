@@ -19,24 +19,14 @@ from scipy import sparse
 from scipy.optimize import least_squares
 
 from ..measurements.columns import TIME
-from ..simulation import InputSignals
 from ..skeleton.system import CompiledSystem
+from ..windows import Windows
 from ._setup import Problem
 
 __all__ = ["ShootingPlan", "check_iterations", "fit_shooting"]
 
 #: weight of a continuity defect relative to a measurement residual (both scaled)
 CONTINUITY_WEIGHT = 10.0
-#: the fourth-order Runge-Kutta scheme is stable for h * |lambda| below about 2.8
-RK4_STABLE = 2.5
-#: largest ``h * omega`` per substep for an oscillation (RK4's damping then stays below
-#: 1e-6 per substep, and its phase error below 1e-5)
-RK4_PHASE = 0.25
-MAX_SUBSTEPS = 64
-#: samples of the data whose Jacobian's eigenvalues set the substeps
-EIGEN_SAMPLES = 500
-#: a segment whose state leaves this many state ranges is stopped (diverged)
-ESCAPE = 1e3
 
 
 def check_iterations(iterations) -> int:
@@ -47,8 +37,8 @@ def check_iterations(iterations) -> int:
     return int(iterations)
 
 
-class ShootingPlan:
-    """Segments of every experiment, laid out as arrays for batched integration.
+class ShootingPlan(Windows):
+    """Segments of every experiment with their measurements, for multiple shooting.
 
     Parameters
     ----------
@@ -61,161 +51,29 @@ class ShootingPlan:
     def __init__(self, problem: Problem, window: int) -> None:
         if isinstance(window, bool) or int(window) != window or window < 2:
             raise ValueError(f"shooting_window must be an integer of at least 2, got {window!r}")
-        window = int(window)
         skeleton = problem.skeleton
-        self.states = list(skeleton.states)
-        self.inputs = [name for name in skeleton.inputs if name != TIME]
-        self.uses_time = TIME in skeleton.variables
-        self.measured = [s for s in self.states if s in problem.measured]
-        unknown = [s for s in self.states if s not in problem.smoothed]
+        states = list(skeleton.states)
+        unknown = [s for s in states if s not in problem.smoothed]
         if unknown:
             raise ValueError(f"fit_mode='simulation' needs every state's values to start from; "
                              f"X has no column {unknown[0]!r}")
-        self.window = window
-        pieces = []  # (experiment, first, last) positions within the experiment
-        for e, experiment in enumerate(problem.experiments):
-            n = experiment.n_samples
-            if n < 2:
+        for experiment in problem.experiments:
+            if experiment.n_samples < 2:
                 raise ValueError(f"fit_mode='simulation' needs at least 2 samples per "
                                  f"experiment; there is 1{experiment.where or ' in the data'}")
-            starts = list(range(0, n - 1, window))
-            if len(starts) > 1 and n - 1 - starts[-1] < window // 2:
-                starts.pop()  # a short tail joins the segment before it
-            for k, first in enumerate(starts):
-                last = starts[k + 1] if k + 1 < len(starts) else n - 1
-                pieces.append((e, first, last))
-        K = len(pieces)
-        L = max(last - first for _, first, last in pieces)
-        self.n_segments, self.n_steps = K, L
-        self.steps = np.array([last - first for _, first, last in pieces])
-        rows = np.zeros((K, L + 1), dtype=int)
-        times = np.zeros((K, L + 1))
-        valid = np.zeros((K, L + 1), dtype=bool)
-        for k, (e, first, last) in enumerate(pieces):
-            experiment = problem.experiments[e]
-            span = slice(first, last + 1)
-            m = last - first + 1
-            rows[k, :m] = experiment.rows[span]
-            rows[k, m:] = experiment.rows[last]
-            times[k, :m] = experiment.t[span]
-            times[k, m:] = experiment.t[last]
-            valid[k, :m] = True
-        self.rows, self.times = rows, times
-        self.h = np.diff(times, axis=1)  # zero on padding: the state stays put
+        inputs = [name for name in skeleton.inputs if name != TIME]
+        signals = {name: problem.signals.get(name, problem.data[name]) for name in inputs}
+        super().__init__(states, inputs, TIME in skeleton.variables,
+                         [(e.rows, e.t) for e in problem.experiments], problem.smoothed,
+                         signals, int(window))
+        self.measured = [s for s in self.states if s in problem.measured]
         # a segment's last sample is fitted by the next segment's start
-        self.successor = np.array([k + 1 < K and pieces[k + 1][0] == pieces[k][0]
-                                   for k in range(K)])
-        own = valid.copy()
+        own = self.valid.copy()
         own[np.flatnonzero(self.successor), self.steps[self.successor]] = False
         self.own = own
-        self.segment_experiment = np.array([e for e, _, _ in pieces])
-        # measured values and scales
-        smoothed = np.column_stack([problem.smoothed[s] for s in self.states])
-        self.scale = np.sqrt(np.mean(smoothed**2, axis=0))
-        self.scale[~(self.scale > 0)] = 1.0
-        self.bound = ESCAPE * np.maximum(np.abs(smoothed).max(axis=0), self.scale)
         self.measured_index = [self.states.index(s) for s in self.measured]
-        self.targets = np.stack([problem.measured[s][rows] for s in self.measured], axis=-1)
-        self.initial = smoothed[rows[:, 0]]
-        self._signals = {name: problem.signals.get(name, problem.data[name])
-                         for name in self.inputs}
-        self._experiments = problem.experiments
-        self.substeps = 1
-        self._fine: dict[str, np.ndarray] = {}
-
-    # -- integration ---------------------------------------------------------
-    def choose_substeps(self, system: CompiledSystem, data) -> int:
-        """Substeps per sample interval for RK4 to be stable and to follow oscillations.
-
-        The Jacobian's eigenvalues along the data decide: a real rate
-        ``lambda`` needs ``h |lambda|`` below the stability limit, an
-        oscillation of angular frequency ``omega`` needs ``h omega`` below
-        ``RK4_PHASE`` (RK4's own damping would otherwise bias a light
-        damping, and its phase error a frequency).
-        """
-        n = len(next(iter(data.values())))
-        rows = np.unique(np.linspace(0, n - 1, min(n, EIGEN_SAMPLES)).astype(int))
-        sample = {name: np.asarray(values)[rows] if np.ndim(values) else values
-                  for name, values in data.items()}
-        m = len(rows)
-        base = system.evaluate(sample, m)
-        jacobian = np.empty((m, len(self.states), len(self.states)))
-        for q, state in enumerate(self.states):
-            delta = 1e-6 * self.scale[q]
-            bumped = dict(sample)
-            bumped[state] = sample[state] + delta
-            jacobian[:, :, q] = (system.evaluate(bumped, m) - base) / delta
-        jacobian = np.nan_to_num(jacobian, nan=0.0, posinf=0.0, neginf=0.0)
-        eigenvalues = np.linalg.eigvals(jacobian)
-        h = float(self.h.max()) if self.h.size else 1.0
-        need = max(1.5 * h * float(np.abs(eigenvalues).max()) / RK4_STABLE,
-                   h * float(np.abs(eigenvalues.imag).max()) / RK4_PHASE)
-        self.substeps = int(np.clip(np.ceil(need), 1, MAX_SUBSTEPS))
-        self._fine = {}
-        return self.substeps
-
-    def fine_signals(self) -> dict[str, np.ndarray]:
-        """Inputs (and ``t``) at every Runge-Kutta stage time, ``(K, 2 L m + 1)``."""
-        if self._fine:
-            return self._fine
-        m, L = self.substeps, self.n_steps
-        frac = np.arange(2 * m) / (2 * m)
-        fine_t = (self.times[:, :-1, None] + self.h[:, :, None] * frac).reshape(
-            self.n_segments, 2 * m * L)
-        fine_t = np.concatenate([fine_t, self.times[:, -1:]], axis=1)
-        fine = {TIME: fine_t} if self.uses_time else {}
-        for name, values in self._signals.items():
-            out = np.empty_like(fine_t)
-            for e, experiment in enumerate(self._experiments):
-                mine = self.segment_experiment == e
-                # read between samples as simulate reads them by default
-                held = InputSignals([name], {name: values[experiment.rows]}, experiment.t)
-                out[mine] = held.on(fine_t[mine])[0]
-            fine[name] = out
-        self._fine = fine
-        return fine
-
-    def simulate(self, system: CompiledSystem, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Integrate every segment from ``start`` ``(K, n_states)``.
-
-        Returns
-        -------
-        states : ndarray of shape (K, L + 1, n_states)
-        escaped : ndarray of bool, shape (K,)
-            Segments stopped because they diverged.
-        """
-        fine = self.fine_signals()
-        K, L, m = self.n_segments, self.n_steps, self.substeps
-        names = self.states
-        out = np.empty((K, L + 1, len(names)))
-        x = np.array(start, dtype=float)
-        out[:, 0] = x
-        escaped = np.zeros(K, dtype=bool)
-        env: dict[str, np.ndarray] = {}
-
-        def rhs(state, column):
-            for q, name in enumerate(names):
-                env[name] = state[:, q]
-            for name, values in fine.items():
-                env[name] = values[:, column]
-            return system.evaluate(env, K)
-
-        with np.errstate(all="ignore"):
-            for i in range(L):
-                h = (self.h[:, i] / m)[:, None]
-                for j in range(m):
-                    c = 2 * (i * m + j)
-                    k1 = rhs(x, c)
-                    k2 = rhs(x + 0.5 * h * k1, c + 1)
-                    k3 = rhs(x + 0.5 * h * k2, c + 1)
-                    k4 = rhs(x + h * k3, c + 2)
-                    x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-                bad = ~np.isfinite(x).all(axis=1) | (np.abs(x) > self.bound).any(axis=1)
-                if bad.any():
-                    escaped |= bad
-                    x[bad] = out[bad, i]  # a diverged segment stays where it was
-                out[:, i + 1] = x
-        return out, escaped
+        self.targets = np.stack([problem.measured[s][self.rows] for s in self.measured],
+                                axis=-1)
 
     # -- residuals ---------------------------------------------------------------
     def _errors(self, states: np.ndarray) -> np.ndarray:
