@@ -46,8 +46,10 @@ n, o. ``simulate`` of the resonator (a hardening oscillator, 100,000 samples at
       ten samples per period) driven by its input as a sampled array, against
       a hand-written fixed-step RK4 in numpy at the sample rate (first-order
       hold: the input's mean at the half steps). n at the default tolerance,
-      o at ``rtol=1e-3``; the checks give each one's integration error
-      against a tight solution of the same sampled input.
+      o at ``rtol=1e-3``; the checks give each one's error against a tight
+      solution with the input read as band-limited (the default
+      ``input_hold``; the RK4's straight lines between samples are off by
+      tens of per cent on this lightly damped resonance).
 
 Two lines have an absolute goal rather than a reference:
 
@@ -58,8 +60,9 @@ g.    The whole hypothesis loop on 10,000 samples of an oscillator with
 h.    ``diagnose`` alone, on the seed paper's stick-slip example (1000
       samples) fitted with the linear skeleton.
 
-p.    Position-only ``PolyCCRegressor.fit`` plus ``diagnose`` of the linear
-      skeleton on 100,000 samples of the resonator (60 dB). Goal: under 3 s.
+p.    Position-only ``PolyCCRegressor.fit`` plus ``diagnose`` (horizon
+      "auto") of the linear skeleton on 100,000 samples of the resonator
+      (60 dB). Goal: under 3 s.
 
 and three lines only report times (no goal): k. ``SymbolicCCRegressor.fit``
 on the Duffing oscillator, l. ``to_symbolic`` of the neural stick-slip fit
