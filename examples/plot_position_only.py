@@ -10,14 +10,16 @@ amplitude). Its velocity ``x2`` is not measured at all.
 sklearn-pycc takes ``X`` with ``t`` and the measured columns, and no ``y``
 (with several experiments, a ``trajectory`` column keeps them apart):
 
-1. the derivatives are estimated (``differentiation="spline"``: a cubic
-   smoothing spline whose smoothing is chosen by generalised
-   cross-validation), and ``x2`` is reconstructed as the derivative of ``x1``
+1. the derivatives are estimated (``differentiation="auto"``: a zero-phase
+   low-pass at a cutoff read from the record's spectrum, then a band-limited
+   differentiator), and ``x2`` is reconstructed as the derivative of ``x1``
    from the kinematic equation ``x1_dot = x2``;
 2. ``fit_mode="equation"`` fits the skeleton to those estimates (equation
    error); ``fit_mode="simulation"`` goes on to refine it so that simulated
    positions match the measured ones (output error, by multiple shooting over
-   short windows, so that a chaotic system can be fitted at all).
+   short windows, so that a chaotic system can be fitted at all). The default,
+   ``fit_mode="auto"``, refines on its own when the positions are as noisy as
+   these (``fit_mode_`` says which mode was used).
 """
 
 import matplotlib.pyplot as plt
@@ -47,11 +49,11 @@ fig.tight_layout()
 # damping ``0.3 x2`` and spring ``-1.05 x1 + 1.02 x1^3``.
 skeleton = dict(equations=["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
                 constraints=["f1 odd", "f2 odd"], degree=5)
-equation_error = PolyCCRegressor(**skeleton).fit(X)
+equation_error = PolyCCRegressor(**skeleton, fit_mode="equation").fit(X)
 output_error = PolyCCRegressor(**skeleton, fit_mode="simulation").fit(X)
 LABELS = {"equation": "equation error", "simulation": "output error"}
 for model in (equation_error, output_error):
-    print(f"{LABELS[model.fit_mode]:>14}: {model.equations()[2]};  {model.equations()[3]}")
+    print(f"{LABELS[model.fit_mode_]:>14}: {model.equations()[2]};  {model.equations()[3]}")
 
 # %%
 # The curves of both fits against the truth, over the range of the data:
@@ -63,7 +65,7 @@ for ax, name, argument in [(axes[0], "f1", "x2"), (axes[1], "f2", "x1")]:
     for model, color in [(equation_error, "C1"), (output_error, "C0")]:
         rmse = np.sqrt(np.mean((model.functions_[name](x) - true) ** 2))
         ax.plot(x, model.functions_[name](x), color=color,
-                label=f"{LABELS[model.fit_mode]} (RMSE {rmse:.1e})")
+                label=f"{LABELS[model.fit_mode_]} (RMSE {rmse:.1e})")
     ax.set_title(f"{name}({argument})")
     ax.legend(fontsize="small")
 fig.tight_layout()
@@ -82,7 +84,7 @@ ax.plot(release["t"], release["x1"], "k", lw=3, alpha=0.3, label="true x1")
 for model, color in [(equation_error, "C1"), (output_error, "C0")]:
     sim = model.simulate(release["t"], y0=[1.4, 0.0], inputs={"F_ext": np.zeros_like})
     rmse = np.sqrt(np.mean((sim["x1"].to_numpy() - release["x1"].to_numpy()) ** 2))
-    ax.plot(sim["t"], sim["x1"], color=color, label=f"{LABELS[model.fit_mode]} (RMSE {rmse:.1e})")
+    ax.plot(sim["t"], sim["x1"], color=color, label=f"{LABELS[model.fit_mode_]} (RMSE {rmse:.1e})")
 ax.set_xlabel("t")
 ax.legend(loc="upper right", fontsize="small")
 fig.tight_layout()

@@ -18,7 +18,7 @@ def test_duffing_position_only_output_error_beats_the_floor(snr, bound):
     frame, truth = datasets.make_duffing(noise=snr, noise_columns=["x1"], random_state=0,
                                          return_truth=True)
     X = frame[["t", "x1", "F_ext"]]
-    equation = PolyCCRegressor(equations=SECOND_ORDER, degree=7).fit(X)
+    equation = PolyCCRegressor(equations=SECOND_ORDER, degree=7, fit_mode="equation").fit(X)
     output = PolyCCRegressor(equations=SECOND_ORDER, degree=7, fit_mode="simulation").fit(X)
     assert curve_rmse(output, truth, "f2") <= bound
     assert curve_rmse(output, truth, "f2") < curve_rmse(equation, truth, "f2")
@@ -66,6 +66,22 @@ def test_bad_shooting_settings_are_named(params, message):
                                                                               "F_ext"]])
 
 
+def test_auto_mode_refines_noisy_positions_by_output_error():
+    frame = datasets.make_duffing(noise=30, noise_columns=["x1"], random_state=0)
+    noisy = PolyCCRegressor(equations=SECOND_ORDER, degree=5).fit(frame[["t", "x1", "F_ext"]])
+    assert noisy.fit_mode_ == "simulation" and noisy.shooting_["segments"] == 50
+    assert "refined by output error (fit_mode='auto'" in noisy.derivative_source_
+    clean = datasets.make_duffing(noise=60, noise_columns=["x1"], random_state=0)
+    model = PolyCCRegressor(equations=SECOND_ORDER, degree=5).fit(clean[["t", "x1", "F_ext"]])
+    assert model.fit_mode_ == "equation" and "refined" not in model.derivative_source_
+    # measured derivatives, or a method that reads no noise level: the equation fit
+    measured = PolyCCRegressor(equations=SECOND_ORDER, degree=5).fit(
+        frame[["t", "x1", "x2", "F_ext"]], frame[["x1_dot", "x2_dot"]])
+    assert measured.fit_mode_ == "equation"
+    spline = PolyCCRegressor(equations=SECOND_ORDER, degree=5, differentiation="spline")
+    assert spline.fit(frame[["t", "x1", "F_ext"]]).fit_mode_ == "equation"
+
+
 def test_simulation_mode_needs_time():
     frame = datasets.make_duffing(n_samples=200, t_span=(0, 10))
     with pytest.raises(ValueError, match="fit_mode='simulation' needs the time column 't'"):
@@ -82,7 +98,7 @@ def test_neural_output_error_refines_the_networks():
     X = frame[["t", "x1", "F_ext"]]
     settings = dict(equations=SECOND_ORDER, constraints=["f1 odd"], hidden_layer_sizes=(8,),
                     max_epochs=60, random_state=0)
-    equation = NeuralCCRegressor(**settings).fit(X)
+    equation = NeuralCCRegressor(**settings, fit_mode="equation").fit(X)
     output = NeuralCCRegressor(**settings, fit_mode="simulation", shooting_window=20,
                                shooting_iterations=15).fit(X)
     info = output.shooting_

@@ -25,7 +25,10 @@ from ._setup import Problem, build_skeleton, gauge_skeleton
 
 __all__ = ["FIT_MODES", "CCRegressor"]
 
-FIT_MODES = ("equation", "simulation")
+FIT_MODES = ("auto", "equation", "simulation")
+#: below this signal-to-noise ratio of the measured states, ``fit_mode="auto"`` refines the
+#: equation fit by output error: derivatives of such records bias the fit by per cents
+AUTO_SIMULATION_SNR_DB = 45.0
 _NEEDS_TIME = "fit_mode='simulation' needs the time column 't' in X"
 
 
@@ -108,10 +111,16 @@ class CCRegressor(RegressorMixin, BaseEstimator):
     smooth_states : bool, default=True
         When derivatives are estimated, fit on the smoothed states rather
         than the raw measurements.
-    fit_mode : {"equation", "simulation"}, default="equation"
+    fit_mode : {"auto", "equation", "simulation"}, default="auto"
         ``"equation"`` fits the derivatives (equation error). ``"simulation"``
         then refines the fit so that the simulated states match the
-        measured ones (output error), by multiple shooting; it needs ``t``.
+        measured ones (output error), by multiple shooting over short
+        windows: an integral form of the equations that differentiates
+        nothing; it needs ``t``. ``"auto"`` refines when the derivatives had
+        to be estimated from states the ``"auto"`` differentiation found
+        noisier than ``AUTO_SIMULATION_SNR_DB`` (45 dB), and the backend and
+        skeleton can be simulated; it says so in ``derivative_source_``, and
+        ``fit_mode_`` holds the mode used.
     shooting_window : int, default=40
         Samples per shooting segment in ``fit_mode="simulation"``.
     shooting_iterations : int, default=30
@@ -139,8 +148,10 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         experiment, the method and its setting and, for ``"auto"``, what the
         record showed (sampling rate, noise level, quantisation, dropped
         samples) that led to it.
+    fit_mode_ : str
+        The mode the fit used: ``"equation"`` or ``"simulation"``.
     shooting_ : dict
-        Only after ``fit_mode="simulation"``: segments, iterations, the
+        Only after an output-error fit: segments, iterations, the
         normalised RMSE of the simulated states before and after, and the
         largest continuity defect.
     n_features_in_ : int
@@ -153,7 +164,7 @@ class CCRegressor(RegressorMixin, BaseEstimator):
 
     def __init__(self, equations=None, constraints=None, gauge: str = "auto",
                  differentiation="auto", smooth_states: bool = True,
-                 fit_mode: str = "equation", shooting_window: int = 40,
+                 fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30) -> None:
         self.equations = equations
         self.constraints = constraints
@@ -218,7 +229,8 @@ class CCRegressor(RegressorMixin, BaseEstimator):
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
                              who=type(self).__name__, trim=False)
         self._y_1d = record.y_ndim == 1
-        self.derivative_source_ = record.source
+        self.fit_mode_, why = self._resolve_mode(skeleton, record)
+        self.derivative_source_ = record.source + why
         self.measured_states_ = list(record.measured)
         # the equations are fitted where the derivatives can be trusted; an
         # output-error stage simulates the whole record
@@ -226,6 +238,24 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         return Problem(skeleton, constraints, fixed, zeroed, trusted.data, trusted.derivatives,
                        gauge, record.experiments, record.measured, record.smoothed,
                        record.signals)
+
+    def _resolve_mode(self, skeleton, record) -> tuple[str, str]:
+        """The fit mode to use, and why ``"auto"`` chose output error (else "")."""
+        if self.fit_mode != "auto":
+            return self.fit_mode, ""
+        noisy = record.estimated and record.snr_db is not None \
+            and record.snr_db < AUTO_SIMULATION_SNR_DB
+        simulable = (type(self)._fit_simulation is not CCRegressor._fit_simulation
+                     and record.experiments is not None
+                     and all(eq.explicit for eq in skeleton.parsed)
+                     and all(s in record.smoothed for s in skeleton.states)
+                     and all(e.n_samples >= 2 for e in record.experiments))
+        if not (noisy and simulable):
+            return "equation", ""
+        return "simulation", (
+            f"; refined by output error (fit_mode='auto': the states' SNR of "
+            f"{record.snr_db:.0f} dB is below {AUTO_SIMULATION_SNR_DB:g} dB, where estimated "
+            "derivatives bias the fit)")
 
     def fit(self, X, y=None):
         """Fit the unknown curves and parameters of the skeleton.
@@ -248,7 +278,7 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         """
         problem = self._problem(X, y)
         plan = None
-        if self.fit_mode == "simulation":
+        if self.fit_mode_ == "simulation":
             from ._shooting import ShootingPlan, check_iterations
 
             check_iterations(self.shooting_iterations)

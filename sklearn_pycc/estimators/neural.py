@@ -159,7 +159,7 @@ default="lbfgs"
         How measurements without derivatives are used, and output-error
         fitting: see :class:`CCRegressor`.
     shooting_start_epochs : int or None, default=10
-        With ``fit_mode="simulation"``, epochs of the equation-error fit that
+        When the fit refines by output error, epochs of the equation-error fit that
         starts the output-error stage (at most ``max_epochs``; None uses
         ``max_epochs``). Derivatives estimated from noisy positions are
         noisy: networks trained on them to convergence learn wiggles that
@@ -206,7 +206,7 @@ default="lbfgs"
                  extrapolation: str = "linear", dtype: str = "float32", device: str = "cpu",
                  n_threads: int | None = 1, callbacks: Sequence | None = None,
                  gauge: str = "auto", differentiation="auto", smooth_states: bool = True,
-                 fit_mode: str = "equation", shooting_window: int = 40,
+                 fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, shooting_start_epochs: int | None = 10,
                  random_state=None, verbose: int = 0) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
@@ -282,7 +282,7 @@ default="lbfgs"
         checked["max_epochs"] = _positive_int(self.max_epochs, "max_epochs")
         start = _positive_int(self.shooting_start_epochs, "shooting_start_epochs",
                               allow_none=True)
-        if self.fit_mode == "simulation" and start is not None:
+        if self.fit_mode_ == "simulation" and start is not None:
             checked["max_epochs"] = min(checked["max_epochs"], start)
         checked["batch_size"] = _positive_int(self.batch_size, "batch_size", allow_none=True)
         checked["patience"] = _positive_int(self.patience, "patience")
@@ -393,7 +393,7 @@ default="lbfgs"
             raise FloatingPointError(
                 "training diverged: the loss is not finite. Lower lr, scale the data, or "
                 "give param_init values closer to the truth")
-        if self.fit_mode == "simulation":
+        if self.fit_mode_ == "simulation":
             self._trained = (module, X, checked["n_threads"])
         return functions, params
 

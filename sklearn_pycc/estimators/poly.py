@@ -158,7 +158,7 @@ class PolyCCRegressor(CCRegressor):
     def __init__(self, equations=None, constraints=None, degree=7, basis: str = "legendre",
                  alpha: float = 0.0, param_init: Mapping | None = None, gauge: str = "auto",
                  differentiation="auto", smooth_states: bool = True,
-                 fit_mode: str = "equation", shooting_window: int = 40,
+                 fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, random_state=None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,

@@ -24,6 +24,8 @@ class Differentiator:
 
     #: whether the method needs evenly spaced samples
     uniform_only = False
+    #: the lowest signal-to-noise ratio (dB) the method read from the record, when it read one
+    snr_db: float | None = None
 
     def min_samples(self, n: int) -> int:
         """Fewest samples the method works with (``n``: the experiment's length)."""

@@ -53,10 +53,14 @@ class LowpassDifferentiator(Differentiator):
     note : str, default=""
         What the record showed, appended to :meth:`describe` (``"auto"``
         writes its reading of the spectrum here).
+    snr_db : float or None, default=None
+        The lowest signal-to-noise ratio of the record's states, when read
+        (``"auto"``; ``inf`` for a noise-free record).
     """
 
     def __init__(self, cutoff: float | None = None, order: int = FILTER_ORDER,
-                 filter_inputs: bool = True, *, note: str = "") -> None:
+                 filter_inputs: bool = True, *, note: str = "",
+                 snr_db: float | None = None) -> None:
         if cutoff is not None and not (np.isfinite(cutoff) and cutoff > 0):
             raise ValueError(f"lowpass cutoff must be a positive frequency or None, "
                              f"got {cutoff!r}")
@@ -66,6 +70,7 @@ class LowpassDifferentiator(Differentiator):
         self.order = int(order)
         self.filter_inputs = bool(filter_inputs)
         self.note = note
+        self.snr_db = snr_db
 
     def min_samples(self, n: int) -> int:
         """Three samples."""
@@ -153,11 +158,12 @@ class AutoDifferentiator(Differentiator):
                 None, note=f"{len(t)} samples are too few to read a spectrum")
         grid = even_grid(t)
         fs = 1.0 / grid.step
-        cutoffs, notes = {}, []
+        cutoffs, notes, snrs = {}, [], []
         for name, x in states.items():
             quantum = find_quantum(x)
             reading = read_spectrum(grid.fill(t, x), grid.step, quantum)
             cutoffs[name] = choose_cutoff(reading, order)
+            snrs.append(reading.snr_db)
             snr = ("no noise" if not np.isfinite(reading.snr_db)
                    else f"noise {reading.noise_std:.3g} (SNR {reading.snr_db:.0f} dB)")
             if quantum is not None:
@@ -170,4 +176,5 @@ class AutoDifferentiator(Differentiator):
         elif grid.resampled:
             sampling += ", uneven: resampled on an even grid"
         return LowpassDifferentiator(None if cutoff >= NO_FILTER_ABOVE * fs / 2 else cutoff,
-                                     note=f"{sampling}; " + "; ".join(notes))
+                                     note=f"{sampling}; " + "; ".join(notes),
+                                     snr_db=float(min(snrs)))

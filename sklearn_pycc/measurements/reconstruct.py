@@ -72,6 +72,9 @@ class Estimate:
     trusted : ndarray of bool or None
         Rows whose estimate can be trusted: False within the method's
         settling time of an experiment's ends (None when every row can).
+    snr_db : float or None
+        The lowest signal-to-noise ratio (dB) the method read from any
+        experiment (None when it read none).
     """
 
     states: dict[str, np.ndarray]
@@ -82,6 +85,7 @@ class Estimate:
     reconstructed: dict[str, str] = field(default_factory=dict)
     inputs: dict[str, np.ndarray] = field(default_factory=dict)
     trusted: np.ndarray | None = None
+    snr_db: float | None = None
 
 
 #: at most this share of an experiment's duration is left out at each end
@@ -159,10 +163,13 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
     touched: set[str] = set()
     described: dict[str, list[str]] = {}
     trusted = np.ones(n, dtype=bool)
+    snrs = []
     for experiment in experiments:
         chosen = _choose(differentiator, experiment, columns, depth)
         described.setdefault(chosen.describe(), []).append(experiment.where.strip())
         trusted[experiment.rows] = _settled(chosen, experiment)
+        if chosen.snr_db is not None:
+            snrs.append(chosen.snr_db)
         for root, k in depth.items():
             values = _differentiate(chosen, experiment, columns[root], root, k)
             for order, part in enumerate(values):
@@ -196,7 +203,7 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
     measured = [s for s in states if s in columns]
     return Estimate(fitted, smoothed, derivatives, measured, text, reconstructed,
                     {name: filtered[name] for name in touched},
-                    None if left_out == 0 else trusted)
+                    None if left_out == 0 else trusted, min(snrs) if snrs else None)
 
 
 def _description(described: dict[str, list[str]]) -> str:

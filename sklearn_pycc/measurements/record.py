@@ -48,6 +48,9 @@ class Record:
         The inputs as measured (what drives a simulation).
     trusted : ndarray of bool or None
         Rows whose estimated derivatives can be trusted (None: all of them).
+    snr_db : float or None
+        The lowest signal-to-noise ratio of the states, when the
+        differentiation read one from the record.
     source : str
         ``"measured"``, or how the derivatives were obtained, in words.
 
@@ -67,6 +70,7 @@ class Record:
     signals: dict[str, np.ndarray]
     source: str = MEASURED
     trusted: np.ndarray | None = None
+    snr_db: float | None = None
 
     @property
     def n_samples(self) -> int:
@@ -118,7 +122,8 @@ class Record:
             return {name: v[rows] for name, v in values.items()}
 
         return Record(data, self.derivatives[rows], self.y_ndim, experiments,
-                      cut(self.measured), cut(self.smoothed), cut(self.signals), self.source)
+                      cut(self.measured), cut(self.smoothed), cut(self.signals), self.source,
+                      None, self.snr_db)
 
 
 def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = True,
@@ -212,7 +217,8 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
         columns[name] = derivatives[:, j]
     record = Record(FitData(columns, data.n_samples, data.trajectory), derivatives, ndim,
                     experiments, measured, smoothed, signals, source,
-                    None if given else estimate.trusted)
+                    None if given else estimate.trusted,
+                    None if given else estimate.snr_db)
     return record.keep() if trim else record
 
 
