@@ -338,6 +338,22 @@ def test_a_window_diverging_within_its_horizon_is_reported():
         diagnose(model, test, test.x1.rename("x1_dot"), horizon=-1.0)
 
 
+def test_a_slow_drift_is_named_a_drift_not_a_forcing():
+    t = np.linspace(0, 66, 1321)
+    truth = Skeleton(["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 - a3 t"])
+    force = 0.5 * np.cos(1.3 * t)
+    sim = truth.simulate(t, [0.0, 0.0], params={"a1": 0.2, "a2": 1.0, "a3": 0.01},
+                         inputs={"F_ext": force}, return_derivatives=True)
+    X = pd.DataFrame({"t": t, "x1": sim.x1, "x2": sim.x2, "F_ext": force})
+    y = sim[["x1_dot", "x2_dot"]]
+    model = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"])
+    report = diagnose(model.fit(X, y), X, y)
+    assert report.best.effect == "drift"
+    # a cosine slow enough to be a ramp fits as well, but the record cannot tell it
+    forcing = report.ranking.set_index("effect").loc["periodic_forcing"]
+    assert not forcing.plausible and "cannot tell it from a slow drift" in forcing.note
+
+
 def test_a_chattering_simulation_is_stopped(coulomb_report):
     model, X, y, _ = coulomb_report
     report = diagnose(model, X, y, max_steps=5, n_refit=0, horizon=None)

@@ -15,6 +15,8 @@ from ..exceptions import RankDeficiencyWarning, SkeletonError
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import (
+    Apply,
+    BinOp,
     Node,
     Number,
     Param,
@@ -366,6 +368,10 @@ def _judge(candidate: Candidate, estimator, data: Measurements) -> None:
                 position=data.columns[candidate.roles.position])
             if not ok:
                 reasons.append(why)
+        if k == candidate.roles.index:
+            why = _unresolved_oscillation(node, estimator.params_, data)
+            if why:
+                reasons.append(why)
         scale = float(np.sqrt(np.mean(data.derivatives[:, k] ** 2)))
         size = float(np.sqrt(np.mean(values**2)))
         if scale > 0 and size > ABSURD_RATIO * scale:
@@ -374,3 +380,48 @@ def _judge(candidate: Candidate, estimator, data: Measurements) -> None:
     candidate.plausible = not reasons
     if reasons:
         candidate.note = "; ".join(reasons)
+
+
+#: fewest periods of a fitted oscillation in time that the record must hold to tell it
+#: from a drift
+MIN_PERIODS = 2.0
+
+
+def _time_rates(node: Node, params: dict[str, float]) -> list[float]:
+    """Angular frequencies ``w`` of the ``sin(w t)`` and ``cos(w t)`` in a term."""
+    rates = []
+    for item in walk(node):
+        if not (isinstance(item, Apply) and item.func in ("sin", "cos")):
+            continue
+        arg = item.arg
+        if isinstance(arg, Symbol) and arg.name == TIME:
+            rates.append(1.0)
+        elif isinstance(arg, BinOp) and arg.op == "*":
+            sides = (arg.left, arg.right)
+            if any(isinstance(x, Symbol) and x.name == TIME for x in sides):
+                rates.extend(float(params[x.name]) for x in sides if isinstance(x, Param))
+    return rates
+
+
+def _unresolved_oscillation(node: Node, params: dict[str, float],
+                            data: Measurements) -> str:
+    """Why a fitted oscillation in time cannot be told from the record ("" when it can)."""
+    rates = _time_rates(node, params)
+    if not rates or not data.has_time:
+        return ""
+    t = data.columns[TIME]
+    spans = [float(np.ptp(t[rows])) for _, rows in data.groups if len(rows) > 1]
+    steps = [float(np.median(np.diff(t[rows]))) for _, rows in data.groups if len(rows) > 1]
+    if not spans:
+        return ""
+    longest, step = max(spans), min(steps)
+    for w in map(abs, rates):
+        periods = w * longest / (2 * math.pi)
+        if periods < MIN_PERIODS:
+            return (f"the fitted oscillation (angular frequency {w:.3g}) completes "
+                    f"{periods:.2g} periods in the longest experiment: the record cannot tell "
+                    "it from a slow drift or offset")
+        if w * step > math.pi:
+            return (f"the fitted oscillation (angular frequency {w:.3g}) lies above the "
+                    f"Nyquist frequency {math.pi / step:.3g} of the record")
+    return ""

@@ -257,6 +257,8 @@ for _effect in (
            "a1"),
     Effect("periodic_forcing", "unmeasured harmonic excitation", "time",
            "a1 cos(a2 t) + a3 sin(a2 t)"),
+    Effect("drift", "force or bias changing steadily over the record (a warming sensor, "
+           "a creeping load)", "time", "a1 + a2 t"),
 ):
     register(_effect)
 del _effect
