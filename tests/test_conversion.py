@@ -242,6 +242,17 @@ def test_interpolated_regressor_fits_through_a_backend(duffing_poly):
         InterpolatedCCRegressor(equations=SECOND_ORDER, estimator=object()).fit(X, y)
 
 
+def test_interpolated_regressor_drives_a_neural_backend(duffing_poly):
+    frame, _, _ = duffing_poly
+    X, y = frame[X_COLUMNS], frame[Y_COLUMNS]
+    backend = NeuralCCRegressor(max_epochs=3, random_state=0)
+    model = InterpolatedCCRegressor(equations=SECOND_ORDER, estimator=backend,
+                                    n_points=50).fit(X, y)
+    assert model.estimator_.fit_mode_ == "equation"
+    assert len(model.tables_["f1"]) == 50
+    assert np.isfinite(model.predict(X)).all()
+
+
 def test_scalar_paths_agree_with_the_array_paths():
     x = np.linspace(-1, 1, 21)
     probe = np.array([-1.5, -1.0, -0.33, 0.0, 0.05, 0.999, 1.0, 1.7])

@@ -30,6 +30,16 @@ def test_duffing_position_only_output_error_beats_the_floor(snr, bound):
     assert abs(output.functions_["f2"](np.array([0.0]))[0]) < 1e-10
 
 
+def test_a_refit_in_equation_mode_forgets_the_output_error_stage():
+    frame = datasets.make_duffing(n_samples=400, noise=40, noise_columns=["x1"], random_state=0)
+    X = frame[["t", "x1", "F_ext"]]
+    model = PolyCCRegressor(equations=SECOND_ORDER, fit_mode="simulation",
+                            shooting_iterations=2).fit(X)
+    assert model.fit_mode_ == "simulation" and "segments" in model.shooting_
+    model.set_params(fit_mode="equation").fit(X)
+    assert model.fit_mode_ == "equation" and not hasattr(model, "shooting_")
+
+
 def test_output_error_on_several_experiments_with_parametric_skeleton():
     settings = [{"amplitude": 1.2, "omega": 1.0}, {"amplitude": 1.8, "omega": 0.8}]
     frame, truths = datasets.make_experiments(

@@ -30,6 +30,8 @@ FIT_MODES = ("auto", "equation", "simulation")
 #: equation fit by output error: derivatives of such records bias the fit by per cents
 AUTO_SIMULATION_SNR_DB = 45.0
 _NEEDS_TIME = "fit_mode='simulation' needs the time column 't' in X"
+#: fitted state of one fit's output-error stage, cleared when the estimator is fitted again
+_STAGE_ATTRIBUTES = ("shooting_", "_trained")
 
 
 class EquationsView(list):
@@ -276,6 +278,8 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         self : CCRegressor
             The fitted estimator.
         """
+        for stale in _STAGE_ATTRIBUTES:  # a refit in another mode must not keep them
+            self.__dict__.pop(stale, None)
         problem = self._problem(X, y)
         plan = None
         if self.fit_mode_ == "simulation":

@@ -216,6 +216,7 @@ class InterpolatedCCRegressor(CCRegressor):
         else:
             raise TypeError(f"estimator must be a CCRegressor backend, got "
                             f"{type(self.estimator).__name__}")
+        backend.fit_mode_ = "equation"  # the tables are read from an equation fit
         functions, params = backend._fit_problem(problem)
         backend._store(problem, functions, params)
         self.estimator_ = backend
