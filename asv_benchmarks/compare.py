@@ -64,6 +64,19 @@ p.    Position-only ``PolyCCRegressor.fit`` plus ``diagnose`` (horizon
       "auto") of the linear skeleton on 100,000 samples of the resonator
       (60 dB). Goal: under 3 s.
 
+q.    ``HypothesisLoop(...).run(max_rounds=3)`` from the viscous skeleton on a
+      closed-loop positioning axis, position only (``make_positioning_axis``,
+      1 kHz), at 10,000 and 100,000 samples; the check gives the effects
+      named, the mass error and the peak memory (tracemalloc, one run).
+      Goal: under 10 s at 100,000.
+
+r.    Not timed: the loop's right-answer and false-alarm rates over the
+      hidden-effect generator (``make_oscillator``, seven effects, two noise
+      draws, position only) at three noise levels: right when ``diagnose``
+      of the base skeleton names the hidden effect first (a softening cubic
+      counts for the pendulum), a false alarm when ``diagnose`` of the true
+      skeleton names anything.
+
 and three lines only report times (no goal): k. ``SymbolicCCRegressor.fit``
 on the Duffing oscillator, l. ``to_symbolic`` of the neural stick-slip fit
 (20 dB on the force) from its curves alone and m. with the data.
@@ -586,6 +599,73 @@ def _diagnose_timing() -> Timing:
                   None, check)
 
 
+AXIS = ["x1_dot = x2", "x2_dot = a1 F - a2 x2"]
+
+
+def _axis_loop_timings() -> list[Timing]:
+    import tracemalloc
+
+    from sklearn_pycc import HypothesisLoop
+
+    out = []
+    for n, goal in ((10_000, None), (100_000, 10_000.0)):
+        frame, truth = datasets.make_positioning_axis(
+            n_samples=n, t_span=(0, (n - 1) / 1000), random_state=0, return_truth=True)
+
+        def run(frame=frame):
+            return HypothesisLoop(PolyCCRegressor(equations=AXIS), frame).run(max_rounds=3)
+
+        tracemalloc.start()
+        loop = run()
+        peak = tracemalloc.get_traced_memory()[1] / 2**20
+        tracemalloc.stop()
+        named = [r.added.effect if r.added else "stop" for r in loop.rounds]
+        mass = loop.model.params_["a1"] / truth.params["a1"] - 1
+        out.append(Timing(f"q. loop 3 rounds, axis position only, n={n}", run, goal,
+                          f"{' -> '.join(named)}; 1/mass {100 * mass:+.2f} %; peak "
+                          f"{peak:.0f} MB"))
+    return out
+
+
+#: the effects make_oscillator can hide beyond its viscous damping
+HIDDEN = ["coulomb_friction", "quadratic_drag", "cubic_stiffness", "saturation", "pendulum",
+          "position_dependent_damping", "offset"]
+
+
+def print_rates(noise_levels=(None, 40.0, 30.0), seeds=(0, 1)) -> None:
+    """Right answers and false alarms of ``diagnose`` over the hidden-effect generator."""
+    from sklearn_pycc import diagnose
+
+    print()
+    print("r. hidden-effect generator, position only (t, x1, F_ext), 2000 samples:")
+    print(f"   {'noise':<8} {'right answers':>14} {'false alarms':>13} {'median s':>9}  misses")
+    for noise in noise_levels:
+        right, alarms, seconds, misses = 0, 0, [], []
+        for effect in HIDDEN:
+            for seed in seeds:
+                frame, truth = datasets.make_oscillator(
+                    hidden=[effect], noise=noise, noise_columns=["x1"], random_state=seed,
+                    return_truth=True)
+                X = frame[["t", "x1", "F_ext"]]
+                start = time.perf_counter()
+                report = diagnose(PolyCCRegressor(equations=truth.base_equations).fit(X), X)
+                seconds.append(time.perf_counter() - start)
+                named = None if report.best is None else report.best.effect
+                added = report.best.equations.params[-1] if named else None
+                softening = (named == "cubic_stiffness" and effect == "pendulum"
+                             and report.best.param_init[added] < 0)
+                if named == effect or softening:
+                    right += 1
+                else:
+                    misses.append(f"{effect}->{named}")
+                true = PolyCCRegressor(equations=truth.parametric_equations).fit(X)
+                alarms += diagnose(true, X).best is not None
+        total = len(HIDDEN) * len(seeds)
+        level = "clean" if noise is None else f"{noise:g} dB"
+        print(f"   {level:<8} {right:>8} of {total:<3} {alarms:>7} of {total:<3} "
+              f"{statistics.median(seconds):>9.2f}  {', '.join(misses) or '-'}")
+
+
 def measure_timing(timing: Timing, repeat: int) -> Timing:
     timing.seconds = [_once(timing.fn, 1) for _ in range(repeat)]
     return timing
@@ -677,7 +757,8 @@ def main(argv=None) -> int:
             print_table(results)
         timings = []
         builders = [("g", _loop_timing), ("h", _diagnose_timing), ("p", _fit_diagnose_timing),
-                    ("k", _symbolic_fit_timing), ("lm", _post_sr_timings)]
+                    ("q", _axis_loop_timings), ("k", _symbolic_fit_timing),
+                    ("lm", _post_sr_timings)]
         for key, build in builders:
             if args.only and not set(key) & set(args.only):
                 continue
@@ -699,6 +780,11 @@ def main(argv=None) -> int:
                 print(f"{item.label:<44} {median:>10.1f} {min(ms):>8.1f}-{max(ms):<8.1f} "
                       f"{goal:>9} {met}")
                 print(f"    {item.check}")
+        if not args.only or "r" in args.only:
+            try:
+                print_rates()
+            except Exception as exc:
+                failures.append(f"r. could not be measured: {type(exc).__name__}: {exc}")
         for line in failures:
             print(line)
     print(f"\ntotal {time.perf_counter() - start:.1f} s")

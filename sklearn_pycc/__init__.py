@@ -6,7 +6,7 @@ estimator.
 """
 
 from . import datasets, effects, pycc
-from .diagnostics import compare_skeletons, diagnose
+from .diagnostics import HypothesisLoop, compare_skeletons, diagnose
 from .estimators import (
     CCRegressor,
     InterpolatedCCRegressor,
@@ -33,6 +33,7 @@ __all__ = [
     "CCRegressor",
     "ExtrapolationWarning",
     "GaugeWarning",
+    "HypothesisLoop",
     "IdentifiabilityError",
     "InterpolatedCCRegressor",
     "NeuralCCRegressor",

@@ -57,7 +57,7 @@ from ._generation import (
     _check_real,
     _check_t_span,
 )
-from ._lab_records import make_positioning_axis, make_resonator
+from ._lab_records import make_pendulum, make_positioning_axis, make_resonator
 from .skeleton import Skeleton
 
 __all__ = [
@@ -65,6 +65,7 @@ __all__ = [
     "make_experiments",
     "make_first_order",
     "make_oscillator",
+    "make_pendulum",
     "make_positioning_axis",
     "make_resonator",
     "make_stick_slip",

@@ -450,7 +450,8 @@ def test_bad_random_state():
 # -- module hygiene --------------------------------------------------------------------
 def test_public_api():
     assert sorted(datasets.__all__) == ["make_duffing", "make_experiments", "make_first_order",
-                                        "make_oscillator", "make_positioning_axis",
+                                        "make_oscillator", "make_pendulum",
+                                        "make_positioning_axis",
                                         "make_resonator", "make_stick_slip", "make_two_dof",
                                         "make_van_der_pol"]
     assert datasets.__doc__
@@ -528,3 +529,23 @@ def test_oscillator_without_hidden_effects_is_linear():
 def test_oscillator_rejects_bad_hidden_effects(hidden, match):
     with pytest.raises(ValueError, match=match):
         datasets.make_oscillator(hidden=hidden, n_samples=50)
+
+
+def test_the_filmed_pendulum_is_what_a_camera_logs():
+    frame, truth = datasets.make_pendulum(random_state=0, return_truth=True)
+    assert list(frame.columns) == ["t", "x1"]
+    assert len(frame) == 1800 - round(0.03 * 1798)  # frames dropped, never the ends
+    assert frame["t"].iloc[0] == 0 and frame["t"].iloc[-1] == pytest.approx(59.97)
+    # the truth's states solve its skeleton, and the angle reaches the release of 2 rad
+    exact = truth.states
+    assert exact["x1"].abs().max() == pytest.approx(2.0, abs=1e-6)
+    wave = np.sqrt(truth.params["a2"])
+    assert wave == pytest.approx(2 * np.pi * 0.5)
+    noise = frame["x1"].to_numpy() - exact["x1"].to_numpy()
+    assert 0 < np.std(noise) < 0.02
+    clean = datasets.make_pendulum(noise=None, pixel=0, drop_fraction=0, random_state=0)
+    assert len(clean) == 1800 and np.allclose(clean["x1"].iloc[0], 2.0)
+    with pytest.raises(ValueError, match="pixel"):
+        datasets.make_pendulum(pixel=-1)
+    with pytest.raises(ValueError, match="drop_fraction"):
+        datasets.make_pendulum(drop_fraction=1.5)

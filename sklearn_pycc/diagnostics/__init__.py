@@ -5,6 +5,7 @@ from ._failures import ResidualMap
 from ._trajectories import Divergence
 from .compare import compare_skeletons
 from .diagnose import Diagnosis, Suggestion, diagnose
+from .loop import HypothesisLoop, Round
 
-__all__ = ["Diagnosis", "Divergence", "ResidualMap", "Suggestion", "compare_skeletons",
-           "diagnose", "effects"]
+__all__ = ["Diagnosis", "Divergence", "HypothesisLoop", "ResidualMap", "Round", "Suggestion",
+           "compare_skeletons", "diagnose", "effects"]

@@ -28,7 +28,8 @@ from ..skeleton.nodes import (
 )
 from ..skeleton.parser import parse_expression
 from . import effects as catalogue
-from ._data import TIME, Measurements
+from ._data import TIME, Measurements, thin
+from ._physics import implausible_terms
 from ._roles import EquationRoles
 
 __all__ = ["Candidate", "enumerate_candidates", "refit_candidate", "screen_candidates"]
@@ -65,6 +66,8 @@ class Candidate:
     note: str = ""
     shifts: dict[int, np.ndarray] = field(default_factory=dict)
     simulation_rmse: float = math.nan
+    # held-out comparison with the model without the effect (HeldOut), when checked
+    held_out: object = None
 
     @property
     def equations(self) -> list[int]:
@@ -319,10 +322,11 @@ def refit_candidate(model, candidate: Candidate, data: Measurements, residuals: 
         init.update({a: v for a, v in user.items() if a in candidate.extended.params})
         new["param_init"] = init
     estimator = clone(model).set_params(**new)
+    rows = thin(np.arange(data.n_samples))
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            estimator.fit(data.X, data.derivatives)
+            estimator.fit(data.X.iloc[rows], data.derivatives[rows])
             predicted = data.predict(estimator)
     except Exception as exc:  # any failure of a backend is a finding, not a crash
         candidate.note = f"the extended skeleton could not be fitted: {exc}"
@@ -377,6 +381,10 @@ def _judge(candidate: Candidate, estimator, data: Measurements) -> None:
         if scale > 0 and size > ABSURD_RATIO * scale:
             reasons.append(f"absurd size: the fitted term is {size / scale:.3g} times the "
                            f"derivative it should explain (terms cancel each other)")
+    # the rest of the refitted model must still play its physical roles
+    own = [(k, parse_expression(text, kind="term")) for k, text in candidate.added]
+    reasons.extend(f"the refitted model is implausible: {item}"
+                   for item in implausible_terms(estimator, data, own))
     candidate.plausible = not reasons
     if reasons:
         candidate.note = "; ".join(reasons)

@@ -10,7 +10,19 @@ import pandas as pd
 from ..measurements import read_record
 from ..measurements.experiments import TIME
 
-__all__ = ["Measurements", "read_measurements"]
+__all__ = ["Measurements", "read_measurements", "thin"]
+
+#: equation-error refits inside a diagnosis read at most this many rows, evenly spread:
+#: neighbouring samples of a long record carry nearly the same information
+REFIT_ROWS = 20_000
+
+
+def thin(rows: np.ndarray, limit: int = REFIT_ROWS) -> np.ndarray:
+    """At most ``limit`` of ``rows``, evenly spread over them (all of them when fewer)."""
+    rows = np.asarray(rows)
+    if len(rows) <= limit:
+        return rows
+    return rows[np.linspace(0, len(rows) - 1, limit).round().astype(int)]
 
 
 @dataclass

@@ -25,7 +25,9 @@ from ._failures import (
     residual_map,
     worst_windows,
 )
+from ._held_out import HeldOut, held_out_check
 from ._metrics import error_table_row, rmse
+from ._physics import Implausibility, implausible_terms
 from ._roles import EquationRoles, equation_roles
 from ._trajectories import Divergence, Horizon, horizon_of, simulate_against
 
@@ -34,8 +36,13 @@ __all__ = ["Diagnosis", "Suggestion", "diagnose"]
 _RANKING_COLUMNS = [
     "equation", "variable", "effect", "score", "suggested_term", "curve_term", "n_params",
     "error_removed", "delta_bic", "rmse_before", "rmse_after", "simulation_rmse",
-    "plausible", "refit", "explained", "note",
+    "held_out_change", "held_out_wins", "plausible", "refit", "explained", "note",
 ]
+#: a candidate whose simulation error is at most this share of the model's is worth a
+#: held-out check even when it removes little of the derivative residual
+SIMULATION_GAIN = 0.5
+#: how many candidates are checked on held-out data, best first, until one is confirmed
+N_HELD_OUT = 2
 
 
 @dataclass(frozen=True)
@@ -73,6 +80,9 @@ class Suggestion:
         Change of the Bayesian information criterion (negative is better).
     simulation_rmse : float
         Simulation RMSE of the refitted model (NaN when not simulated).
+    held_out : HeldOut or None
+        The comparison with the model on data each fit did not see (None
+        when ``diagnose(..., held_out=False)``).
     """
 
     effect: str
@@ -88,6 +98,7 @@ class Suggestion:
     error_removed: float
     delta_bic: float
     simulation_rmse: float
+    held_out: HeldOut | None = None
 
     def __str__(self) -> str:
         return f"add '- {self.term}' to {self.equation} ({self.effect} through {self.variable})"
@@ -135,6 +146,10 @@ class Diagnosis:
     horizon : Horizon or None
         How far each simulation ran before it was restarted from the
         measured state (``horizon.time`` None: whole experiments).
+    implausible : list of Implausibility
+        Terms of the diagnosed model that contradict their physical role
+        (friction feeding energy in, a net spring pushing away, a gain of
+        the wrong sign); empty when every term plays its role.
     """
 
     model: object
@@ -151,6 +166,7 @@ class Diagnosis:
     simulation_rmse: float
     notes: list[str] = field(default_factory=list)
     horizon: Horizon | None = None
+    implausible: list[Implausibility] = field(default_factory=list)
     _candidates: list[Candidate] = field(default_factory=list, repr=False)
     _data: Measurements | None = field(default=None, repr=False)
     # values of the explaining variables, by equation and label (for the figures)
@@ -172,6 +188,8 @@ class Diagnosis:
                      f"{'s' if experiments != 1 else ''}:")
         for text in model.equations():
             lines.append(f"    {text}")
+        for item in self.implausible:
+            lines.append(f"    IMPLAUSIBLE: {item}")
         lines.append("")
         lines.append("Derivatives:")
         for name, row in self.derivatives.iterrows():
@@ -229,11 +247,17 @@ class Diagnosis:
                 return ["Missing effect: none of the catalogue's effects applies to this "
                         "skeleton."]
             row = leading.iloc[0]
-            return [f"Missing effect: nothing. None of the {tried} effects tried lowers the "
-                    f"error beyond what noise explains (the closest, {row.effect} in "
-                    f"{row.equation}, removes {100 * max(row.error_removed, 0):.1f} % of the "
-                    f"residual, change of BIC {row.delta_bic:+.1f}). The skeleton is "
-                    "complete as far as the catalogue can tell."]
+            lines = [f"Missing effect: nothing. None of the {tried} effects tried lowers the "
+                     f"error beyond what noise explains (the closest, {row.effect} in "
+                     f"{row.equation}, removes {100 * max(row.error_removed, 0):.1f} % of the "
+                     f"residual, change of BIC {row.delta_bic:+.1f}). The skeleton is "
+                     "complete as far as the catalogue can tell."]
+            for c in self._candidates:
+                if c.held_out is not None:
+                    lines.append(f"    Not confirmed: {c.effect.name} in {c.roles.derivative} "
+                                 f"fits the record but not the data it did not see: "
+                                 f"{c.held_out}.")
+            return lines
         lines = [f"Missing effect: {best.effect} ({best.description}) in {best.equation}, "
                  f"acting through {best.variable or 'nothing'}."]
         lines.append(f"    Add '- {best.term}' to {best.equation}"
@@ -245,6 +269,8 @@ class Diagnosis:
                   f"{best.simulation_rmse:.4g}" if np.isfinite(best.simulation_rmse) else "")
         lines.append(f"    Refitted, it removes {100 * best.error_removed:.1f} % of the "
                      f"derivative residual (change of BIC {best.delta_bic:+.1f}){change}.")
+        if best.held_out is not None:
+            lines.append(f"    Decided on data each fit did not see: {best.held_out}.")
         runners = self.ranking.iloc[1:4]
         if len(runners):
             lines.append("    Runners-up: " + "; ".join(
@@ -279,7 +305,8 @@ def _check_options(n_refit, min_improvement, bic_threshold, max_steps) -> None:
 
 def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1,
              bic_threshold: float = 10.0, simulate: bool = True,
-             max_steps: int | None = None, horizon="auto") -> Diagnosis:
+             max_steps: int | None = None, horizon="auto",
+             held_out: bool = True) -> Diagnosis:
     """Compare a fitted model with measurements and name the physical effect it lacks.
 
     The diagnosis has three parts:
@@ -301,11 +328,20 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         ``n_refit`` most promising are refitted inside the extended skeleton
         with a clone of ``model``, ranked by the change of the Bayesian
         information criterion of the derivative residual, and checked for
-        plausibility (a friction term must remove energy; a term many times
-        larger than the derivative it explains is absurd). The best
-        plausible one becomes :attr:`Diagnosis.best` when it lowers the BIC
-        by more than ``bic_threshold`` and removes at least
-        ``min_improvement`` of the residual; otherwise nothing is missing.
+        plausibility: the added term must play its physical role (a friction
+        term must remove energy; a term many times larger than the
+        derivative it explains is absurd), and so must every other term of
+        the refitted model (see :attr:`Diagnosis.implausible`). A plausible
+        refit that lowers the BIC by more than ``bic_threshold`` and removes
+        at least ``min_improvement`` of the residual (or simulates clearly
+        better) is then checked on data its fit did not see: the model with
+        and without it is fitted without each fold (the experiments, or
+        three folds of interleaved blocks in time) and compared on it, by the horizon-limited
+        simulation error (the derivatives' when there is no time). The
+        first candidate that lowers the held-out error becomes
+        :attr:`Diagnosis.best`; otherwise nothing is missing. On long
+        records with coloured noise the BIC alone calls almost any term
+        significant; the held-out check does not.
 
     Parameters
     ----------
@@ -342,6 +378,11 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         oscillation, or three time constants; see :attr:`Diagnosis.horizon`),
         and the same horizon judges every candidate; None simulates whole
         experiments.
+    held_out : bool, default=True
+        Confirm the leading candidates on held-out folds before one is
+        suggested (each check costs two fits per fold; refits are by output
+        error when ``model`` was fitted so). False decides on the in-sample
+        criteria alone.
 
     Returns
     -------
@@ -365,6 +406,8 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     ('cubic_stiffness', 'x2_dot')
     """
     _check_options(n_refit, min_improvement, bic_threshold, max_steps)
+    if not isinstance(held_out, bool):
+        raise ValueError(f"held_out must be True or False, got {held_out!r}")
     check_is_fitted(model, "skeleton_")
     skeleton = model.skeleton_
     settings = model.get_params()
@@ -439,12 +482,18 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     if run_simulation:
         _simulate_leaders(refitted, data, measured_states, window, steps, divergences)
     ordered = _ordered(candidates)
+    eligible = _eligible(ordered, min_improvement, bic_threshold, simulation_rmse)
+    chosen = _decide(eligible, model, data, window if run_simulation else None, failing,
+                     steps) if held_out else (eligible[0] if eligible else None)
+    if chosen is not None:
+        ordered.remove(chosen)
+        ordered.insert(0, chosen)
     ranking = _ranking(ordered, explained)
-    best = _choose(ordered, skeleton, min_improvement, bic_threshold)
+    best = None if chosen is None else _suggestion(chosen, skeleton)
     return Diagnosis(model, derivative_table, trajectory_table, simulation_frame,
                      pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
-                     maps, ranking, best, simulation_rmse, notes, window, candidates, data,
-                     variables)
+                     maps, ranking, best, simulation_rmse, notes, window,
+                     implausible_terms(model, data), candidates, data, variables)
 
 
 def _map_of(roles: EquationRoles, residuals, data: Measurements, inputs) -> ResidualMap | None:
@@ -533,6 +582,9 @@ def _ranking(ordered: list[Candidate], explained: pd.DataFrame) -> pd.DataFrame:
             "rmse_before": c.rmse_before,
             "rmse_after": c.rmse_after,
             "simulation_rmse": c.simulation_rmse,
+            "held_out_change": math.nan if c.held_out is None else c.held_out.change(),
+            "held_out_wins": (None if c.held_out is None
+                              else f"{c.held_out.wins} of {c.held_out.n_folds}"),
             "plausible": bool(c.plausible) if refit else None,
             "refit": refit,
             "explained": lookup.get((c.roles.derivative, c.variable), math.nan),
@@ -541,15 +593,32 @@ def _ranking(ordered: list[Candidate], explained: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=_RANKING_COLUMNS)
 
 
-def _choose(ordered: list[Candidate], skeleton: Skeleton, min_improvement: float,
-            bic_threshold: float) -> Suggestion | None:
-    """The leader, if it is a plausible refit that clears both thresholds."""
-    if not ordered:
-        return None
-    c = ordered[0]
-    if _group(c) != 0 or c.delta_bic > -bic_threshold or c.removed < min_improvement:
-        return None
-    return _suggestion(c, skeleton)
+def _eligible(ordered: list[Candidate], min_improvement: float, bic_threshold: float,
+              simulation_rmse: float) -> list[Candidate]:
+    """Plausible refits that clear the BIC and help the derivatives or the simulation."""
+    out = []
+    for c in ordered:
+        if _group(c) != 0 or c.delta_bic > -bic_threshold:
+            continue
+        simulates_better = (math.isfinite(c.simulation_rmse) and math.isfinite(simulation_rmse)
+                            and c.simulation_rmse <= SIMULATION_GAIN * simulation_rmse)
+        if c.removed >= min_improvement or simulates_better:
+            out.append(c)
+    return out
+
+
+def _decide(eligible: list[Candidate], model, data: Measurements, horizon: Horizon | None,
+            equations: list[int], steps: int) -> Candidate | None:
+    """The first eligible candidate that held-out data confirm, or None."""
+    output_error = getattr(model, "fit_mode_", "equation") == "simulation"
+    cache: dict = {}
+    for c in eligible[:N_HELD_OUT]:
+        c.held_out = held_out_check(model, c.refit, data, horizon, equations,
+                                    max_steps=steps, output_error=output_error, cache=cache)
+        if c.held_out.confirmed:
+            return c
+        c.note = "; ".join(filter(None, [c.note, str(c.held_out)]))
+    return None
 
 
 def _suggestion(c: Candidate, base: Skeleton) -> Suggestion:
@@ -569,4 +638,4 @@ def _suggestion(c: Candidate, base: Skeleton) -> Suggestion:
         param_init={a: float(v) for a, v in c.refit.params_.items()},
         curve_term=curve_term, curve_constraints=curve_constraints, also=also,
         error_removed=float(c.removed), delta_bic=float(c.delta_bic),
-        simulation_rmse=float(c.simulation_rmse))
+        simulation_rmse=float(c.simulation_rmse), held_out=c.held_out)

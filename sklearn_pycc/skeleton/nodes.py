@@ -20,6 +20,7 @@ __all__ = [
     "Unknown",
     "product_factors",
     "rename",
+    "signed_terms",
     "sum_terms",
     "walk",
 ]
@@ -113,6 +114,16 @@ def sum_terms(node: Node) -> list[Node]:
     if isinstance(node, Neg):
         return sum_terms(node.operand)
     return [node]
+
+
+def signed_terms(node: Node, sign: float = 1.0) -> list[tuple[float, Node]]:
+    """The terms of a sum with their signs: ``F - a1 x2`` -> ``[(1, F), (-1, a1 x2)]``."""
+    if isinstance(node, BinOp) and node.op in "+-":
+        right = sign if node.op == "+" else -sign
+        return signed_terms(node.left, sign) + signed_terms(node.right, right)
+    if isinstance(node, Neg):
+        return signed_terms(node.operand, -sign)
+    return [(sign, node)]
 
 
 def product_factors(node: Node) -> list[Node]:

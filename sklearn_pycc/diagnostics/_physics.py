@@ -1,0 +1,243 @@
+"""Whole-model plausibility: every fitted term against the physical role the skeleton gives it.
+
+A refit can lower the residual by letting terms cancel each other: a
+negative viscous coefficient (energy fed in) offset by a large Stribeck term,
+a spring that pushes away held back by a cubic one. Such a model fits the
+record and is wrong. In the acceleration equation of a position-velocity
+pair (``x1_dot = x2``, ``x2_dot = ...``) the roles are:
+
+*dissipation*
+    each term of the velocity alone removes energy (it opposes the
+    velocity on average), and so do all of them together;
+*stiffness*
+    the terms of the position alone together pull back across the range
+    the record covers (a softening cubic beside a linear spring is fine, a
+    net spring that pushes away is not);
+*gain*
+    a term of the inputs alone has the sign it is written with (``a1 F``
+    pushes along ``F``);
+*inertia*
+    in an equation written ``a1 x2_dot = ...`` the coefficient of the
+    derivative has the sign it is written with.
+
+Terms too small to matter (below :data:`SIGNIFICANT` of the derivative's RMS)
+are not judged.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..skeleton.compiler import compile_expression
+from ..skeleton.nodes import (
+    Neg,
+    Node,
+    Number,
+    Param,
+    Symbol,
+    Unknown,
+    product_factors,
+    signed_terms,
+    walk,
+)
+from ..skeleton.printer import to_text
+from ._data import TIME, Measurements
+from ._roles import EquationRoles, equation_roles
+
+__all__ = ["Implausibility", "implausible_terms"]
+
+#: terms whose RMS along the record is below this share of the derivative's RMS are not judged
+SIGNIFICANT = 0.01
+#: a friction term may feed in this share of the power the friction terms exchange in all
+#: (an estimate of a coefficient that is truly zero scatters around it)
+INJECTION_TOLERANCE = 0.05
+
+
+@dataclass(frozen=True)
+class Implausibility:
+    """A fitted term (or group of terms) that contradicts its physical role.
+
+    Attributes
+    ----------
+    equation : str
+        The derivative of the equation (``"x2_dot"``).
+    role : str
+        ``"dissipation"``, ``"stiffness"``, ``"gain"`` or ``"inertia"``.
+    reason : str
+        What is wrong, in words, with the fitted values.
+    """
+
+    equation: str
+    role: str
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.equation}: {self.reason}"
+
+
+@dataclass
+class _Term:
+    sign: float
+    node: Node
+    values: np.ndarray
+
+    def text(self, params) -> str:
+        body = to_text(self.node, params, precision=4)
+        return f"{'-' if self.sign < 0 else '+'} {body}"
+
+
+def _symbols(node: Node) -> set[str]:
+    return {n.name for n in walk(node) if isinstance(n, Symbol)}
+
+
+def _rms(values: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(values**2))) if values.size else 0.0
+
+
+def _evaluate(node: Node, slots, env, params, functions, n: int) -> np.ndarray:
+    with np.errstate(all="ignore"):
+        values = compile_expression(node, slots, params, functions)(env)
+    return np.broadcast_to(np.asarray(values, dtype=float), (n,))
+
+
+def _inertia(eq, params) -> tuple[float, float] | None:
+    """``(fitted, as written)`` coefficient of the derivative of ``a x_dot = ...``; None else."""
+    factors = product_factors(eq.lhs)
+    if not any(isinstance(f, Symbol) and f.name == eq.derivative for f in factors):
+        return None
+    rest = [f for f in factors if not (isinstance(f, Symbol) and f.name == eq.derivative)]
+    if not all(isinstance(f, (Param, Number)) for f in rest):
+        return None
+    sign = -1.0 if sum(isinstance(n, Neg) for n in walk(eq.lhs)) % 2 else 1.0
+    fitted = sign * float(np.prod([params[f.name] if isinstance(f, Param) else f.value
+                                   for f in rest]))
+    written = sign * float(np.prod([1.0 if isinstance(f, Param) else f.value for f in rest]))
+    return fitted, written
+
+
+def implausible_terms(model, data: Measurements,
+                      skip: Collection[tuple[int, Node]] = ()) -> list[Implausibility]:
+    """Terms of a fitted model that contradict their physical role on ``data``.
+
+    Parameters
+    ----------
+    model : CCRegressor
+        A fitted model.
+    data : Measurements
+        The rows the terms are evaluated on.
+    skip : collection of (int, Node)
+        ``(equation index, term)`` pairs judged elsewhere (a candidate's
+        own term): left out of the per-term checks, kept in the sums.
+
+    Returns
+    -------
+    list of Implausibility
+        Empty when every judged term plays its role.
+    """
+    skeleton = model.skeleton_
+    params, functions = model.params_, model.functions_
+    names = list(data.columns)
+    slots = {name: i for i, name in enumerate(names)}
+    env = [data.columns[name] for name in names]
+    inputs = {name for name in skeleton.inputs if name != TIME}
+    out: list[Implausibility] = []
+    for roles in equation_roles(skeleton):
+        eq = skeleton.parsed[roles.index]
+        scale = 1.0
+        if not eq.explicit:
+            inertia = _inertia(eq, params)
+            if inertia is None:
+                continue
+            fitted, written = inertia
+            if fitted * written <= 0:
+                out.append(Implausibility(eq.derivative, "inertia", (
+                    f"the coefficient of {eq.derivative} is {fitted:.4g}, of the opposite "
+                    "sign to the one written: the inertia (mass) must keep that sign")))
+                continue
+            scale = fitted
+        n = data.n_samples
+        terms = [_Term(sign, node, sign * _evaluate(node, slots, env, params, functions, n)
+                       / scale) for sign, node in signed_terms(eq.rhs)]
+        size = _rms(data.derivatives[:, roles.index])
+        skipped = {node for k, node in skip if k == roles.index}
+        out.extend(_check_equation(roles, eq.derivative, terms, skipped, size, data, inputs,
+                                   params, slots))
+    return out
+
+
+def _check_equation(roles: EquationRoles, derivative: str, terms: list[_Term], skipped,
+                    size: float, data: Measurements, inputs: set[str], params,
+                    slots) -> list[Implausibility]:
+    out = []
+    significant = SIGNIFICANT * size
+    friction, springs = [], []
+    for term in terms:
+        symbols = _symbols(term.node)
+        if roles.second_order and symbols == {roles.velocity}:
+            friction.append(term)
+        elif roles.second_order and symbols == {roles.position}:
+            springs.append(term)
+        elif symbols and symbols <= inputs and term.node not in skipped:
+            why = _gain(term, params, slots, data)
+            if why and _rms(term.values) > significant:
+                out.append(Implausibility(derivative, "gain", why))
+    if friction:
+        out.extend(_dissipation(derivative, friction, skipped, data.columns[roles.velocity],
+                                significant, params))
+    if springs:
+        why = _stiffness(springs, data.columns[roles.position], significant, roles.position)
+        if why:
+            out.append(Implausibility(derivative, "stiffness", why))
+    return out
+
+
+def _gain(term: _Term, params, slots, data: Measurements) -> str:
+    if any(isinstance(n, Unknown) for n in walk(term.node)):
+        return ""
+    ones = {name: 1.0 for name in params}
+    env = [data.columns[name] for name in slots]
+    written = term.sign * _evaluate(term.node, slots, env, ones, {}, data.n_samples)
+    if float(np.mean(term.values * written)) > 0:
+        return ""
+    return (f"the input term '{term.text(params)}' pushes against the sign it is written "
+            "with: a gain must keep it")
+
+
+def _dissipation(derivative: str, friction: list[_Term], skipped, velocity: np.ndarray,
+                 significant: float, params) -> list[Implausibility]:
+    out = []
+    powers = [float(np.mean(term.values * velocity)) for term in friction]
+    exchanged = sum(abs(p) for p in powers)
+    for term, power in zip(friction, powers):
+        if term.node in skipped or power <= INJECTION_TOLERANCE * exchanged:
+            continue
+        if _rms(term.values) > significant:
+            out.append(Implausibility(derivative, "dissipation", (
+                f"the friction term '{term.text(params)}' feeds energy in (it pushes along "
+                "the velocity): dissipation must remove energy")))
+    total = np.sum([term.values for term in friction], axis=0)
+    if sum(powers) > 0 and _rms(total) > significant:
+        out.append(Implausibility(derivative, "dissipation", (
+            "the forces of the velocity together feed energy in: the friction of the "
+            "model accelerates the motion")))
+    return out
+
+
+def _stiffness(springs: list[_Term], position: np.ndarray, significant: float,
+               name: str) -> str:
+    total = np.sum([term.values for term in springs], axis=0)
+    if _rms(total) <= significant:
+        return ""
+    low, high = int(np.argmin(position)), int(np.argmax(position))
+    span = float(position[high] - position[low])
+    if span <= 0:
+        return ""
+    slope = float(total[high] - total[low]) / span
+    if slope < 0:
+        return ""
+    return (f"the forces of the position together push away from the middle of the range "
+            f"(net stiffness {-slope:.4g} over {name} from {position[low]:.4g} to "
+            f"{position[high]:.4g}): a spring must pull back")

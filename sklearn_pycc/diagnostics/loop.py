@@ -1,0 +1,223 @@
+"""The hypothesis loop as an object: fit a skeleton, diagnose it, add what is missing, repeat."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from numbers import Integral
+
+import pandas as pd
+from sklearn.base import clone
+
+from ..skeleton import Skeleton
+from .diagnose import Diagnosis, Suggestion, diagnose
+
+__all__ = ["HypothesisLoop", "Round"]
+
+
+@dataclass(frozen=True)
+class Round:
+    """One round of the loop.
+
+    Attributes
+    ----------
+    index : int
+        0 for the starting skeleton.
+    skeleton : Skeleton
+        The skeleton fitted in this round.
+    model : CCRegressor
+        The fitted model.
+    diagnosis : Diagnosis
+        The model compared with the measurements.
+    decision : str
+        What the loop decided, in words (the effect it adds next, or why it
+        stops).
+    added : Suggestion or None
+        The effect the next round adds; None when the loop stops here.
+    """
+
+    index: int
+    skeleton: Skeleton
+    model: object
+    diagnosis: Diagnosis
+    decision: str
+    added: Suggestion | None
+
+    def __repr__(self) -> str:
+        return f"<Round {self.index}: {self.decision}>"
+
+
+class HypothesisLoop:
+    """Fit a skeleton, diagnose it, add the missing effect, and again, keeping every round.
+
+    Each :meth:`step` fits the current skeleton with a clone of
+    ``estimator``, runs :func:`~sklearn_pycc.diagnose` against the
+    measurements and records the decision: the effect to add (then the next
+    step fits the extended skeleton, starting from the diagnosis's own refit)
+    or that nothing is missing (then the loop has stopped). Every round is
+    judged over the horizon the first round chose, so their simulation
+    errors can be compared.
+
+    Parameters
+    ----------
+    estimator : CCRegressor
+        A backend with the starting skeleton as ``equations``; it is cloned,
+        never fitted itself.
+    X : DataFrame
+        The measurements, as for ``fit`` and ``diagnose``.
+    y : DataFrame or array, optional
+        Measured derivatives; estimated from ``X`` when None.
+    **diagnose_options
+        Passed to :func:`~sklearn_pycc.diagnose` (``horizon``,
+        ``n_refit``, ``min_improvement``, ``bic_threshold``, ``held_out``,
+        ...).
+
+    Attributes
+    ----------
+    rounds : list of Round
+        Every round so far, the starting skeleton first.
+    stopped : bool
+        Whether the last round found nothing missing.
+
+    Examples
+    --------
+    >>> from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets
+    >>> frame, truth = datasets.make_oscillator(hidden=["cubic_stiffness"], return_truth=True)
+    >>> loop = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), frame)
+    >>> loop = loop.run(max_rounds=3)
+    >>> [r.added.effect if r.added else None for r in loop.rounds]
+    ['cubic_stiffness', None]
+    """
+
+    def __init__(self, estimator, X, y=None, **diagnose_options) -> None:
+        if not hasattr(estimator, "get_params") or "equations" not in estimator.get_params():
+            raise TypeError("estimator must be a CCRegressor backend with the starting "
+                            f"skeleton as equations, got {type(estimator).__name__}")
+        if not isinstance(X, pd.DataFrame):
+            raise TypeError(f"X must be a pandas DataFrame, got {type(X).__name__}")
+        if "horizon" in diagnose_options and diagnose_options["horizon"] is not None:
+            horizon = diagnose_options["horizon"]
+            if horizon != "auto" and not isinstance(horizon, (int, float)):
+                raise ValueError(f"horizon must be 'auto', a time or None, got {horizon!r}")
+        self.estimator = estimator
+        self.X = X
+        self.y = y
+        self.diagnose_options = dict(diagnose_options)
+        self.rounds: list[Round] = []
+
+    # -- state ---------------------------------------------------------------------
+    @property
+    def stopped(self) -> bool:
+        """Whether the last round found nothing missing."""
+        return bool(self.rounds) and self.rounds[-1].added is None
+
+    @property
+    def model(self):
+        """The model of the last round (None before the first step)."""
+        return self.rounds[-1].model if self.rounds else None
+
+    def __repr__(self) -> str:
+        state = "stopped" if self.stopped else "running"
+        return f"<HypothesisLoop: {len(self.rounds)} rounds, {state}>"
+
+    # -- running -----------------------------------------------------------------------
+    def _next_model(self):
+        if not self.rounds:
+            return clone(self.estimator)
+        added = self.rounds[-1].added
+        previous = self.rounds[-1].model
+        settings = {"equations": added.equations, "constraints": None}
+        if "param_init" in previous.get_params():
+            init = dict(previous.get_params()["param_init"] or {})
+            init.update(added.param_init)
+            settings["param_init"] = init
+        return clone(previous).set_params(**settings)
+
+    def _options(self) -> dict:
+        options = dict(self.diagnose_options)
+        if self.rounds:  # every round over the first round's horizon
+            horizon = self.rounds[0].diagnosis.horizon
+            options["horizon"] = None if horizon is None else horizon.time
+        return options
+
+    def step(self) -> Round | None:
+        """Run one round; None (and nothing run) when the loop has stopped.
+
+        Returns
+        -------
+        Round or None
+        """
+        if self.stopped:
+            return None
+        model = self._next_model().fit(self.X, self.y)
+        report = diagnose(model, self.X, self.y, **self._options())
+        best = report.best
+        if best is None:
+            decision = "stop: nothing is missing"
+            if report.implausible:
+                decision += f" (but the model is implausible: {report.implausible[0]})"
+        else:
+            decision = f"add {best.effect} to {best.equation}: '- {best.term}'"
+        current = Round(len(self.rounds), model.skeleton_, model, report, decision, best)
+        self.rounds.append(current)
+        return current
+
+    def run(self, max_rounds: int = 5) -> HypothesisLoop:
+        """Step until nothing is missing or ``max_rounds`` rounds are recorded.
+
+        Parameters
+        ----------
+        max_rounds : int, default=5
+            Most rounds in all (the starting skeleton counts as one).
+
+        Returns
+        -------
+        self : HypothesisLoop
+        """
+        if not isinstance(max_rounds, Integral) or isinstance(max_rounds, bool) \
+                or max_rounds < 1:
+            raise ValueError(f"max_rounds must be a positive integer, got {max_rounds!r}")
+        while not self.stopped and len(self.rounds) < max_rounds:
+            self.step()
+        return self
+
+    # -- reading -------------------------------------------------------------------------
+    def table(self) -> pd.DataFrame:
+        """One row per round: size, errors over the common horizon, held-out change, decision."""
+        rows = []
+        for r in self.rounds:
+            d = r.diagnosis
+            held = None if r.added is None else r.added.held_out
+            rows.append({
+                "round": r.index,
+                "n_parameters": r.model.n_parameters_,
+                "derivative_nrmse": float(d.derivatives["nrmse"].max()),
+                "simulation_rmse": d.simulation_rmse,
+                "added": None if r.added is None else r.added.effect,
+                "held_out_change": math.nan if held is None else held.change(),
+                "implausible": len(d.implausible),
+                "decision": r.decision,
+            })
+        return pd.DataFrame(rows).set_index("round")
+
+    def summary(self) -> str:
+        """The loop in plain words: each round's model, errors and decision."""
+        if not self.rounds:
+            return "The loop has not run yet: call step() or run()."
+        horizon = self.rounds[0].diagnosis.horizon
+        lines = [f"Hypothesis loop, {len(self.rounds)} round"
+                 f"{'s' if len(self.rounds) != 1 else ''}"
+                 + (f"; simulations over {horizon}" if horizon and horizon.time else "")
+                 + ":"]
+        for r in self.rounds:
+            d = r.diagnosis
+            lines.append(f"Round {r.index} ({r.model.n_parameters_} fitted numbers, simulation "
+                         f"RMSE {d.simulation_rmse:.4g}):")
+            lines.extend(f"    {text}" for text in r.model.equations())
+            lines.extend(f"    IMPLAUSIBLE: {item}" for item in d.implausible)
+            lines.append(f"    -> {r.decision}")
+            if r.added is not None and r.added.held_out is not None:
+                lines.append(f"       ({r.added.held_out})")
+        if not self.stopped:
+            lines.append("The loop can go on: step() or run().")
+        return "\n".join(lines)

@@ -1,0 +1,94 @@
+"""Whole-model plausibility: every fitted term against the physical role the skeleton gives it."""
+
+import copy
+
+import pytest
+
+from sklearn_pycc import PolyCCRegressor, datasets, diagnose
+from sklearn_pycc.diagnostics._data import read_measurements
+from sklearn_pycc.diagnostics._physics import implausible_terms
+
+FRICTION = ["x1_dot = x2", "x2_dot = a5 F_ext - a1 x2 - a2 x1 - a3 tanh(a4 x2)"]
+SPRINGS = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 - a3 x1^3"]
+
+
+@pytest.fixture(scope="module")
+def record():
+    frame = datasets.make_oscillator(hidden=["coulomb_friction"], random_state=0)
+    return frame[["t", "x1", "x2", "F_ext"]], frame[["x1_dot", "x2_dot"]]
+
+
+def judged(model, X, y, **params):
+    """The model's implausible terms with some fitted values replaced."""
+    changed = copy.deepcopy(model)
+    changed.params_ = {**model.params_, **params}
+    data = read_measurements(changed.skeleton_, X, y)
+    return implausible_terms(changed, data)
+
+
+@pytest.fixture(scope="module")
+def friction_model(record):
+    return PolyCCRegressor(equations=FRICTION, param_init={"a4": 5.0}).fit(*record)
+
+
+def test_the_fitted_physical_model_is_plausible(record, friction_model):
+    assert judged(friction_model, *record) == []
+
+
+def test_negative_damping_held_up_by_dry_friction_is_named(record, friction_model):
+    coulomb = friction_model.params_["a3"]
+    found = judged(friction_model, *record, a1=-0.3, a3=3 * coulomb)
+    assert [f.role for f in found] == ["dissipation"]
+    assert "feeds energy in" in found[0].reason and "x2" in found[0].reason
+    assert found[0].equation == "x2_dot"
+    # both friction terms feeding energy in: each is named, and the sum too
+    found = judged(friction_model, *record, a1=-0.3, a3=-coulomb)
+    assert [f.role for f in found] == ["dissipation"] * 3
+
+
+def test_a_tiny_negative_viscous_term_beside_dry_friction_is_tolerated(record, friction_model):
+    assert judged(friction_model, *record, a1=-1e-4) == []
+
+
+def test_a_gain_must_keep_the_sign_it_is_written_with(record, friction_model):
+    found = judged(friction_model, *record, a5=-1.0)
+    assert [f.role for f in found] == ["gain"]
+    assert "F_ext" in found[0].reason
+
+
+def test_springs_are_judged_together(record):
+    model = PolyCCRegressor(equations=SPRINGS).fit(*record)
+    # a softening cubic beside the linear spring is physical (a pendulum)
+    assert judged(model, *record, a2=1.0, a3=-0.05) == []
+    found = judged(model, *record, a2=-1.0, a3=0.0)
+    assert [f.role for f in found] == ["stiffness"]
+    assert "push away" in found[0].reason
+
+
+def test_an_implicit_mass_must_stay_positive(record):
+    implicit = ["x1_dot = x2", "a1 x2_dot = F_ext - a2 x2 - a3 x1"]
+    model = PolyCCRegressor(equations=implicit).fit(*record)
+    assert judged(model, *record) == []
+    found = judged(model, *record, a1=-model.params_["a1"])
+    assert found[0].role == "inertia"
+
+
+def test_the_summary_flags_an_implausible_starting_model(record):
+    X, y = record
+    pumped = ["x1_dot = x2", "x2_dot = F_ext + 0.3 x2 - a1 x2 - a2 x1"]
+    model = PolyCCRegressor(equations=pumped).fit(X, y)
+    report = diagnose(model, X, y, n_refit=2)
+    assert report.implausible and report.implausible[0].role == "dissipation"
+    assert "IMPLAUSIBLE: x2_dot: the friction term '+ 0.3*x2' feeds energy in" \
+        in report.summary()
+
+
+def test_an_implausible_refit_never_becomes_best(record):
+    X, y = record
+    # the fixed term feeds energy in whatever the refit adds: no suggestion can be physical
+    pumped = ["x1_dot = x2", "x2_dot = F_ext + 0.5 x2 - a2 x1"]
+    report = diagnose(PolyCCRegressor(equations=pumped).fit(X, y), X, y, n_refit=3)
+    assert report.best is None
+    refitted = report.ranking[report.ranking.refit]
+    assert len(refitted) and not refitted.plausible.any()
+    assert refitted.note.str.contains("the refitted model is implausible").all()
