@@ -99,19 +99,23 @@ def test_nonlinear_coupling_between_two_masses(noise):
     assert reports[0].simulation_rmse / reports[1].simulation_rmse >= (10 if noise else 1000)
 
 
-def test_quadratic_drag_outranks_a_non_physical_coulomb_term():
+def test_quadratic_drag_outranks_coulomb_friction_held_to_its_bounds():
     frame, truth = oscillator(["quadratic_drag"])
     X, y = xy(frame)
-    report = diagnose(PolyCCRegressor(equations=truth.base_equations).fit(X, y), X, y)
+    report = diagnose(PolyCCRegressor(equations=truth.base_equations).fit(X, y), X, y,
+                      n_refit=12)
     ranking = report.ranking.reset_index(drop=True)
     drag = ranking.index[ranking.effect == "quadratic_drag"][0]
     coulomb = ranking.index[ranking.effect == "coulomb_friction"][0]
     assert drag == 0 and coulomb > drag
-    row = ranking.loc[coulomb]
-    # the Coulomb term lowers the error too, but by feeding energy in
-    assert row.refit and row.error_removed > 0.3
-    assert not row.plausible and "remove energy" in row.note
-    assert "Rejected: coulomb_friction" in report.summary()
+    assert report.best.bounds == ("a3 >= 0",)
+    assert "(within a3 >= 0)" in report.summary()
+    # a Coulomb level is not negative: the term can lower the error only by removing
+    # energy, never by feeding it in as an unbounded fit would
+    candidate = next(c for c in report._candidates if c.effect.name == "coulomb_friction")
+    level, steepness = (candidate.refit.params_[a] for a in candidate.new_params)
+    assert level >= 0 and steepness >= 0
+    assert "feeds energy in" not in ranking.loc[coulomb, "note"]
 
 
 @pytest.mark.parametrize("effect", SINGLE)
@@ -193,7 +197,9 @@ def test_report_names_the_effect_in_plain_words(coulomb_report):
     assert best.effect == "coulomb_friction" and best.variable == "x2"
     assert best.term == "a3*tanh(a4*x2)"
     assert best.equations == Skeleton(
-        ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 - a3*tanh(a4*x2)"])
+        ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 - a3*tanh(a4*x2)"],
+        ["a3 >= 0", "a4 >= 0"])
+    assert best.bounds == ("a3 >= 0", "a4 >= 0")
     assert (best.curve_term, best.curve_constraints) == ("f1(x2)", ("f1 odd",))
     assert best.param_init["a3"] == pytest.approx(0.3, rel=0.05)
     text = report.summary()

@@ -228,7 +228,7 @@ def _screen_skeleton(candidate: Candidate, states: list[str]) -> tuple[Skeleton,
     names = [f"{prefix}{i}" for i in range(len(candidate.additions))]
     skeleton = Skeleton([f"{name}_dot = 0" for name in names])
     for i, (_, term) in enumerate(candidate.additions):
-        skeleton = skeleton.add_term(i, term)
+        skeleton = skeleton.add_term(i, term, constraints=list(candidate.effect.bounds))
     return skeleton, names
 
 
@@ -238,7 +238,7 @@ def extend(skeleton: Skeleton, candidate: Candidate) -> None:
     added = []
     for k, term in candidate.additions:
         before = extended.equations[k]
-        extended = extended.add_term(k, term)
+        extended = extended.add_term(k, term, constraints=list(candidate.effect.bounds))
         added.append((k, extended.equations[k][len(before) + 3:]))
     candidate.extended = extended
     candidate.added = added
@@ -320,7 +320,9 @@ def refit_candidate(model, candidate: Candidate, data: Measurements, residuals: 
                      for a, s in zip(candidate.new_params, screen_names)})
         user = params.get("param_init") or {}
         init.update({a: v for a, v in user.items() if a in candidate.extended.params})
-        new["param_init"] = init
+        bounds = candidate.extended.bounds
+        new["param_init"] = {a: float(np.clip(v, *bounds.get(a, (-np.inf, np.inf))))
+                             for a, v in init.items()}
     estimator = clone(model).set_params(**new)
     rows = thin(np.arange(data.n_samples))
     try:

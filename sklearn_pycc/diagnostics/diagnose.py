@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 from sklearn.utils.validation import check_is_fitted
 
-from ..skeleton import Skeleton
+from ..skeleton import Bound, Skeleton
 from ._candidates import (
     Candidate,
     enumerate_candidates,
@@ -43,6 +43,9 @@ _RANKING_COLUMNS = [
 SIMULATION_GAIN = 0.5
 #: how many candidates are checked on held-out data, best first, until one is confirmed
 N_HELD_OUT = 2
+#: a simpler effect whose held-out error is within this share of a confirmed leader's
+#: (same equation and variable) is named instead
+PARSIMONY = 0.05
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,9 @@ class Suggestion:
     held_out : HeldOut or None
         The comparison with the model on data each fit did not see (None
         when ``diagnose(..., held_out=False)``).
+    bounds : tuple of str
+        The bounds the effect's physics puts on the new parameters (in
+        ``equations`` too), e.g. ``("a3 >= 0", "a4 >= 0")``.
     """
 
     effect: str
@@ -99,6 +105,7 @@ class Suggestion:
     delta_bic: float
     simulation_rmse: float
     held_out: HeldOut | None = None
+    bounds: tuple[str, ...] = ()
 
     def __str__(self) -> str:
         return f"add '- {self.term}' to {self.equation} ({self.effect} through {self.variable})"
@@ -262,6 +269,7 @@ class Diagnosis:
                  f"acting through {best.variable or 'nothing'}."]
         lines.append(f"    Add '- {best.term}' to {best.equation}"
                      + "".join(f" and '- {t}' to {eq}" for eq, t in best.also.items())
+                     + (f" (within {', '.join(best.bounds)})" if best.bounds else "")
                      + (f"; or a free curve '- {best.curve_term}' "
                         f"({', '.join(best.curve_constraints)})" if best.curve_term else "")
                      + ".")
@@ -612,12 +620,31 @@ def _decide(eligible: list[Candidate], model, data: Measurements, horizon: Horiz
     """The first eligible candidate that held-out data confirm, or None."""
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
     cache: dict = {}
-    for c in eligible[:N_HELD_OUT]:
+
+    def check(c: Candidate) -> bool:
         c.held_out = held_out_check(model, c.refit, data, horizon, equations,
                                     max_steps=steps, output_error=output_error, cache=cache)
-        if c.held_out.confirmed:
-            return c
-        c.note = "; ".join(filter(None, [c.note, str(c.held_out)]))
+        if not c.held_out.confirmed:
+            c.note = "; ".join(filter(None, [c.note, str(c.held_out)]))
+        return c.held_out.confirmed
+
+    for c in eligible[:N_HELD_OUT]:
+        if not check(c):
+            continue
+        # a simpler effect through the same variable that does as well on held-out data
+        # is preferred: a flexible term (Stribeck for Coulomb) also soaks up some of
+        # another missing effect
+        simpler = [o for o in eligible if o is not c and o.held_out is None
+                   and len(o.new_params) < len(c.new_params)
+                   and (o.roles.index, o.variable) == (c.roles.index, c.variable)]
+        if simpler and check(simpler[0]):
+            crit = c.held_out.criterion
+            if simpler[0].held_out.after[crit] <= (1 + PARSIMONY) * c.held_out.after[crit]:
+                simpler[0].note = (f"preferred to {c.effect.name} (more parameters, held-out "
+                                   f"{crit} error {c.held_out.after[crit]:.3g} against "
+                                   f"{simpler[0].held_out.after[crit]:.3g})")
+                return simpler[0]
+        return c
     return None
 
 
@@ -638,4 +665,6 @@ def _suggestion(c: Candidate, base: Skeleton) -> Suggestion:
         param_init={a: float(v) for a, v in c.refit.params_.items()},
         curve_term=curve_term, curve_constraints=curve_constraints, also=also,
         error_removed=float(c.removed), delta_bic=float(c.delta_bic),
-        simulation_rmse=float(c.simulation_rmse), held_out=c.held_out)
+        simulation_rmse=float(c.simulation_rmse), held_out=c.held_out,
+        bounds=tuple(str(x) for x in skeleton.constraints
+                     if isinstance(x, Bound) and x not in base.constraints))

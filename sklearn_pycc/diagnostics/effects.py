@@ -39,7 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import SkeletonError
-from ..skeleton.constraints import parse_constraints
+from ..skeleton.constraints import Bound, parse_constraints
+from ..skeleton.nodes import Param, walk
 from ..skeleton.parser import parse_expression
 
 __all__ = ["ACTS_THROUGH", "PLAUSIBILITY", "Effect", "catalogue", "get", "names", "register",
@@ -88,6 +89,10 @@ class Effect:
         Constraints of that curve, written with its own name (``("f1 odd",)``).
     plausibility : str
         A key of :data:`PLAUSIBILITY`.
+    bounds : tuple of str
+        Bounds of the term's parameters that its physics implies, written
+        with the term's own names (``("a1 >= 0",)``: a Coulomb level is not
+        negative); a diagnosis fits the term within them.
     """
 
     name: str
@@ -97,6 +102,7 @@ class Effect:
     curve: str | None = None
     curve_constraints: tuple[str, ...] = ()
     plausibility: str = "any"
+    bounds: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():
@@ -124,6 +130,15 @@ class Effect:
                                  f"text: {exc}") from exc
         if self.curve_constraints:
             parse_constraints(list(self.curve_constraints))
+        if self.bounds:
+            params = {n.name for n in walk(parse_expression(self.term.format(**_SAMPLE),
+                                                            kind="term"))
+                      if isinstance(n, Param)}
+            for bound in parse_constraints(list(self.bounds)):
+                if not isinstance(bound, Bound) or bound.param not in params:
+                    raise ValueError(f"effect {self.name!r}: bounds must bound parameters of "
+                                     f"its term ({', '.join(sorted(params))}), got "
+                                     f"{str(bound)!r}")
 
     def _fill(self, template: str, variables: dict[str, str]) -> str:
         needed = ACTS_THROUGH[self.acts_through]
@@ -169,10 +184,13 @@ class Effect:
         reference = velocity if against == "velocity" else position
         if reference is None:
             raise ValueError(f"effect {self.name!r} is {self.plausibility}: give the {against}")
-        mean = float(np.mean(np.asarray(contribution, dtype=float)
-                             * np.asarray(reference, dtype=float)))
+        contribution = np.asarray(contribution, dtype=float)
+        mean = float(np.mean(contribution * np.asarray(reference, dtype=float)))
         if mean > 0:
             return True, ""
+        if not np.any(contribution):
+            return False, (f"the fitted {self.name} term vanishes: the data ask for the sign "
+                           "its physics excludes (it is held at its bound)")
         return False, (f"{self.name} must {label}, but the fitted term {failure} "
                        f"(mean term * {against} = {mean:.3g} <= 0)")
 
@@ -224,31 +242,33 @@ def catalogue() -> list[Effect]:
     return list(_CATALOGUE.values())
 
 
+_POSITIVE = ("a1 >= 0",)
 for _effect in (
     Effect("viscous_damping", "force proportional to velocity (a dashpot, a fluid film)",
-           "velocity", "a1 {v}", "f1({v})", ("f1 odd",), "dissipative"),
+           "velocity", "a1 {v}", "f1({v})", ("f1 odd",), "dissipative", _POSITIVE),
     Effect("coulomb_friction", "dry friction of constant level opposing the sliding "
            "direction, smoothed at zero speed", "velocity", "a1 tanh(a2 {v})", "f1({v})",
-           ("f1 odd",), "dissipative"),
+           ("f1 odd",), "dissipative", ("a1 >= 0", "a2 >= 0")),
     Effect("stribeck_friction", "dry friction that is higher at breakaway and falls with "
            "speed", "velocity", "(a1 + a2 exp(-({v}/a3)^2)) tanh(a4 {v})", "f1({v})",
-           ("f1 odd",), "dissipative"),
+           ("f1 odd",), "dissipative", ("a1 >= 0", "a2 >= 0", "a4 >= 0")),
     Effect("quadratic_drag", "drag growing with the square of speed (turbulent flow)",
-           "velocity", "a1 {v} abs({v})", "f1({v})", ("f1 odd",), "dissipative"),
+           "velocity", "a1 {v} abs({v})", "f1({v})", ("f1 odd",), "dissipative", _POSITIVE),
     Effect("linear_stiffness", "spring force proportional to displacement", "position",
            "a1 {x}", "f1({x})", ("f1(0)=0",)),
     Effect("cubic_stiffness", "hardening or softening spring (Duffing term)", "position",
            "a1 {x}^3", "f1({x})", ("f1 odd",)),
     Effect("saturation", "restoring force that levels off at large displacement", "position",
-           "a1 tanh(a2 {x})", "f1({x})", ("f1 odd",), "restoring"),
+           "a1 tanh(a2 {x})", "f1({x})", ("f1 odd", "f1 increasing"), "restoring",
+           ("a1 >= 0", "a2 >= 0")),
     Effect("dead_zone", "no force within a clearance, linear beyond it (backlash)",
            "position", "a1 ({x} - a2 sign({x})) (1 + sign(abs({x}) - a2))/2", "f1({x})",
-           ("f1 odd",), "restoring"),
+           ("f1 odd", "f1 increasing"), "restoring", ("a1 >= 0", "a2 >= 0")),
     Effect("pendulum", "gravity torque on a swinging arm, sine of the angle", "position",
-           "a1 sin({x})", "f1({x})", ("f1 odd",), "restoring"),
+           "a1 sin({x})", "f1({x})", ("f1 odd",), "restoring", _POSITIVE),
     Effect("position_dependent_damping", "damping that grows with displacement "
            "(van der Pol, Lienard)", "position_velocity", "a1 {x}^2 {v}", None, (),
-           "dissipative"),
+           "dissipative", _POSITIVE),
     Effect("linear_coupling", "linear spring between two masses", "difference", "a1 {u}",
            "f1({u})", ("f1(0)=0",)),
     Effect("coupling", "nonlinear (cubic) spring between two masses", "difference",
@@ -256,9 +276,9 @@ for _effect in (
     Effect("offset", "constant force or bias (gravity on a slope, sensor offset)", "none",
            "a1"),
     Effect("periodic_forcing", "unmeasured harmonic excitation", "time",
-           "a1 cos(a2 t) + a3 sin(a2 t)"),
+           "a1 cos(a2 t) + a3 sin(a2 t)", bounds=("a2 >= 0",)),
     Effect("drift", "force or bias changing steadily over the record (a warming sensor, "
            "a creeping load)", "time", "a1 + a2 t"),
 ):
     register(_effect)
-del _effect
+del _effect, _POSITIVE

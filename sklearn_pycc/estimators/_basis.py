@@ -14,6 +14,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.polynomial import chebyshev, legendre
 from numpy.polynomial import polynomial as power
+from scipy.special import comb
 
 __all__ = ["BASES", "PolyBasis", "PolyCurve", "ZeroCurve"]
 
@@ -112,6 +113,20 @@ class PolyBasis:
         # odd, even or all degrees: a strided view, no copy
         step = 1 if self.parity is None else 2
         return rows[int(self.degrees[0])::step].T
+
+    def bernstein(self, degree: int) -> np.ndarray:
+        """Matrix mapping coefficients to Bernstein coefficients of ``degree`` (>= the basis's).
+
+        The Bernstein form is over the basis's interval ``center -+ half``
+        (which holds the data's range): when its coefficients do not
+        decrease, the curve does not decrease anywhere on that interval.
+        """
+        m = max(int(degree), self.degree)
+        k = np.arange(m + 1)
+        s = 0.5 * (1.0 - np.cos(np.pi * (2 * k + 1) / (2 * (m + 1))))  # Chebyshev nodes in [0, 1]
+        bernstein = comb(m, k)[None, :] * s[:, None] ** k * (1.0 - s[:, None]) ** (m - k)
+        values = self.design(self.center + self.half * (2.0 * s - 1.0))
+        return np.linalg.solve(bernstein, values)
 
     def curve(self, coefficients: np.ndarray) -> PolyCurve:
         """The fitted curve for ``coefficients`` (one per basis function)."""

@@ -1,12 +1,17 @@
-"""Equality-constrained linear least squares with rank diagnostics."""
+"""Linear least squares with equality constraints (and inequalities), with rank diagnostics."""
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.linalg import lstsq as lapack_lstsq
-from scipy.linalg import qr
+from scipy.linalg import qr, solve_triangular
+from scipy.optimize import nnls
 
-__all__ = ["LstsqResult", "constrained_lstsq"]
+__all__ = ["InfeasibleError", "LstsqResult", "bounded_lstsq", "constrained_lstsq"]
+
+
+class InfeasibleError(ValueError):
+    """No coefficients satisfy the equality and inequality constraints together."""
 
 
 class LstsqResult:
@@ -51,34 +56,7 @@ def constrained_lstsq(A: np.ndarray, b: np.ndarray, C: np.ndarray | None = None,
     not modified; ``A`` is scaled in place when ``overwrite_a``.
     """
     p = A.shape[1]
-    if C is not None and len(C):
-        # eliminate one pivot coefficient per independent constraint:
-        # x = x0 + N z with N = [I; -G] on (free; pivots), so A N only
-        # changes the columns the constraints involve
-        R, perm = qr(C, mode="r", pivoting=True)
-        diag = np.abs(np.diag(R))
-        tol = max(C.shape) * np.finfo(float).eps * (diag[0] if diag.size else 0.0)
-        r = int((diag > tol).sum())
-        pivots, free = perm[:r], np.sort(perm[r:])
-        Cp, Cf = C[:, pivots], C[:, free]
-        # least-squares pivot values (constraints are consistent by construction)
-        Gp = np.linalg.lstsq(Cp, np.column_stack([Cf, d]), rcond=None)[0]
-        G, xp = Gp[:, :-1], Gp[:, -1]
-        x0 = np.zeros(p)
-        x0[pivots] = xp
-        N = np.zeros((p, p - r))
-        N[free, np.arange(p - r)] = 1.0
-        N[pivots] = -G
-        M = A[:, free]
-        touched = np.flatnonzero(np.abs(G).max(axis=0) > 0)
-        if touched.size:
-            M[:, touched] -= A[:, pivots] @ G[:, touched]
-        rhs = -(b + A[:, pivots] @ xp)
-    else:
-        x0 = None
-        N = None
-        M = A if overwrite_a else A.copy()
-        rhs = -b
+    x0, N, M, rhs = _eliminate(A, b, C, d, overwrite_a)
     if M.shape[1] == 0:
         x = x0 if x0 is not None else np.zeros(p)
         return LstsqResult(x, np.zeros((p, 0)), M, np.zeros(0), rhs)
@@ -102,3 +80,104 @@ def constrained_lstsq(A: np.ndarray, b: np.ndarray, C: np.ndarray | None = None,
     else:
         null = np.zeros((p, 0))
     return LstsqResult(x, null, M, z_scaled, rhs)
+
+
+def _eliminate(A, b, C, d, overwrite_a: bool):
+    """``x = x0 + N z`` over the solutions of ``C x = d``: ``(x0, N, A N, -(b + A x0))``.
+
+    ``x0`` and ``N`` are None without constraints.
+    """
+    p = A.shape[1]
+    if C is None or not len(C):
+        return None, None, (A if overwrite_a else A.copy()), -b
+    # eliminate one pivot coefficient per independent constraint:
+    # x = x0 + N z with N = [I; -G] on (free; pivots), so A N only
+    # changes the columns the constraints involve
+    R, perm = qr(C, mode="r", pivoting=True)
+    diag = np.abs(np.diag(R))
+    tol = max(C.shape) * np.finfo(float).eps * (diag[0] if diag.size else 0.0)
+    r = int((diag > tol).sum())
+    pivots, free = perm[:r], np.sort(perm[r:])
+    Cp, Cf = C[:, pivots], C[:, free]
+    # least-squares pivot values (constraints are consistent by construction)
+    Gp = np.linalg.lstsq(Cp, np.column_stack([Cf, d]), rcond=None)[0]
+    G, xp = Gp[:, :-1], Gp[:, -1]
+    x0 = np.zeros(p)
+    x0[pivots] = xp
+    N = np.zeros((p, p - r))
+    N[free, np.arange(p - r)] = 1.0
+    N[pivots] = -G
+    M = A[:, free]
+    touched = np.flatnonzero(np.abs(G).max(axis=0) > 0)
+    if touched.size:
+        M[:, touched] -= A[:, pivots] @ G[:, touched]
+    return x0, N, M, -(b + A[:, pivots] @ xp)
+
+
+#: relative ridge that keeps the triangular factor of a rank-deficient design invertible
+_RIDGE = 1e-12
+
+
+def bounded_lstsq(A: np.ndarray, b: np.ndarray, C: np.ndarray | None, d: np.ndarray | None,
+                  G: np.ndarray, h: np.ndarray, alpha: float = 0.0,
+                  overwrite_a: bool = False) -> LstsqResult:
+    """Solve ``min ||A x + b||^2 + alpha ||x||^2`` subject to ``C x = d`` and ``G x >= h``.
+
+    The equalities are eliminated as in :func:`constrained_lstsq`; the
+    inequalities are met exactly by the classical reduction of a least
+    squares problem with linear inequalities to a least-distance problem,
+    solved by non-negative least squares (Lawson and Hanson, *Solving Least
+    Squares Problems*, chapter 23).
+
+    Raises
+    ------
+    InfeasibleError
+        If no ``x`` satisfies the constraints.
+    """
+    p = A.shape[1]
+    x0, N, M, rhs = _eliminate(A, b, C, d, overwrite_a)
+    q = M.shape[1]
+    if N is not None:
+        G_z, h_z = G @ N, h - G @ x0
+    else:
+        G_z, h_z = G, h
+    if q == 0:
+        x = x0 if x0 is not None else np.zeros(p)
+        if np.any(G @ x < h - 1e-12 * (1 + np.abs(h))):
+            raise InfeasibleError("the constraints fix every coefficient and violate a bound")
+        return LstsqResult(x, np.zeros((p, 0)), M, np.zeros(0), rhs)
+    norms = np.sqrt(np.einsum("ij,ij->j", M, M))
+    norms[norms == 0] = 1.0
+    M /= norms
+    ridge = max(alpha, 0.0) / norms**2 + _RIDGE
+    stacked = np.vstack([M, np.diag(np.sqrt(ridge))])
+    target = np.concatenate([rhs, np.zeros(q)])
+    Q, R = np.linalg.qr(stacked)
+    f = Q.T @ target
+    # in the scaled unknowns s = norms * z: G_z z >= h_z reads E s >= h_z
+    E = G_z / norms
+    K = solve_triangular(R, E.T, trans="T").T   # E R^-1
+    k = h_z - K @ f
+    if np.all(k <= 0):
+        y = np.zeros(q)  # the unconstrained solution meets every inequality
+    else:
+        # least distance: min ||y|| with K y >= k, through non-negative least squares
+        stackT = np.vstack([K.T, k])
+        e = np.zeros(q + 1)
+        e[-1] = 1.0
+        u, _ = nnls(stackT, e, maxiter=50 * (q + len(k) + 1))
+        r = stackT @ u - e
+        if abs(r[-1]) < 1e-12:
+            raise InfeasibleError("no coefficients satisfy the bounds and shape constraints "
+                                  "together with the point constraints")
+        y = -r[:-1] / r[-1]
+    s = solve_triangular(R, y + f)
+    z = s / norms
+    x = z if N is None else x0 + N @ z
+    rank = int(np.sum(np.abs(np.diag(R)) > 1e-9 * np.max(np.abs(np.diag(R)))))
+    null = np.zeros((p, 0))
+    if rank < q:
+        _, _, Vt = np.linalg.svd(M, full_matrices=False)
+        null_z = Vt[rank:].T / norms[:, None]
+        null = null_z if N is None else N @ null_z
+    return LstsqResult(x, null, M, s, rhs)

@@ -22,7 +22,57 @@ from ._activations import torch_activation
 from ._numpy_mlp import NumpyCurve
 from ._torch_expr import compile_torch
 
-__all__ = ["CurveNet", "SkeletonModule", "correction_basis"]
+__all__ = ["BoundedParameters", "CurveNet", "SkeletonModule", "correction_basis"]
+
+#: activations that never decrease: a network of them with positive weights is monotone
+MONOTONE_ACTIVATIONS = ("tanh", "relu", "elu", "softplus", "sigmoid")
+
+
+def _inverse_softplus(value: float) -> float:
+    return value + math.log(-math.expm1(-value)) if value < 30 else value
+
+
+class BoundedParameters(Mapping):
+    """Free parameters by name, each within its bounds by reparametrisation.
+
+    ``low + softplus(r)``, ``high - softplus(r)`` or ``low + (high - low)
+    sigmoid(r)`` of an unconstrained tensor ``r``: the value can never leave
+    its bounds, whatever the optimiser does.
+    """
+
+    def __init__(self, raw: nn.ParameterDict, bounds: Mapping[str, tuple[float, float]]):
+        self.raw = raw
+        self.bounds = {name: bounds.get(name, (-math.inf, math.inf)) for name in raw}
+
+    @staticmethod
+    def unconstrained(value: float, low: float, high: float) -> float:
+        """The raw value that gives ``value`` (moved strictly inside the bounds)."""
+        if math.isinf(low) and math.isinf(high):
+            return value
+        if math.isinf(high):
+            return _inverse_softplus(max(value - low, 1e-6 * max(1.0, abs(low))))
+        if math.isinf(low):
+            return _inverse_softplus(max(high - value, 1e-6 * max(1.0, abs(high))))
+        share = min(max((value - low) / (high - low), 1e-6), 1 - 1e-6)
+        return math.log(share / (1 - share))
+
+    def __getitem__(self, name: str) -> torch.Tensor:
+        raw = self.raw[name]
+        low, high = self.bounds[name]
+        if math.isinf(low) and math.isinf(high):
+            return raw
+        if math.isinf(high):
+            return low + nn.functional.softplus(raw)
+        if math.isinf(low):
+            return high - nn.functional.softplus(raw)
+        return low + (high - low) * torch.sigmoid(raw)
+
+    def __iter__(self):
+        return iter(self.raw)
+
+    def __len__(self) -> int:
+        return len(self.raw)
+
 
 
 def correction_basis(points: Sequence[tuple[float, float]], parity: str | None,
@@ -96,12 +146,21 @@ class CurveNet(nn.Module):
     generator : torch.Generator
         Source of the initial weights.
     dtype : torch.dtype
+    monotone : {"increasing", "decreasing"} or None
+        By construction: every weight is the softplus of a free one, so with
+        a non-decreasing activation the network never decreases (its output
+        is negated for "decreasing").
     """
 
     def __init__(self, name: str, hidden: Sequence[int], activation: str, center: float,
                  scale: float, parity: str | None, points: Sequence[tuple[float, float]],
-                 exact: bool, generator: torch.Generator, dtype: torch.dtype) -> None:
+                 exact: bool, generator: torch.Generator, dtype: torch.dtype,
+                 monotone: str | None = None) -> None:
         super().__init__()
+        if monotone is not None and exact:
+            _check_monotone(name, activation, parity, points)
+        self.monotone = monotone if exact else None
+        self.soft_monotone = monotone if not exact else None
         self.name = name
         self.activation = activation
         self.center = float(center)
@@ -123,6 +182,9 @@ class CurveNet(nn.Module):
                     bound = 1.0 / math.sqrt(layer.in_features)
                     layer.weight.uniform_(-bound, bound, generator=generator)
                     layer.bias.uniform_(-bound, bound, generator=generator)
+                    if self.monotone is not None:  # softplus(raw) = |initial weight|
+                        small = layer.weight.abs().clamp_min(1e-3 * bound)
+                        layer.weight.copy_(small + torch.log(-torch.expm1(-small)))
         at, values, exponents, inverse = correction_basis(
             self.points, parity if exact else None, self.center, self.scale, name)
         # float64 copies for the export
@@ -137,7 +199,34 @@ class CurveNet(nn.Module):
     def network(self, x: torch.Tensor) -> torch.Tensor:
         """Raw MLP on the scaled argument, 1-D in and out."""
         u = (x - self.center) / self.scale
-        return self.mlp(u.unsqueeze(-1)).squeeze(-1)
+        if self.monotone is None:
+            return self.mlp(u.unsqueeze(-1)).squeeze(-1)
+        h = u.unsqueeze(-1)
+        for layer in self.mlp:
+            if isinstance(layer, nn.Linear):
+                h = nn.functional.linear(h, nn.functional.softplus(layer.weight), layer.bias)
+            else:
+                h = layer(h)
+        h = h.squeeze(-1)
+        return h if self.monotone == "increasing" else -h
+
+    def weights(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each layer's effective weight and bias as float64 arrays.
+
+        A monotone curve's weights are the softplus of its free ones;
+        "decreasing" negates the last layer.
+        """
+        layers = []
+        for layer in self.mlp:
+            if isinstance(layer, nn.Linear):
+                w = layer.weight.detach()
+                if self.monotone is not None:
+                    w = nn.functional.softplus(w)
+                layers.append([w.cpu().double().numpy().copy(),
+                               layer.bias.detach().cpu().double().numpy().copy()])
+        if self.monotone == "decreasing":
+            layers[-1] = [-layers[-1][0], -layers[-1][1]]
+        return [(w, b) for w, b in layers]
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """The curve on a 1-D tensor of arguments."""
@@ -184,14 +273,17 @@ class CurveNet(nn.Module):
             values = torch.tensor([v for _, v in self.points], dtype=grid.dtype,
                                   device=grid.device)
             total = total + torch.sum((self.network(at) - values) ** 2)
+        if self.soft_monotone is not None:
+            step = torch.diff(self.network(self.center + self.scale * grid))
+            if self.soft_monotone == "decreasing":
+                step = -step
+            total = total + torch.mean(torch.relu(-step) ** 2) * grid.shape[0] ** 2
         return total
 
     # -- export ------------------------------------------------------------------
     def export(self, domain: tuple[float, float], extrapolation: str) -> NumpyCurve:
         """Export the network as a :class:`NumpyCurve` (weights copied to float64 on CPU)."""
-        layers = [(layer.weight.detach().cpu().double().numpy().copy(),
-                   layer.bias.detach().cpu().double().numpy().copy())
-                  for layer in self.mlp if isinstance(layer, nn.Linear)]
+        layers = self.weights()
         parity = self.parity if self.exact else None
         at, values, exponents, inverse = self.correction
         coefficients = np.zeros(0)
@@ -206,6 +298,19 @@ class CurveNet(nn.Module):
             domain = (-reach, reach)
         return NumpyCurve(self.name, layers, self.activation, self.center, self.scale,
                           parity, exponents, coefficients, domain, extrapolation)
+
+
+def _check_monotone(name: str, activation: str, parity: str | None, points) -> None:
+    """A monotone network can meet a point value only by a shift: one point, or none when odd."""
+    if activation not in MONOTONE_ACTIVATIONS:
+        raise ValueError(f"{name} is monotone, which needs a non-decreasing activation "
+                         f"({', '.join(MONOTONE_ACTIVATIONS)}); got {activation!r}")
+    if parity == "odd" and any(at != 0.0 for at, _ in points):
+        raise SkeletonError(f"an odd monotone {name} can pass through no point but the "
+                            "origin in NeuralCCRegressor", kind="constraints")
+    if parity is None and len({at for at, _ in points}) > 1:
+        raise SkeletonError(f"a monotone {name} can pass through at most one given point in "
+                            "NeuralCCRegressor", kind="constraints")
 
 
 class SkeletonModule(nn.Module):
@@ -228,6 +333,9 @@ class SkeletonModule(nn.Module):
         Free parameter name -> initial value.
     fixed : mapping
         Parameters pinned by the gauge.
+    bounds : mapping
+        Parameter -> ``(low, high)``: held by reparametrisation
+        (:class:`BoundedParameters`); ``params`` reads the bounded values.
     hidden_layer_sizes : sequence of int
     activation : str
     exact : bool
@@ -241,17 +349,21 @@ class SkeletonModule(nn.Module):
     def __init__(self, residuals, weights, slots: Mapping[str, int],
                  curves: Mapping[str, dict], params: Mapping[str, float],
                  fixed: Mapping[str, float], hidden_layer_sizes: Sequence[int],
-                 activation: str, exact: bool, seed: int, dtype: torch.dtype) -> None:
+                 activation: str, exact: bool, seed: int, dtype: torch.dtype,
+                 bounds: Mapping[str, tuple[float, float]] | None = None) -> None:
         super().__init__()
         generator = torch.Generator().manual_seed(int(seed))
         self.curves = nn.ModuleDict({
             name: CurveNet(name, hidden_layer_sizes, activation, spec["center"],
                            spec["scale"], spec["parity"], spec["points"], exact, generator,
-                           dtype)
+                           dtype, spec.get("monotone"))
             for name, spec in curves.items()})
-        self.params = nn.ParameterDict(
-            {name: nn.Parameter(torch.tensor(float(v), dtype=dtype))
+        bounds = dict(bounds or {})
+        self.raw_params = nn.ParameterDict(
+            {name: nn.Parameter(torch.tensor(BoundedParameters.unconstrained(
+                float(v), *bounds.get(name, (-math.inf, math.inf))), dtype=dtype))
              for name, v in params.items()})
+        self.params = BoundedParameters(self.raw_params, bounds)
         self.register_buffer("weights", torch.tensor(list(weights), dtype=dtype))
         self._residuals = [compile_torch(node, slots, self.curves, self.params, fixed)
                            for node in residuals]

@@ -162,7 +162,22 @@ class Problem:
         if bad:
             raise ValueError(f"param_init names {bad[0]!r}, which is not a parameter of the "
                              f"skeleton ({', '.join(params) or 'none'})")
+        bounds = self.skeleton.bounds
+        for name, value in init.items():
+            low, high = bounds.get(name, (-np.inf, np.inf))
+            if not low <= value <= high:
+                raise ValueError(f"param_init gives {name} = {value!r}, outside its bounds "
+                                 f"[{low:g}, {high:g}]")
         return init
+
+    @property
+    def bounds(self) -> dict[str, tuple[float, float]]:
+        """Free parameter -> ``(low, high)``: the skeleton's bounds."""
+        return {a: b for a, b in self.skeleton.bounds.items() if a not in self.fixed_params}
+
+    def monotone(self, function: str) -> str | None:
+        """``"increasing"``, ``"decreasing"`` or None."""
+        return self.skeleton.monotone(function)
 
     def parity(self, function: str) -> str | None:
         """``"odd"``, ``"even"`` or None."""
@@ -208,6 +223,13 @@ def gauge_skeleton(skeleton: Skeleton, gauge: str):
             zeroed.add(fix.name)
         else:
             fixed[fix.name] = fix.value
+    for name, value in fixed.items():
+        low, high = skeleton.bounds.get(name, (-np.inf, np.inf))
+        if not low <= value <= high:
+            raise IdentifiabilityError(
+                f"the gauge pins {name} = {value:g} to make the skeleton identifiable, outside "
+                f"its bounds [{low:g}, {high:g}]: pin another scale with a constraint, or use "
+                "bounds that admit it")
     return constraints, fixed, zeroed, report.gauge()
 
 

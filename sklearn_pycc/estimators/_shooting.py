@@ -141,7 +141,9 @@ class ShootingPlan(Windows):
 
 
 def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], CompiledSystem],
-                 theta0: np.ndarray, max_iterations: int) -> tuple[np.ndarray, dict]:
+                 theta0: np.ndarray, max_iterations: int,
+                 bounds: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> tuple[np.ndarray, dict]:
     """Minimise the output error over the parameters and the segments' initial states.
 
     Parameters
@@ -154,6 +156,9 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
         Starting parameters (the equation-error fit).
     max_iterations : int
         Most Jacobian evaluations.
+    bounds : (ndarray, ndarray), optional
+        Least and largest value of each parameter (``-inf``/``inf`` open);
+        ``theta0`` must lie within them, and so does the result.
 
     Returns
     -------
@@ -203,15 +208,22 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
         return plan.jacobian(sens_theta, sens_start)
 
     z0 = np.concatenate([np.asarray(theta0, dtype=float), start0.ravel()])
+    free = np.full(start0.size, np.inf)
+    if bounds is None:
+        z_bounds = (-np.inf, np.inf)
+    else:
+        z_bounds = (np.concatenate([bounds[0], -free]), np.concatenate([bounds[1], free]))
     before_states, _ = run(z0)
     before = plan.output_nrmse(before_states)
     cost0 = 0.5 * float(np.sum(plan.residuals(before_states, start0) ** 2))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         solution = least_squares(fun, z0, jac=jac, method="trf", x_scale="jac",
-                                 max_nfev=int(max_iterations), ftol=1e-10, xtol=1e-10,
-                                 gtol=1e-10)
+                                 bounds=z_bounds, max_nfev=int(max_iterations), ftol=1e-10,
+                                 xtol=1e-10, gtol=1e-10)
     z = solution.x if solution.cost <= cost0 else z0
+    if bounds is not None:
+        z = np.clip(z, *z_bounds)
     states, escaped = run(z)
     theta, start = unpack(z)
     ends = states[np.arange(K), plan.steps]

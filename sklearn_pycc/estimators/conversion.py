@@ -26,7 +26,7 @@ from .interpolated import (
     sample_curve,
     tabulate,
 )
-from .symbolic import SymbolicCCRegressor, _Curve, _Residuals, select
+from .symbolic import SymbolicCCRegressor, _Curve, _Residuals, keeps_monotone, select
 
 __all__ = ["from_tables", "to_interpolated", "to_symbolic"]
 
@@ -172,8 +172,12 @@ def to_symbolic(
         template = Template(parity, points_of(constraints[name]))
         domain = (float(grid[0]), float(grid[-1]))
         scored = []
+        monotone = next((c.kind for c in constraints[name]
+                         if c.kind in ("increasing", "decreasing")), None)
         for candidate in found:
             curve = _Curve(candidate.expression, template, domain)
+            if not keeps_monotone(curve.function(), domain, monotone):
+                continue
             trial_params = params
             if residuals is not None:
                 trial_params = SymbolicCCRegressor._polish(
@@ -186,8 +190,10 @@ def to_symbolic(
             if np.isfinite(loss) and np.isfinite(error):
                 scored.append((candidate, loss, error, curve, trial_params))
         if not scored:
-            raise ValueError(f"the search found no finite expression for {name}: widen "
-                             "the operators or raise maxsize, population_size or generations")
+            raise ValueError(f"the search found no finite expression for {name}"
+                             + (f" that is {monotone}" if monotone else "")
+                             + ": widen the operators or raise maxsize, population_size or "
+                             "generations")
         k = select([(c, loss) for c, loss, *_ in scored], model_selection)
         rows = []
         for j, (candidate, loss, error, curve, _) in enumerate(scored):

@@ -311,7 +311,8 @@ default="lbfgs"
     def _fit_problem(self, problem: Problem):
         checked = self._check_params()
         init = problem.starting_values(self.param_init)
-        params0 = {a: float(init.get(a, 1.0)) for a in problem.free_params}
+        params0 = {a: float(init[a]) if a in init else _inside(problem.bounds.get(a))
+                   for a in problem.free_params}
         functions: dict = {name: ZeroCurve() for name in problem.zeroed}
         residuals, weights = active_residuals(problem)
         if not residuals:
@@ -369,7 +370,8 @@ default="lbfgs"
             SkeletonModule,
             module__residuals=residuals, module__weights=weights, module__slots=slots,
             module__curves=curves, module__params=params0,
-            module__fixed=problem.fixed_params, module__hidden_layer_sizes=checked["hidden"],
+            module__fixed=problem.fixed_params, module__bounds=problem.bounds,
+            module__hidden_layer_sizes=checked["hidden"],
             module__activation=self.activation, module__exact=exact, module__seed=seed,
             module__dtype=dtype,
             criterion=torch.nn.MSELoss,
@@ -434,7 +436,7 @@ default="lbfgs"
         if not np.isfinite(scale) or scale <= 0:
             scale = max(abs(center), 1.0)
         return {"center": center, "scale": scale, "parity": parity,
-                "points": problem.points(name)}
+                "points": problem.points(name), "monotone": problem.monotone(name)}
 
     def _curve_parameters(self, problem, name: str) -> int:
         # weights and biases of the network
@@ -453,3 +455,17 @@ default="lbfgs"
 
 def _silent(*args, **kwargs) -> None:
     return None
+
+
+def _inside(bounds: tuple[float, float] | None) -> float:
+    """A starting value of 1 moved within ``bounds`` (their middle when both are finite)."""
+    if bounds is None:
+        return 1.0
+    low, high = bounds
+    if np.isfinite(low) and np.isfinite(high):
+        return 0.5 * (low + high) if not low <= 1.0 <= high else 1.0
+    if np.isfinite(low):
+        return max(1.0, low + 1.0)
+    if np.isfinite(high):
+        return min(1.0, high - 1.0)
+    return 1.0

@@ -14,7 +14,7 @@ from .._threads import blas_threads
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
 from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
 from ._linear import curve_arguments, linearize, split_parameters
-from ._lstsq import constrained_lstsq
+from ._lstsq import bounded_lstsq, constrained_lstsq
 from ._setup import Problem
 from ._shooting import ShootingPlan, fit_shooting
 from .base import CCRegressor
@@ -23,6 +23,8 @@ __all__ = ["PolyCCRegressor"]
 
 # grid of starting magnitudes for nonlinear parameters: +-10^k
 _LOG_GRID = np.arange(-2.0, 4.01, 0.5)
+#: highest degree of the Bernstein form that keeps a monotone curve monotone
+_MAX_BERNSTEIN = 24
 
 
 class _Design:
@@ -97,6 +99,40 @@ class _Design:
                 d.append(value)
         C = np.array(C_rows) if C_rows else None
         return A, b, C, (np.array(d) if d else None), layout, bases
+
+    def inequalities(self, layout, bases: Mapping[str, PolyBasis]):
+        """``G, h`` with ``G x >= h`` for bounded linear parameters and monotone curves.
+
+        A monotone curve's Bernstein coefficients (of three times its degree, over
+        its basis's interval) must not decrease (not increase): sufficient for
+        the curve to be monotone over the whole interval, exactly.
+        """
+        bounds = self.problem.bounds
+        p = sum(size for _, size in layout)
+        blocks, h = [], []
+        offset = 0
+        for name, size in layout:
+            if name in bases:
+                kind = self.problem.monotone(name)
+                if kind is not None and size:
+                    basis = bases[name]
+                    steps = np.diff(basis.bernstein(min(3 * basis.degree, _MAX_BERNSTEIN)),
+                                    axis=0)
+                    block = np.zeros((len(steps), p))
+                    block[:, offset:offset + size] = steps if kind == "increasing" else -steps
+                    blocks.append(block)
+                    h.extend([0.0] * len(steps))
+            elif name in bounds:
+                for value, sign in zip(bounds[name], (1.0, -1.0)):
+                    if np.isfinite(value):
+                        row = np.zeros((1, p))
+                        row[0, offset] = sign
+                        blocks.append(row)
+                        h.append(sign * value)
+            offset += size
+        if not blocks:
+            return None, None
+        return np.vstack(blocks), np.array(h)
 
 
 class PolyCCRegressor(CCRegressor):
@@ -202,11 +238,17 @@ class PolyCCRegressor(CCRegressor):
         def solve(theta: np.ndarray):
             values = {**fixed, **dict(zip(nonlinear, theta))}
             A, b, C, d, layout, bases = design.assemble(values)
-            return (constrained_lstsq(A, b, C, d, self.alpha, overwrite_a=True), layout, bases,
-                    values)
+            G, h = design.inequalities(layout, bases)
+            if G is None:
+                result = constrained_lstsq(A, b, C, d, self.alpha, overwrite_a=True)
+            else:
+                result = bounded_lstsq(A, b, C, d, G, h, self.alpha, overwrite_a=True)
+            return result, layout, bases, values
 
+        bounds = problem.bounds
         with blas_threads(1):
-            theta = self._search(solve, nonlinear, init) if nonlinear else np.zeros(0)
+            theta = (self._search(solve, nonlinear, init, bounds) if nonlinear
+                     else np.zeros(0))
             result, layout, bases, values = solve(theta)
         self._report_rank(result, layout)
         params = {a: v for a, v in values.items() if a in nonlinear}
@@ -218,8 +260,9 @@ class PolyCCRegressor(CCRegressor):
             if name in bases:
                 coefficients[name] = chunk.copy()
                 functions[name] = bases[name].curve(chunk)
-            else:
-                params[name] = float(chunk[0])
+            else:  # a bound holds exactly, not up to rounding
+                low, high = bounds.get(name, (-np.inf, np.inf))
+                params[name] = float(np.clip(chunk[0], low, high))
         for name in problem.zeroed:
             functions[name] = ZeroCurve()
             coefficients[name] = np.zeros(0)
@@ -234,7 +277,9 @@ class PolyCCRegressor(CCRegressor):
         """Refine the coefficients and parameters so that simulations match the states.
 
         The curves keep their bases; coefficients move in the null space of
-        their point constraints, so constraints still hold exactly.
+        their point constraints, so constraints still hold exactly; bounded
+        parameters stay within their bounds, and monotone curves keep the
+        shape the equation fit gave them.
         """
         degrees = self._degrees(problem.free_functions)
         free_params = problem.free_params
@@ -243,7 +288,9 @@ class PolyCCRegressor(CCRegressor):
             lo, hi = functions[name].domain
             basis = PolyBasis(lo, hi, degrees[name], problem.parity(name), self.basis)
             points = problem.points(name)
-            if points:
+            if problem.monotone(name) is not None:
+                directions = np.zeros((basis.size, 0))  # kept as the equation fit made it
+            elif points:
                 directions = null_space(basis.design(np.array([at for at, _ in points])))
             else:
                 directions = np.eye(basis.size)
@@ -268,8 +315,14 @@ class PolyCCRegressor(CCRegressor):
                 current[name] = basis.curve(coefficients)
             return problem.skeleton.compile(current, values)
 
+        bounds = problem.bounds
+        low = np.concatenate([[bounds.get(a, (-np.inf, np.inf))[0] for a in free_params],
+                              np.full(sum(sizes), -np.inf)])
+        high = np.concatenate([[bounds.get(a, (-np.inf, np.inf))[1] for a in free_params],
+                               np.full(sum(sizes), np.inf)])
         with blas_threads(1):
-            theta, info = fit_shooting(plan, system_for, theta0, self.shooting_iterations)
+            theta, info = fit_shooting(plan, system_for, np.clip(theta0, low, high),
+                                       self.shooting_iterations, bounds=(low, high))
         values, curves = unpack(theta)
         functions = dict(functions)
         for name, (basis, coefficients) in curves.items():
@@ -283,8 +336,12 @@ class PolyCCRegressor(CCRegressor):
         return max(len(self.coefficients_[name]) - len(problem.points(name)), 0)
 
     # -- nonlinear parameters: variable projection with a multi-start --------------
-    def _search(self, solve, names: list[str], init: Mapping[str, float]) -> np.ndarray:
+    def _search(self, solve, names: list[str], init: Mapping[str, float],
+                bounds: Mapping[str, tuple[float, float]]) -> np.ndarray:
         m = len(names)
+        low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in names])
+        high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in names])
+        bounded = bool(np.isfinite(low).any() or np.isfinite(high).any())
 
         def residual(theta):
             r = solve(theta)[0].residual
@@ -313,6 +370,8 @@ class PolyCCRegressor(CCRegressor):
                 start = base.copy()
                 start[free] = combo
                 starts.append(start)
+        if bounded:  # every start within the bounds (a bound is usually a sign)
+            starts = list(np.unique(np.clip(np.array(starts), low, high), axis=0))
         costs = np.array([cost(s) for s in starts])
         order = np.argsort(costs)
         best_theta, best_cost = starts[order[0]], costs[order[0]]
@@ -322,20 +381,13 @@ class PolyCCRegressor(CCRegressor):
                 break
             tried += 1
             start = starts[k]
-            sign = np.where(start < 0, -1.0, 1.0)
-            s0 = np.log(np.maximum(np.abs(start), 1e-12))
-
-            def fun(s, sign=sign):
-                return residual(sign * np.exp(np.clip(s, -700, 700)))
-
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", RuntimeWarning)
-                    sol = least_squares(fun, s0, method="trf", xtol=1e-12, ftol=1e-14,
-                                        gtol=1e-14, max_nfev=200 * (m + 1))
+                    theta = (_refine_bounded(residual, start, low, high, m) if bounded
+                             else _refine(residual, start, m))
             except (np.linalg.LinAlgError, ValueError):
                 continue
-            theta = sign * np.exp(sol.x)
             c = cost(theta)
             if c < best_cost:
                 best_theta, best_cost = theta, c
@@ -343,7 +395,7 @@ class PolyCCRegressor(CCRegressor):
             raise ValueError(
                 f"no value of the nonlinear parameters {names} gives a finite residual; "
                 "give starting values with param_init")
-        return _prefer_positive(best_theta, best_cost, cost)
+        return _prefer_positive(best_theta, best_cost, cost, low, high)
 
     def _report_rank(self, result, layout) -> None:
         null = result.null_directions
@@ -385,15 +437,40 @@ class PolyCCRegressor(CCRegressor):
         return text
 
 
-def _prefer_positive(theta: np.ndarray, best: float, cost) -> np.ndarray:
+def _refine(residual, start: np.ndarray, m: int) -> np.ndarray:
+    """Local least squares over the magnitudes (in logs) of parameters of fixed signs."""
+    sign = np.where(start < 0, -1.0, 1.0)
+    s0 = np.log(np.maximum(np.abs(start), 1e-12))
+
+    def fun(s):
+        return residual(sign * np.exp(np.clip(s, -700, 700)))
+
+    sol = least_squares(fun, s0, method="trf", xtol=1e-12, ftol=1e-14, gtol=1e-14,
+                        max_nfev=200 * (m + 1))
+    return sign * np.exp(sol.x)
+
+
+def _refine_bounded(residual, start: np.ndarray, low: np.ndarray, high: np.ndarray,
+                    m: int) -> np.ndarray:
+    """Local least squares over the parameters themselves, within their bounds."""
+    sol = least_squares(residual, np.clip(start, low, high), bounds=(low, high), method="trf",
+                        x_scale=np.maximum(np.abs(start), 1e-3), xtol=1e-12, ftol=1e-14,
+                        gtol=1e-14, max_nfev=200 * (m + 1))
+    return np.clip(sol.x, low, high)
+
+
+def _prefer_positive(theta: np.ndarray, best: float, cost, low: np.ndarray,
+                     high: np.ndarray) -> np.ndarray:
     """Flip negative parameters whose sign the model cannot see.
 
     ``a2 tanh(a3 x)`` equals ``(-a2) tanh(-a3 x)``: such discrete symmetries
     leave the cost unchanged once the linear parameters are re-solved; the
-    positive representative is reported.
+    positive representative is reported (when its bounds admit it).
     """
     theta = theta.copy()
     for k in np.flatnonzero(theta < 0):
+        if not low[k] <= -theta[k] <= high[k]:
+            continue
         trial = theta.copy()
         trial[k] = -trial[k]
         c = cost(trial)

@@ -25,6 +25,8 @@ from .base import CCRegressor
 __all__ = ["SymbolicCCRegressor"]
 
 MODEL_SELECTIONS = ("best", "accuracy")
+#: a curve constrained monotone is checked on this many points over its domain
+MONOTONE_POINTS = 4001
 #: a numbers whose removal changes the loss by less than this (relative) is dropped
 PRUNE_TOLERANCE = 1e-9
 
@@ -57,6 +59,35 @@ def select(candidates: list[tuple[Candidate, float]], rule: str) -> int:
             best, best_score = k, score
         previous_loss, previous_size = loss, size
     return best
+
+
+def keeps_monotone(function, domain: tuple[float, float], kind: str | None) -> bool:
+    """Whether ``function`` is ``kind`` ("increasing" / "decreasing") on ``domain``.
+
+    Checked on :data:`MONOTONE_POINTS` evenly spread points (None: always True).
+    """
+    if kind is None:
+        return True
+    x = np.linspace(domain[0], domain[1], MONOTONE_POINTS)
+    with np.errstate(all="ignore"):
+        y = np.broadcast_to(np.asarray(function(x), dtype=float), x.shape)
+    if not np.isfinite(y).all():
+        return False
+    step = np.diff(y) if kind == "increasing" else -np.diff(y)
+    return bool(step.min() >= -1e-12 * max(float(np.max(np.abs(y))), 1e-300))
+
+
+def _monotone_after(curves: dict, current: dict, problem: Problem) -> bool:
+    """Whether every monotone curve is still monotone with its refined numbers."""
+    return all(keeps_monotone(current[name], curve.domain, problem.monotone(name))
+               for name, curve in curves.items())
+
+
+def _bounds_of(problem: Problem, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    bounds = problem.bounds
+    low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in names], dtype=float)
+    high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in names], dtype=float)
+    return low, high
 
 
 class _Residuals:
@@ -333,7 +364,9 @@ class SymbolicCCRegressor(CCRegressor):
     def _start(self, problem: Problem) -> tuple[dict, dict]:
         """Curves and parameters to start from: a polynomial fit when possible."""
         init = problem.starting_values(self.param_init)
-        params = {a: float(init.get(a, 1.0)) for a in problem.free_params}
+        low, high = _bounds_of(problem, problem.free_params)
+        params = {a: float(init[a]) if a in init else float(np.clip(1.0, lo, hi))
+                  for a, lo, hi in zip(problem.free_params, low, high)}
         functions = {f: ZeroCurve() for f in problem.skeleton.functions}
         if self.start_degree is None:
             return functions, params
@@ -383,7 +416,7 @@ class SymbolicCCRegressor(CCRegressor):
             raise ValueError(
                 f"no expression was found for {missing[0]}: no sample of the data constrains "
                 "it (its equations do not change when it does), or every candidate of the "
-                "search gave a non-finite residual")
+                "search gave a non-finite residual or broke its monotony")
         params = self._polish(residuals, problem, curves, functions, params)
         self.n_iterations_ = n_rounds
         self.loss_history_ = history
@@ -402,8 +435,11 @@ class SymbolicCCRegressor(CCRegressor):
         template = Template(parity, problem.points(name))
         domain = (float(np.min(x)), float(np.max(x)))
         scored, rows = [], []
+        monotone = problem.monotone(name)
         for candidate in found:
             curve = _Curve(candidate.expression, template, domain)
+            if not keeps_monotone(curve.function(), domain, monotone):
+                continue
             trial = {**functions, name: curve.function()}
             loss = residuals.loss(trial, params)
             if np.isfinite(loss):
@@ -440,8 +476,10 @@ class SymbolicCCRegressor(CCRegressor):
             r = residuals(functions, dict(zip(names, theta)))
             return np.where(np.isfinite(r), r, 1e150)
 
-        result = least_squares(fun, np.array([params[a] for a in names]))
-        return dict(zip(names, (float(v) for v in result.x)))
+        low, high = _bounds_of(problem, names)
+        start = np.clip([params[a] for a in names], low, high)
+        result = least_squares(fun, start, bounds=(low, high))
+        return dict(zip(names, (float(v) for v in np.clip(result.x, low, high))))
 
     @staticmethod
     def _polish(residuals: _Residuals, problem: Problem, curves: dict, functions,
@@ -470,9 +508,17 @@ class SymbolicCCRegressor(CCRegressor):
             r = residuals(current, values)
             return np.where(np.isfinite(r), r, 1e150)
 
+        low, high = _bounds_of(problem, names)
+        low = np.concatenate([low, np.full(theta0.size - len(names), -np.inf)])
+        high = np.concatenate([high, np.full(theta0.size - len(names), np.inf)])
+        theta0 = np.clip(theta0, low, high)
         start = fun(theta0)
-        result = least_squares(fun, theta0, x_scale="jac", max_nfev=effort * theta0.size)
-        theta = result.x if result.cost <= 0.5 * float(start @ start) else theta0
+        result = least_squares(fun, theta0, x_scale="jac", bounds=(low, high),
+                               max_nfev=effort * theta0.size)
+        theta = np.clip(result.x, low, high)
+        if result.cost > 0.5 * float(start @ start) or not _monotone_after(
+                curves, unpack(theta)[1], problem):
+            theta = theta0
         # drop numbers that do nothing (an engine's 1e-9 offsets)
         base = float(np.mean(fun(theta) ** 2))
         for k in range(len(names), theta.size):

@@ -3,7 +3,7 @@
 This subpackage knows nothing of estimators.
 """
 
-from .constraints import Constraint, parse_constraints
+from .constraints import Bound, Constraint, parse_constraints
 from .nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
 from .parser import parse_equation, parse_expression
 from .skeleton import Skeleton
@@ -11,6 +11,7 @@ from .skeleton import Skeleton
 __all__ = [
     "Apply",
     "BinOp",
+    "Bound",
     "Constraint",
     "Neg",
     "Node",

@@ -1,4 +1,9 @@
-"""Constraints on characteristic curves: ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``."""
+"""Prior knowledge in the skeleton language.
+
+On characteristic curves: ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``,
+``"f1 increasing"``, ``"f2 decreasing"``; on scalar parameters: bounds
+``"a2 >= 0"``, ``"a2 <= 5"``, ``"0 <= a3 <= 10"``.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +12,14 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from ..exceptions import SkeletonError
-from .functions import is_unknown_name
+from .functions import is_param_name, is_unknown_name
 from .lexer import Token, tokenize
 
-__all__ = ["Constraint", "check_constraints", "parse_constraint", "parse_constraints"]
+__all__ = ["Bound", "Constraint", "check_constraints", "merged_bounds", "parse_constraint",
+           "parse_constraints"]
+
+#: kinds of curve constraints that are shapes rather than points
+MONOTONE = ("increasing", "decreasing")
 
 
 @dataclass(frozen=True)
@@ -21,8 +30,8 @@ class Constraint:
     ----------
     function : str
         The curve it applies to, e.g. ``"f1"``.
-    kind : {"odd", "even", "value"}
-        Symmetry or point value.
+    kind : {"odd", "even", "value", "increasing", "decreasing"}
+        Symmetry, point value or monotony (over the range of the data).
     at, value : float or None
         For ``kind="value"``: the curve passes through ``(at, value)``.
     """
@@ -36,6 +45,34 @@ class Constraint:
         if self.kind == "value":
             return f"{self.function}({self.at:g})={self.value:g}"
         return f"{self.function} {self.kind}"
+
+
+@dataclass(frozen=True)
+class Bound:
+    """Bounds on a scalar parameter: ``low <= param <= high``.
+
+    Attributes
+    ----------
+    param : str
+        The parameter, e.g. ``"a2"``.
+    low, high : float
+        Least and largest value (``-inf`` / ``inf`` when open).
+    """
+
+    param: str
+    low: float = -math.inf
+    high: float = math.inf
+
+    def __str__(self) -> str:
+        if math.isinf(self.low):
+            return f"{self.param} <= {self.high:g}"
+        if math.isinf(self.high):
+            return f"{self.param} >= {self.low:g}"
+        return f"{self.low:g} <= {self.param} <= {self.high:g}"
+
+    def contains(self, value: float) -> bool:
+        """Whether ``value`` lies within the bounds."""
+        return self.low <= value <= self.high
 
 
 def _signed_number(tokens: list[Token], i: int) -> tuple[float, int] | None:
@@ -71,7 +108,7 @@ def _constraint_text(item: object, index: int) -> str:
     )
 
 
-def parse_constraint(item: str | Mapping, index: int = 0) -> Constraint:
+def parse_constraint(item: str | Mapping, index: int = 0) -> Constraint | Bound:
     """Parse one constraint given as a string or as ``{"constraint": text}``.
 
     Raises
@@ -85,13 +122,17 @@ def parse_constraint(item: str | Mapping, index: int = 0) -> Constraint:
     def fail(message: str, pos: int) -> SkeletonError:
         return SkeletonError(message, equation=index, position=pos, text=text, kind="constraints")
 
-    usage = "expected 'fN odd', 'fN even' or 'fN(c)=v'"
+    usage = ("expected 'fN odd', 'fN even', 'fN increasing', 'fN decreasing', 'fN(c)=v', "
+             "'aN >= c', 'aN <= c' or 'c1 <= aN <= c2'")
     first = tokens[0]
+    if first.kind == "NUMBER" or (first.kind == "OP" and first.text in "+-") \
+            or (first.kind == "NAME" and is_param_name(first.text)):
+        return _parse_bound(tokens, text, fail, usage)
     if first.kind != "NAME" or not is_unknown_name(first.text):
         raise fail(f"unknown constraint: {usage}", first.pos)
     name = first.text
     second = tokens[1]
-    if second.kind == "NAME" and second.text in ("odd", "even"):
+    if second.kind == "NAME" and second.text in ("odd", "even", *MONOTONE):
         if tokens[2].kind != "END":
             raise fail(f"unexpected {tokens[2].text!r}: {usage}", tokens[2].pos)
         return Constraint(name, second.text)
@@ -114,6 +155,55 @@ def parse_constraint(item: str | Mapping, index: int = 0) -> Constraint:
     raise fail(f"unknown constraint: {usage}", second.pos)
 
 
+def _parse_bound(tokens: list[Token], text: str, fail, usage: str) -> Bound:
+    """``aN >= c``, ``aN <= c``, ``c <= aN``, ``c >= aN`` or ``c1 <= aN <= c2``."""
+    items, i = [], 0  # alternating operands (float or parameter name) and comparisons
+    while True:
+        token = tokens[i]
+        if token.kind == "NAME" and is_param_name(token.text):
+            items.append((token.text, token.pos))
+            i += 1
+        else:
+            parsed = _signed_number(tokens, i)
+            if parsed is None:
+                raise fail(f"expected a number or a parameter aN: {usage}", token.pos)
+            items.append((parsed[0], token.pos))
+            i = parsed[1]
+        token = tokens[i]
+        if token.kind == "END":
+            break
+        if token.kind != "OP" or token.text not in ("<=", ">=", "<", ">"):
+            raise fail(f"unexpected {token.text!r}: {usage}", token.pos)
+        if token.text in ("<", ">"):
+            raise fail(f"strict comparison {token.text!r}: write {token.text}= (a bound "
+                       "includes its end)", token.pos)
+        items.append((token.text, token.pos))
+        i += 1
+    operands, comparisons = items[0::2], [op for op, _ in items[1::2]]
+    names = [(value, pos) for value, pos in operands if isinstance(value, str)]
+    if len(names) != 1:
+        where = names[1][1] if len(names) > 1 else operands[0][1]
+        raise fail(f"a bound names exactly one parameter: {usage}", where)
+    if len(comparisons) not in (1, 2) or len(set(comparisons)) != 1:
+        raise fail(f"a bound is 'aN >= c', 'aN <= c' or 'c1 <= aN <= c2': {usage}",
+                   items[1][1])
+    name = names[0][0]
+    values = [value for value, _ in operands]
+    if comparisons[0] == ">=":
+        values = values[::-1]  # read every bound as an ascending chain
+    position = values.index(name)
+    if len(values) == 3 and position != 1:
+        raise fail(f"the parameter of a two-sided bound stands between its ends: {usage}",
+                   names[0][1])
+    if not all(math.isfinite(v) for v in values if not isinstance(v, str)):
+        raise fail("the ends of a bound must be finite numbers", operands[0][1])
+    low = values[position - 1] if position > 0 else -math.inf
+    high = values[position + 1] if position + 1 < len(values) else math.inf
+    if low > high:
+        raise fail(f"empty bound: {low:g} > {high:g}", operands[0][1])
+    return Bound(name, float(low), float(high))
+
+
 def parse_constraints(items: Iterable | None) -> tuple[Constraint, ...]:
     """Parse a list of constraints; ``None`` means none. Duplicates are merged."""
     if items is None:
@@ -122,7 +212,8 @@ def parse_constraints(items: Iterable | None) -> tuple[Constraint, ...]:
         items = [items]
     out: list[Constraint] = []
     for index, item in enumerate(items):
-        constraint = item if isinstance(item, Constraint) else parse_constraint(item, index)
+        constraint = (item if isinstance(item, (Constraint, Bound))
+                      else parse_constraint(item, index))
         if constraint not in out:
             out.append(constraint)
     return tuple(out)
@@ -132,17 +223,41 @@ def _close(a: float, b: float) -> bool:
     return math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-12)
 
 
-def check_constraints(constraints: Iterable[Constraint], functions: Iterable[str]) -> None:
-    """Reject constraints on curves the skeleton lacks, and contradictory sets.
+def merged_bounds(constraints: Iterable) -> dict[str, tuple[float, float]]:
+    """Parameter -> ``(low, high)``, the intersection of every bound on it."""
+    out: dict[str, tuple[float, float]] = {}
+    for c in constraints:
+        if isinstance(c, Bound):
+            low, high = out.get(c.param, (-math.inf, math.inf))
+            out[c.param] = (max(low, c.low), min(high, c.high))
+    return out
+
+
+def check_constraints(constraints: Iterable, functions: Iterable[str],
+                      params: Iterable[str] = ()) -> None:
+    """Reject constraints on curves or parameters the skeleton lacks, and contradictory sets.
 
     Raises
     ------
     SkeletonError
         Naming the constraint(s) at fault.
     """
-    functions = list(functions)
-    by_function: dict[str, list[Constraint]] = {}
+    constraints = list(constraints)
+    functions, params = list(functions), list(params)
     for c in constraints:
+        if isinstance(c, Bound) and c.param not in params:
+            have = ", ".join(params) if params else "no parameters"
+            raise SkeletonError(f"constraint '{c}' names {c.param}, but the skeleton has {have}",
+                                kind="constraints")
+    for name, (low, high) in merged_bounds(constraints).items():
+        if low > high:
+            bounds = ", ".join(str(c) for c in constraints
+                               if isinstance(c, Bound) and c.param == name)
+            raise SkeletonError(f"contradictory bounds on {name}: {bounds} leave no value",
+                                kind="constraints")
+    curves = [c for c in constraints if isinstance(c, Constraint)]
+    by_function: dict[str, list[Constraint]] = {}
+    for c in curves:
         if c.function not in functions:
             have = ", ".join(functions) if functions else "no curves"
             raise SkeletonError(
@@ -157,6 +272,14 @@ def check_constraints(constraints: Iterable[Constraint], functions: Iterable[str
                 f"contradictory constraints: {name} cannot be both odd and even "
                 "(only the zero function is)"
             )
+        if set(MONOTONE) <= kinds:
+            raise SkeletonError(
+                f"contradictory constraints: {name} cannot be both increasing and decreasing "
+                "(only a constant is)")
+        if "even" in kinds and kinds & set(MONOTONE):
+            raise SkeletonError(
+                f"contradictory constraints: an even {name} cannot be "
+                f"{(kinds & set(MONOTONE)).pop()} (only a constant is)")
         points = [c for c in group if c.kind == "value"]
         # each symmetry maps a point constraint to a second, implied one; keep the
         # constraint each point comes from so that the message names the culprits

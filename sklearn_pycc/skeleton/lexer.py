@@ -99,6 +99,10 @@ def tokenize(text: str, index: int | None = None, kind: str = "equations") -> li
         elif ch in _OPERATORS:
             tokens.append(Token("OP", ch, i))
             i += 1
+        elif ch in "<>" and kind == "constraints":  # bounds: "a2 >= 0", "0 <= a3 <= 10"
+            width = 2 if text.startswith("=", i + 1) else 1
+            tokens.append(Token("OP", text[i:i + width], i))
+            i += width
         else:
             raise _error(f"unexpected character {ch!r}", text, i, index, kind)
     tokens.append(Token("END", "", n))

@@ -17,7 +17,7 @@ from ..simulation import (
     integrate_system,
     progress_bar,
 )
-from .constraints import Constraint, check_constraints, parse_constraints
+from .constraints import Bound, Constraint, check_constraints, merged_bounds, parse_constraints
 from .equations import TIME, Equation, classify, evaluation_order, state_of
 from .nodes import BinOp, Param, Symbol, Unknown, rename, walk
 from .parser import parse_equation, parse_expression
@@ -42,14 +42,16 @@ class Skeleton:
         other name is an input (a measured column). An equation may also be
         written unsolved, as ``F_ext = f1(x1) + f2(x1) x1_dot``.
     constraints : list of str or dict, optional
-        ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, or ``{"constraint": "f1 odd"}``.
+        On curves ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, ``"f1 increasing"``,
+        ``"f1 decreasing"``; on parameters ``"a2 >= 0"``, ``"a2 <= 5"``,
+        ``"0 <= a3 <= 10"``; or any of them as ``{"constraint": "f1 odd"}``.
 
     Attributes
     ----------
     equations : tuple of str
         The equations as written.
-    constraints : tuple of Constraint
-        Parsed constraints.
+    constraints : tuple of Constraint or Bound
+        Parsed constraints (:attr:`bounds` merges those on parameters).
     states, inputs, derivatives, functions, params : list of str
         Names found in the equations; states and derivatives in the order of
         the equations, curves and parameters by index.
@@ -107,8 +109,8 @@ class Skeleton:
         self.params = sorted(params, key=_index_key)
         self.inputs = inputs
         self.uses_time = uses_time
-        self.constraints: tuple[Constraint, ...] = parse_constraints(constraints)
-        check_constraints(self.constraints, self.functions)
+        self.constraints: tuple[Constraint | Bound, ...] = parse_constraints(constraints)
+        check_constraints(self.constraints, self.functions, self.params)
 
     # -- conveniences ---------------------------------------------------------
     @property
@@ -142,7 +144,18 @@ class Skeleton:
 
     def constraints_of(self, function: str) -> list[Constraint]:
         """Constraints applying to one curve."""
-        return [c for c in self.constraints if c.function == function]
+        return [c for c in self.constraints
+                if isinstance(c, Constraint) and c.function == function]
+
+    @property
+    def bounds(self) -> dict[str, tuple[float, float]]:
+        """Parameter -> ``(low, high)`` for every bounded parameter (``-inf``/``inf`` open)."""
+        return merged_bounds(self.constraints)
+
+    def monotone(self, function: str) -> str | None:
+        """``"increasing"``, ``"decreasing"`` or None for one curve."""
+        kinds = {c.kind for c in self.constraints_of(function)}
+        return next((k for k in ("increasing", "decreasing") if k in kinds), None)
 
     def with_constraints(self, constraints: Iterable | None) -> Skeleton:
         """A new skeleton with the same equations and these constraints added."""
@@ -167,8 +180,9 @@ class Skeleton:
         sign : {"-", "+"}, default="-"
             Subtract the term (a force opposing motion) or add it.
         constraints : list of str or dict, optional
-            Constraints on the term's curves, written with the term's names
-            (``["f1 odd"]`` for ``term="f1(x2)"``); they are renamed too.
+            Constraints on the term's curves and parameters, written with the
+            term's names (``["f1 odd"]`` for ``term="f1(x2)"``, ``["a1 >= 0"]``
+            for ``term="a1 x2"``); they are renamed too.
 
         Returns
         -------
@@ -198,11 +212,14 @@ class Skeleton:
             text = f"({text})"
         extra = []
         for constraint in parse_constraints(constraints):
-            if constraint.function not in mapping:
+            field = "param" if isinstance(constraint, Bound) else "function"
+            name = getattr(constraint, field)
+            if name not in mapping:
                 raise SkeletonError(
-                    f"the constraint {str(constraint)!r} names {constraint.function}, which "
-                    f"is not a curve of the term {term!r}", kind="constraints")
-            extra.append(replace(constraint, function=mapping[constraint.function]))
+                    f"the constraint {str(constraint)!r} names {name}, which is not a "
+                    f"{'parameter' if field == 'param' else 'curve'} of the term {term!r}",
+                    kind="constraints")
+            extra.append(replace(constraint, **{field: mapping[name]}))
         equations = list(self.equations)
         equations[index] = f"{equations[index]} {sign} {text}"
         return Skeleton(equations, [*self.constraints, *extra])
