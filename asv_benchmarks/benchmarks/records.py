@@ -6,7 +6,7 @@ import warnings
 
 from threadpoolctl import threadpool_limits
 
-from sklearn_pycc import PolyCCRegressor, Skeleton, datasets, diagnose
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, Skeleton, datasets, diagnose
 
 
 class PositionOnly:
@@ -76,3 +76,41 @@ class SampledInput:
     def time_simulate_rtol_1e3(self):
         self.skeleton.simulate(self.t, [0.0, 0.0], params=self.truth.params,
                                inputs={"u": self.u}, rtol=1e-3)
+
+
+class AxisLoop:
+    """``HypothesisLoop`` (3 rounds) on a closed-loop axis, position only.
+
+    The goal: under 10 s at 100,000 samples (compare.py line q measures it
+    with its peak memory).
+    """
+
+    param_names = ["n_samples"]
+    params = ([10_000, 100_000],)
+    processes = 1
+    repeat = (1, 3, 60.0)
+    timeout = 300
+
+    def setup(self, n_samples):
+        self._limits = threadpool_limits(limits=1)
+        warnings.simplefilter("ignore")
+        self.frame, self.truth = datasets.make_positioning_axis(
+            n_samples=n_samples, t_span=(0, (n_samples - 1) / 1000), random_state=0,
+            return_truth=True)
+
+    def teardown(self, n_samples):
+        self._limits.restore_original_limits()
+
+    def _run(self):
+        estimator = PolyCCRegressor(equations=self.truth.base_equations)
+        return HypothesisLoop(estimator, self.frame).run(max_rounds=3)
+
+    def time_loop(self, n_samples):
+        self._run()
+
+    def peakmem_loop(self, n_samples):
+        self._run()
+
+    def track_mass_error(self, n_samples):
+        """Relative error of the final model's ``a1`` (one over the mass)."""
+        return abs(self._run().model.params_["a1"] / self.truth.params["a1"] - 1)

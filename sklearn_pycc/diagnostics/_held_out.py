@@ -34,6 +34,10 @@ MAX_FOLDS = 5
 #: least relative fall of the pooled held-out error that confirms an effect (and most the
 #: other criterion may rise)
 HELD_OUT_GAIN = 0.01
+#: least absolute fall of the deciding error, in units of the signals' spread: a model that
+#: already follows held-out data to a thousandth of their spread misses nothing that matters
+#: (on a clean record, a term can still fit the differentiation's own error)
+HELD_OUT_FLOOR = 1e-3
 _TRAJECTORY = "trajectory"
 
 
@@ -58,7 +62,8 @@ class HeldOut:
         Number of folds.
     confirmed : bool
         Whether the effect lowered the pooled deciding error by at least
-        :data:`HELD_OUT_GAIN`, won in most folds, and raised no other
+        :data:`HELD_OUT_GAIN` (and by :data:`HELD_OUT_FLOOR` of the signals'
+        spread), won in most folds, and raised no other
         criterion's error by as much (a term that simulates a little better
         but predicts the derivatives worse fits an artefact: the
         differentiation's error on a clean record, for instance).
@@ -241,7 +246,8 @@ def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
     result.before = {k: math.sqrt(v / n) for k, v in totals["before"].items()}
     result.after = {k: math.sqrt(v / n) for k, v in totals["after"].items()}
     others = [result.change(name) for name in result.before if name != criterion]
-    result.confirmed = bool(result.change() <= -HELD_OUT_GAIN
+    gain = result.before[criterion] - result.after[criterion]
+    result.confirmed = bool(result.change() <= -HELD_OUT_GAIN and gain >= HELD_OUT_FLOOR
                             and 2 * result.wins > result.n_folds
                             and all(change < HELD_OUT_GAIN for change in others))
     return result

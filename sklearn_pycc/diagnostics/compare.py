@@ -60,7 +60,7 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
         Also report the cross-validated R² of the derivatives (experiments are
         passed as ``groups`` when X has a ``trajectory`` column).
     simulate : bool, default=True
-        Simulate each fitted model from the measured initial states.
+        Simulate each fitted model with the measured inputs (over ``horizon``).
     horizon : "auto", float or None, default="auto"
         Simulate windows of this time, each restarted from the measured
         state (see :func:`~sklearn_pycc.diagnose`); ``"auto"`` chooses it

@@ -123,12 +123,16 @@ class Diagnosis:
         Per equation: ``rmse``, ``nrmse``, ``r2``, ``fit_percent`` of the
         predicted derivatives.
     trajectories : DataFrame
-        Per state: the same measures for the simulation from each
-        experiment's measured initial state with its measured inputs
-        (empty when there is no time column or ``simulate=False``).
+        Per state: the same measures for the simulation with the measured
+        inputs, over windows of :attr:`horizon` each restarted from the
+        measured (estimated) state, or from each experiment's initial state
+        when ``horizon=None`` (empty when there is no time column or
+        ``simulate=False``).
     simulation : DataFrame
         ``t``, ``trajectory`` (when given), each state measured and
-        simulated (``x1`` and ``x1_sim``); NaN after a divergence.
+        simulated (``x1`` and ``x1_sim``); NaN after a divergence. The rows
+        are those the derivatives can be trusted on (a filter's settling at
+        the ends of each experiment left out), numbered afresh.
     residuals : DataFrame
         Measured minus predicted derivatives, one column per equation.
     divergences : list

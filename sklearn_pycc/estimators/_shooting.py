@@ -62,7 +62,7 @@ class ShootingPlan(Windows):
                 raise ValueError(f"fit_mode='simulation' needs at least 2 samples per "
                                  f"experiment; there is 1{experiment.where or ' in the data'}")
         inputs = [name for name in skeleton.inputs if name != TIME]
-        signals = {name: problem.signals.get(name, problem.data[name]) for name in inputs}
+        signals = {name: problem.signals[name] for name in inputs}
         super().__init__(states, inputs, TIME in skeleton.variables,
                          [(e.rows, e.t) for e in problem.experiments], problem.smoothed,
                          signals, int(window))
