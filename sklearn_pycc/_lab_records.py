@@ -485,8 +485,13 @@ def make_pendulum(
     def rhs(_, y):
         return [y[1], -c * y[1] - w0**2 * math.sin(y[0])]
 
-    solution = solve_ivp(rhs, (start, end), [float(v) for v in y0], method="DOP853",
+    start_state = np.asarray(y0, dtype=float).ravel()
+    if start_state.shape != (2,) or not np.isfinite(start_state).all():
+        raise ValueError(f"y0 must be two finite numbers (angle, angular velocity), got {y0!r}")
+    solution = solve_ivp(rhs, (start, end), list(start_state), method="DOP853",
                          t_eval=t, rtol=1e-11, atol=1e-12)
+    if not solution.success:  # pragma: no cover - a pendulum does not diverge
+        raise ValueError(f"the pendulum could not be simulated: {solution.message}")
     x1, x2 = solution.y
     reading = np.round(x1 / q) * q if q > 0 else x1.copy()
     frame = pd.DataFrame({"t": t, "x1": reading})

@@ -133,15 +133,21 @@ def test_bounds_hold_through_the_output_error_stage(record):
 
 def test_impossible_constraints_are_named(record):
     X, y = record
-    with pytest.raises(ValueError, match="no coefficients satisfy"):
+    with pytest.raises(SkeletonError, match="an increasing curve cannot take"):
         PolyCCRegressor(equations=SEMI, constraints=[
             "f1 increasing", "f1(0)=0", "f1(1)=-1"]).fit(X, y)
+    from sklearn_pycc.estimators._lstsq import InfeasibleError, bounded_lstsq
+
+    A, b = np.eye(3), np.ones(3)
+    with pytest.raises(InfeasibleError, match="no coefficients satisfy"):
+        bounded_lstsq(A, b, None, None, np.array([[1.0, 0, 0], [-1.0, 0, 0]]),
+                      np.array([1.0, 0.0]))
     with pytest.raises(ValueError, match="param_init gives a1 = -1"):
         PolyCCRegressor(equations=PARAMETRIC, constraints=["a1 >= 0"],
                         param_init={"a1": -1.0}).fit(X, y)
     scaled = ["x1_dot = x2", "x2_dot = F_ext - a1 f1(x2) - f2(x1)"]
     with pytest.raises(IdentifiabilityError, match="the gauge pins"):
-        PolyCCRegressor(equations=scaled, constraints=["a1 <= 0.5"]).fit(X, y)
+        PolyCCRegressor(equations=scaled, constraints=["0 <= a1 <= 0.5"]).fit(X, y)
 
 
 # -- the neural and symbolic backends ----------------------------------------------------
@@ -172,3 +178,48 @@ def test_symbolic_fits_and_conversions_keep_bounds_and_shapes(record):
     converted = to_symbolic(poly, X, y, generations=10, random_state=0)
     assert converted.params_["a1"] >= 0.3
     assert steps(converted, "f1").min() >= 0
+
+
+# -- edge cases ---------------------------------------------------------------------------
+def test_bounds_far_from_one_and_a_redundant_bounded_term(record):
+    X, y = record
+    # a bound of the order of 1e5 is met, not reported infeasible
+    far = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - 1e-5 a2 x1"]
+    model = PolyCCRegressor(equations=far, constraints=["a2 >= 1.2e5"]).fit(X, y)
+    assert model.params_["a2"] == pytest.approx(1.2e5) and model.params_["a2"] >= 1.2e5
+    # rank deficiency is still reported with bounds in place
+    from sklearn_pycc import RankDeficiencyWarning
+
+    redundant = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 + a3 c - a4"]
+    constant = X.assign(c=1.0)  # the data cannot tell a3 c from a4
+    with pytest.warns(RankDeficiencyWarning, match="a3, a4"):
+        PolyCCRegressor(equations=redundant, constraints=["a3 >= 0"]).fit(constant, y)
+
+
+def test_the_gauge_takes_the_sign_the_bounds_admit(record):
+    X, y = record
+    scaled = ["x1_dot = x2", "x2_dot = F_ext - a1 f1(x2) - f2(x1)"]
+    model = PolyCCRegressor(equations=scaled, constraints=["a1 <= 0"]).fit(X, y)
+    assert model.params_["a1"] == -1.0 and "a1=-1" in model.gauge_
+    assert model.score(X, y) > 0.9
+
+
+def test_fixed_or_disordered_shapes_are_refused():
+    with pytest.raises(SkeletonError, match="fix it at 1"):
+        Skeleton(["x1_dot = -a1 x1"], ["a1 >= 1", "a1 <= 1"])
+    with pytest.raises(SkeletonError, match="leaves no interval"):
+        Skeleton(["x1_dot = -a1 x1"], ["1 <= a1 <= 1"])
+    with pytest.raises(SkeletonError, match="an increasing curve cannot take"):
+        Skeleton(["x1_dot = -f1(x1)"], ["f1 increasing", "f1(0)=1", "f1(1)=0"])
+    with pytest.raises(SkeletonError, match="an increasing curve cannot take"):
+        Skeleton(["x1_dot = -f1(x1)"], ["f1 odd", "f1 increasing", "f1(0.5)=-1"])
+    assert str(Skeleton(["x1_dot = -a1 x1"], ["a1 >= 0.1234567"]).constraints[0]) == \
+        "a1 >= 0.1234567"
+
+
+def test_neural_bounds_hold_after_rounding_to_float32(record):
+    X, y = record
+    model = NeuralCCRegressor(equations=PARAMETRIC, max_epochs=50, random_state=0,
+                              constraints=["a1 <= 0.05", "0.2 <= a3 <= 0.3", "a4 >= 0"])
+    params = model.fit(X, y).params_
+    assert params["a1"] <= 0.05 and 0.2 <= params["a3"] <= 0.3

@@ -99,7 +99,8 @@ def make_folds(data: Measurements) -> tuple[str, list[np.ndarray]]:
     Several experiments are folds of their own (at most :data:`MAX_FOLDS`,
     neighbours merged). A single experiment is cut into contiguous chunks,
     dealt to :data:`FOLDS` folds in turn (up to :data:`CHUNKS_PER_FOLD`
-    chunks each, of at least :data:`MIN_CHUNK` samples): each fold then
+    chunks each, of at least :data:`MIN_CHUNK` samples when the record is long
+    enough): each fold then
     covers the whole record, so that a free decay or a slow sweep is not
     judged by extrapolation, while its chunks stay far longer than the
     noise's correlation. Simulation windows end with their chunk.

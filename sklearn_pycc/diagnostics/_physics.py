@@ -85,8 +85,11 @@ class _Term:
     values: np.ndarray
 
     def text(self, params) -> str:
-        body = to_text(self.node, params, precision=4)
-        return f"{'-' if self.sign < 0 else '+'} {body}"
+        """The term as written, with the fitted values of its parameters."""
+        names = sorted({n.name for n in walk(self.node) if isinstance(n, Param)})
+        values = ", ".join(f"{a} = {params[a]:.4g}" for a in names if a in params)
+        body = f"{'-' if self.sign < 0 else '+'} {to_text(self.node)}"
+        return f"{body}' ({values})" if values else f"{body}'"
 
 
 def _symbols(node: Node) -> set[str]:
@@ -202,7 +205,7 @@ def _gain(term: _Term, params, slots, data: Measurements) -> str:
     written = term.sign * _evaluate(term.node, slots, env, ones, {}, data.n_samples)
     if float(np.mean(term.values * written)) > 0:
         return ""
-    return (f"the input term '{term.text(params)}' pushes against the sign it is written "
+    return (f"the input term '{term.text(params)} pushes against the sign it is written "
             "with: a gain must keep it")
 
 
@@ -216,7 +219,7 @@ def _dissipation(derivative: str, friction: list[_Term], skipped, velocity: np.n
             continue
         if _rms(term.values) > significant:
             out.append(Implausibility(derivative, "dissipation", (
-                f"the friction term '{term.text(params)}' feeds energy in (it pushes along "
+                f"the friction term '{term.text(params)} feeds energy in (it pushes along "
                 "the velocity): dissipation must remove energy")))
     total = np.sum([term.values for term in friction], axis=0)
     if sum(powers) > 0 and _rms(total) > significant:

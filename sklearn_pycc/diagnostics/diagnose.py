@@ -350,8 +350,11 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         and without it is fitted without each fold (the experiments, or
         three folds of interleaved blocks in time) and compared on it, by the horizon-limited
         simulation error (the derivatives' when there is no time). The
-        first candidate that lowers the held-out error becomes
-        :attr:`Diagnosis.best`; otherwise nothing is missing. On long
+        first of the two leading candidates that lowers the held-out error
+        becomes :attr:`Diagnosis.best` (or a simpler effect through the same
+        variable that does within 5 % as well held out); otherwise nothing
+        is missing. A refit is judged on what it changes: terms the model
+        itself already puts against their role do not condemn it. On long
         records with coloured noise the BIC alone calls almost any term
         significant; the held-out check does not.
 
@@ -488,8 +491,10 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     rss_before = np.sum(residuals**2, axis=0)
     screened = sorted((c for c in candidates if math.isfinite(c.screen_bic)),
                       key=lambda c: c.screen_bic)
+    implausible = implausible_terms(model, data)
+    baseline = frozenset((item.equation, item.role) for item in implausible)
     for candidate in screened[:n_refit]:
-        refit_candidate(model, candidate, data, residuals, rss_before)
+        refit_candidate(model, candidate, data, residuals, rss_before, baseline)
     refitted = [c for c in screened[:n_refit] if c.refit is not None]
     if run_simulation:
         _simulate_leaders(refitted, data, measured_states, window, steps, divergences)
@@ -504,8 +509,8 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     best = None if chosen is None else _suggestion(chosen, skeleton)
     return Diagnosis(model, derivative_table, trajectory_table, simulation_frame,
                      pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
-                     maps, ranking, best, simulation_rmse, notes, window,
-                     implausible_terms(model, data), candidates, data, variables)
+                     maps, ranking, best, simulation_rmse, notes, window, implausible,
+                     candidates, data, variables)
 
 
 def _map_of(roles: EquationRoles, residuals, data: Measurements, inputs) -> ResidualMap | None:

@@ -162,19 +162,25 @@ def bounded_lstsq(A: np.ndarray, b: np.ndarray, C: np.ndarray | None, d: np.ndar
         y = np.zeros(q)  # the unconstrained solution meets every inequality
     else:
         # least distance: min ||y|| with K y >= k, through non-negative least squares
-        stackT = np.vstack([K.T, k])
+        # (k scaled to order one: the test below reads the last residual, which is
+        # -1 / (1 + ||y||^2) at the solution)
+        scale = max(1.0, float(np.max(np.abs(k))))
+        stackT = np.vstack([K.T, k / scale])
         e = np.zeros(q + 1)
         e[-1] = 1.0
         u, _ = nnls(stackT, e, maxiter=50 * (q + len(k) + 1))
         r = stackT @ u - e
         if abs(r[-1]) < 1e-12:
             raise InfeasibleError("no coefficients satisfy the bounds and shape constraints "
-                                  "together with the point constraints")
-        y = -r[:-1] / r[-1]
+                                  "together with the skeleton's other constraints")
+        y = -scale * r[:-1] / r[-1]
     s = solve_triangular(R, y + f)
     z = s / norms
     x = z if N is None else x0 + N @ z
-    rank = int(np.sum(np.abs(np.diag(R)) > 1e-9 * np.max(np.abs(np.diag(R)))))
+    # the rank of the design itself (the ridge above only keeps the factor invertible)
+    diag = np.abs(np.diag(qr(M, mode="r", pivoting=True)[0]))
+    tol = max(M.shape) * np.finfo(float).eps * (diag[0] if diag.size else 0.0)
+    rank = int(np.sum(diag > tol))
     null = np.zeros((p, 0))
     if rank < q:
         _, _, Vt = np.linalg.svd(M, full_matrices=False)

@@ -223,14 +223,20 @@ def gauge_skeleton(skeleton: Skeleton, gauge: str):
             zeroed.add(fix.name)
         else:
             fixed[fix.name] = fix.value
-    for name, value in fixed.items():
+    gauge = report.gauge()
+    for name, value in list(fixed.items()):
         low, high = skeleton.bounds.get(name, (-np.inf, np.inf))
+        if not low <= value <= high and low <= -value <= high:
+            # a scale's sign is the gauge's to choose as well: the one its bounds admit
+            why = gauge.pop(f"{name}={value:g}", "")
+            fixed[name] = value = -value
+            gauge[f"{name}={value:g}"] = why + " Its bounds admit the negative sign only."
         if not low <= value <= high:
             raise IdentifiabilityError(
                 f"the gauge pins {name} = {value:g} to make the skeleton identifiable, outside "
                 f"its bounds [{low:g}, {high:g}]: pin another scale with a constraint, or use "
                 "bounds that admit it")
-    return constraints, fixed, zeroed, report.gauge()
+    return constraints, fixed, zeroed, gauge
 
 
 def active_residuals(problem: Problem) -> tuple[list[Node], list[float]]:

@@ -403,7 +403,9 @@ default="lbfgs"
         ranges = module.record_ranges(X)
         functions = {name: curve.export(ranges[name], self.extrapolation)
                      for name, curve in module.curves.items()}
-        params = {name: float(p.detach().cpu()) for name, p in module.params.items()}
+        bounds = module.params.bounds  # float32 rounding must not step outside a bound
+        params = {name: float(np.clip(float(p.detach().cpu()), *bounds[name]))
+                  for name, p in module.params.items()}
         return functions, params
 
     # -- output error ----------------------------------------------------------

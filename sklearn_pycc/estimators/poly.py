@@ -103,9 +103,10 @@ class _Design:
     def inequalities(self, layout, bases: Mapping[str, PolyBasis]):
         """``G, h`` with ``G x >= h`` for bounded linear parameters and monotone curves.
 
-        A monotone curve's Bernstein coefficients (of three times its degree, over
-        its basis's interval) must not decrease (not increase): sufficient for
-        the curve to be monotone over the whole interval, exactly.
+        A monotone curve's Bernstein coefficients (of three times its degree,
+        at most :data:`_MAX_BERNSTEIN`, over its basis's interval) must not
+        decrease (not increase): sufficient for the curve to be monotone over
+        the whole interval, exactly.
         """
         bounds = self.problem.bounds
         p = sum(size for _, size in layout)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from itertools import pairwise
 
 from ..exceptions import SkeletonError
 from .functions import is_param_name, is_unknown_name
@@ -65,10 +66,10 @@ class Bound:
 
     def __str__(self) -> str:
         if math.isinf(self.low):
-            return f"{self.param} <= {self.high:g}"
+            return f"{self.param} <= {self.high:.12g}"
         if math.isinf(self.high):
-            return f"{self.param} >= {self.low:g}"
-        return f"{self.low:g} <= {self.param} <= {self.high:g}"
+            return f"{self.param} >= {self.low:.12g}"
+        return f"{self.low:.12g} <= {self.param} <= {self.high:.12g}"
 
     def contains(self, value: float) -> bool:
         """Whether ``value`` lies within the bounds."""
@@ -199,8 +200,9 @@ def _parse_bound(tokens: list[Token], text: str, fail, usage: str) -> Bound:
         raise fail("the ends of a bound must be finite numbers", operands[0][1])
     low = values[position - 1] if position > 0 else -math.inf
     high = values[position + 1] if position + 1 < len(values) else math.inf
-    if low > high:
-        raise fail(f"empty bound: {low:g} > {high:g}", operands[0][1])
+    if low >= high:
+        raise fail(f"empty bound: {low:g} >= {high:g} leaves no interval (write a fixed "
+                   "value as a number in the equation)", operands[0][1])
     return Bound(name, float(low), float(high))
 
 
@@ -233,6 +235,20 @@ def merged_bounds(constraints: Iterable) -> dict[str, tuple[float, float]]:
     return out
 
 
+def _check_monotone_points(name: str, shape: str, points: list[Constraint],
+                           odd: bool) -> None:
+    """Point values of a monotone curve (and their mirror images when odd) in order."""
+    pairs = [(c.at, c.value) for c in points]
+    if odd:
+        pairs += [(0.0 - at, 0.0 - value) for at, value in pairs] + [(0.0, 0.0)]
+    pairs.sort()
+    for (a, u), (b, v) in pairwise(pairs):
+        if a < b and (v < u if shape == "increasing" else v > u):
+            raise SkeletonError(
+                f"contradictory constraints on {name}: an {shape} curve cannot take "
+                f"{name}({a:g})={u:g} and {name}({b:g})={v:g}", kind="constraints")
+
+
 def check_constraints(constraints: Iterable, functions: Iterable[str],
                       params: Iterable[str] = ()) -> None:
     """Reject constraints on curves or parameters the skeleton lacks, and contradictory sets.
@@ -250,6 +266,9 @@ def check_constraints(constraints: Iterable, functions: Iterable[str],
             raise SkeletonError(f"constraint '{c}' names {c.param}, but the skeleton has {have}",
                                 kind="constraints")
     for name, (low, high) in merged_bounds(constraints).items():
+        if low == high:
+            raise SkeletonError(f"the bounds on {name} fix it at {low:.12g}: write the number "
+                                "in the equation instead", kind="constraints")
         if low > high:
             bounds = ", ".join(str(c) for c in constraints
                                if isinstance(c, Bound) and c.param == name)
@@ -281,6 +300,9 @@ def check_constraints(constraints: Iterable, functions: Iterable[str],
                 f"contradictory constraints: an even {name} cannot be "
                 f"{(kinds & set(MONOTONE)).pop()} (only a constant is)")
         points = [c for c in group if c.kind == "value"]
+        shape = kinds & set(MONOTONE)
+        if shape and points:
+            _check_monotone_points(name, shape.pop(), points, "odd" in kinds)
         # each symmetry maps a point constraint to a second, implied one; keep the
         # constraint each point comes from so that the message names the culprits
         # (0.0 - x rather than -x: no "-0" in messages)
