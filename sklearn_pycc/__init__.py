@@ -18,6 +18,7 @@ from .estimators import (
     to_symbolic,
 )
 from .exceptions import (
+    DomainWarning,
     ExtrapolationWarning,
     GaugeWarning,
     IdentifiabilityError,
@@ -31,6 +32,7 @@ __version__ = "0.1.0.dev0"
 
 __all__ = [
     "CCRegressor",
+    "DomainWarning",
     "ExtrapolationWarning",
     "GaugeWarning",
     "HypothesisLoop",

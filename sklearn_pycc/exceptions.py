@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 __all__ = [
+    "DomainWarning",
     "ExtrapolationWarning",
     "GaugeWarning",
     "IdentifiabilityError",
@@ -87,3 +88,7 @@ class RankDeficiencyWarning(UserWarning):
 
 class ExtrapolationWarning(UserWarning):
     """A simulation took a fitted curve outside the range it was trained on."""
+
+
+class DomainWarning(RuntimeWarning):
+    """A prediction is not finite: a term left its function's domain or overflowed."""

@@ -190,6 +190,10 @@ class InputSignals:
             if not np.isfinite(probe).all():
                 raise ValueError(f"input {name!r} is not finite at t={t[0]:g}")
             return value
+        if value is None or isinstance(value, (str, bytes)):
+            raise ValueError(
+                f"input {name!r} is {value!r}: give a callable of t, an array sampled on t, "
+                "or a number")
         if np.isscalar(value):
             value = float(value)
             if not math.isfinite(value):
@@ -221,6 +225,30 @@ class InputSignals:
             v = np.broadcast_to(np.asarray(v, dtype=float), np.shape(t))
             out.append(np.array(v, dtype=float))
         return out
+
+
+def _positive(name: str, value, *, allow_zero: bool = False, allow_inf: bool = False) -> None:
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and not (
+        math.isnan(value) or (math.isinf(value) and not allow_inf))
+    if ok:
+        ok = value >= 0 if allow_zero else value > 0
+    if not ok:
+        wanted = "non-negative" if allow_zero else "positive"
+        raise ValueError(f"the solver option {name} must be a {wanted} number, got {value!r}")
+
+
+def check_solver_options(rtol, atol, options: Mapping) -> None:
+    """Refuse tolerances and step options that no solver can use, naming the option."""
+    _positive("rtol", rtol)
+    atol_values = np.atleast_1d(np.asarray(atol, dtype=object))
+    for value in atol_values:
+        _positive("atol", value, allow_zero=True)
+    if "max_step" in options:
+        _positive("max_step", options["max_step"], allow_inf=True)
+    if "first_step" in options and options["first_step"] is not None:
+        _positive("first_step", options["first_step"])
+    if "min_step" in options:
+        _positive("min_step", options["min_step"], allow_zero=True)
 
 
 def check_time_grid(t) -> np.ndarray:

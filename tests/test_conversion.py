@@ -238,7 +238,8 @@ def test_interpolated_regressor_fits_through_a_backend(duffing_poly):
     assert model.estimator_.get_params()["degree"] == 5
     assert len(model.tables_["f2"]) == 100
     assert curve_rmse(model, truth, "f2") < 1e-3
-    with pytest.raises(TypeError, match="estimator must be a CCRegressor backend"):
+    with pytest.raises(TypeError, match="'estimator' parameter of InterpolatedCCRegressor must "
+                                        r"be an instance of .*CCRegressor"):
         InterpolatedCCRegressor(equations=SECOND_ORDER, estimator=object()).fit(X, y)
 
 

@@ -276,7 +276,7 @@ def test_param_init_and_degree_dict(stick_slip):
 def test_base_class_is_not_a_backend(duffing):
     frame, truth = duffing
     X, y = split(frame)
-    with pytest.raises(NotImplementedError, match="PolyCCRegressor"):
+    with pytest.raises(TypeError, match="abstract class CCRegressor"):
         CCRegressor(equations=truth.equations).fit(X, y)
 
 

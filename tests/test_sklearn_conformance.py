@@ -1,8 +1,10 @@
 """scikit-learn's own estimator checks over every estimator."""
 
-from sklearn.utils.estimator_checks import parametrize_with_checks
+import pytest
+from sklearn.utils.estimator_checks import check_param_validation, parametrize_with_checks
 
 from sklearn_pycc import (
+    CCRegressor,
     InterpolatedCCRegressor,
     NeuralCCRegressor,
     PolyCCRegressor,
@@ -39,3 +41,22 @@ ESTIMATORS = [
 @parametrize_with_checks(ESTIMATORS, expected_failed_checks=lambda est: EXPECTED_FAILURES)
 def test_sklearn_compatible(estimator, check):
     check(estimator)
+
+
+@pytest.mark.parametrize("estimator", ESTIMATORS, ids=lambda e: type(e).__name__)
+def test_every_hyperparameter_is_validated_before_fitting(estimator):
+    # scikit-learn runs this check on its own estimators only: every parameter
+    # has a constraint, and a value of the wrong type is refused by fit (and by
+    # partial_fit-free estimators' other fitting methods) with InvalidParameterError
+    check_param_validation(type(estimator).__name__, estimator)
+
+
+def test_the_base_class_cannot_be_fitted_by_mistake():
+    with pytest.raises(TypeError, match="abstract class CCRegressor"):
+        CCRegressor(equations=CHECK_EQUATIONS)
+
+
+@pytest.mark.parametrize("estimator", ESTIMATORS, ids=lambda e: type(e).__name__)
+def test_hyperparameters_are_keyword_only(estimator):
+    with pytest.raises(TypeError, match="positional argument"):
+        type(estimator)(CHECK_EQUATIONS)

@@ -177,7 +177,8 @@ def test_pysr_without_julia_raises_a_clear_error_quickly():
 ])
 def test_bad_hyperparameters_are_named(params, message):
     frame = datasets.make_duffing(n_samples=100, t_span=(0, 5))
-    with pytest.raises(ValueError, match=message):
+    name = next(iter(params))
+    with pytest.raises(ValueError, match=f"{message}|The '{name}' parameter of SymbolicCC"):
         SymbolicCCRegressor(equations=SECOND_ORDER, **params).fit(frame[X_COLUMNS],
                                                                   frame[Y_COLUMNS])
 

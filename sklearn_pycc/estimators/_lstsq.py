@@ -74,12 +74,21 @@ def constrained_lstsq(A: np.ndarray, b: np.ndarray, C: np.ndarray | None = None,
     z = z_scaled / norms
     x = z if N is None else x0 + N @ z
     if rank < M.shape[1]:
-        _, _, Vt_m = np.linalg.svd(solve_M, full_matrices=False)
-        null_z = Vt_m[rank:].T / norms[:, None]
+        null_z = _null_space(solve_M, rank) / norms[:, None]
         null = null_z if N is None else N @ null_z
     else:
         null = np.zeros((p, 0))
     return LstsqResult(x, null, M, z_scaled, rhs)
+
+
+def _null_space(M: np.ndarray, rank: int) -> np.ndarray:
+    """Orthonormal columns spanning what ``M`` (of ``rank``) maps to nothing.
+
+    A design with fewer rows than columns needs the full set of right
+    singular vectors: the reduced SVD drops the very directions asked for.
+    """
+    _, _, Vt = np.linalg.svd(M, full_matrices=M.shape[0] < M.shape[1])
+    return Vt[rank:].T
 
 
 def _eliminate(A, b, C, d, overwrite_a: bool):
@@ -183,7 +192,6 @@ def bounded_lstsq(A: np.ndarray, b: np.ndarray, C: np.ndarray | None, d: np.ndar
     rank = int(np.sum(diag > tol))
     null = np.zeros((p, 0))
     if rank < q:
-        _, _, Vt = np.linalg.svd(M, full_matrices=False)
-        null_z = Vt[rank:].T / norms[:, None]
+        null_z = _null_space(M, rank) / norms[:, None]
         null = null_z if N is None else N @ null_z
     return LstsqResult(x, null, M, s, rhs)

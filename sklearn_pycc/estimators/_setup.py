@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import warnings
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -32,16 +33,19 @@ def _cached_skeleton(equations: tuple, constraints: tuple) -> Skeleton:
 
 
 def build_skeleton(equations, constraints) -> Skeleton:
-    """Parse (with a cache) the ``equations`` and ``constraints`` hyperparameters."""
+    """Parse (with a cache) the ``equations`` and ``constraints`` hyperparameters.
+
+    The skeleton returned is the caller's own: neither the user's
+    :class:`Skeleton` nor the cache's copy is shared with a fitted model.
+    """
     if equations is None:
         raise SkeletonError(
             "no skeleton given: pass equations=[...], e.g. "
             "['x1_dot = x2', 'x2_dot = F_ext - f1(x2) - f2(x1)']")
     if isinstance(equations, Skeleton):
-        base = equations
         if constraints is None:
-            return base
-        return Skeleton(base, constraints)
+            return copy.deepcopy(equations)
+        return Skeleton(equations, constraints)
     if isinstance(equations, str):
         raise SkeletonError(
             "equations must be a list of strings, one per state, not a single string")
@@ -50,7 +54,7 @@ def build_skeleton(equations, constraints) -> Skeleton:
         hash(key)
     except TypeError:
         return Skeleton(equations, constraints)
-    return _cached_skeleton(key, _freeze_constraints(constraints))
+    return copy.deepcopy(_cached_skeleton(key, _freeze_constraints(constraints)))
 
 
 @lru_cache(maxsize=256)
@@ -115,6 +119,22 @@ class Problem:
     def free_params(self) -> list[str]:
         """Parameters to fit."""
         return [a for a in self.skeleton.params if a not in self.fixed_params]
+
+    def check_enough_rows(self) -> None:
+        """Refuse data with fewer residual values than scalar unknowns.
+
+        Every free parameter and every free curve needs at least one number
+        of its own; fewer residual values (samples times equations with
+        something to fit) leave the fit undetermined whatever the backend.
+        """
+        unknowns = [*self.free_params, *self.free_functions]
+        n = self.data.n_samples
+        values = n * len(self.active)
+        if values < len(unknowns):
+            raise ValueError(
+                f"n_samples = {n}: {values} residual value(s) for {len(unknowns)} unknowns "
+                f"({', '.join(unknowns)}), so the fit would be undetermined; give at least "
+                f"{-(-len(unknowns) // max(len(self.active), 1))} samples")
 
     @property
     def active(self) -> list[int]:
@@ -206,7 +226,14 @@ def gauge_skeleton(skeleton: Skeleton, gauge: str):
     constraints = {f: list(skeleton.constraints_of(f)) for f in skeleton.functions}
     fixed: dict[str, float] = {}
     zeroed: set[str] = set()
-    report = _cached_report(skeleton)
+    try:
+        report = _cached_report(skeleton)
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as error:
+        # the analysis is advice: a skeleton it cannot probe is still fitted
+        warnings.warn(f"the identifiability analysis could not probe this skeleton "
+                      f"({type(error).__name__}: {error}); it is fitted without a gauge",
+                      GaugeWarning, stacklevel=4)
+        return constraints, fixed, zeroed, {}
     if report.identifiable:
         return constraints, fixed, zeroed, {}
     if gauge == "raise":

@@ -4,26 +4,34 @@ from __future__ import annotations
 
 import copy
 import warnings
+from abc import ABCMeta, abstractmethod
 from collections.abc import Callable, Mapping
+from numbers import Integral
 
 import numpy as np
 import pandas as pd
-from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.metrics import r2_score
+from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
-from ..exceptions import ExtrapolationWarning
+from ..exceptions import DomainWarning, ExtrapolationWarning
 from ..measurements import read_record
 from ..measurements.columns import read_X, read_y
+from ..measurements.differentiation import (
+    DIFFERENTIATION_METHODS,
+    Differentiator,
+    resolve_differentiation,
+)
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
-from ..skeleton.nodes import Symbol
+from ..skeleton.nodes import Symbol, sum_terms
 from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
-from ._setup import Problem, build_skeleton, gauge_skeleton
+from ._setup import GAUGES, Problem, build_skeleton, gauge_skeleton
 
-__all__ = ["FIT_MODES", "CCRegressor"]
+__all__ = ["FIT_MODES", "RANDOM_STATES", "CCRegressor"]
 
 FIT_MODES = ("auto", "equation", "simulation")
 #: below this signal-to-noise ratio of the measured states, ``fit_mode="auto"`` refines the
@@ -32,6 +40,9 @@ AUTO_SIMULATION_SNR_DB = 45.0
 _NEEDS_TIME = "fit_mode='simulation' needs the time column 't' in X"
 #: fitted state of one fit's output-error stage, cleared when the estimator is fitted again
 _STAGE_ATTRIBUTES = ("shooting_", "_trained")
+#: what ``random_state`` may be: a Generator is honoured like a RandomState
+RANDOM_STATES = [None, Interval(Integral, 0, 2**32 - 1, closed="both"),
+                 np.random.RandomState, np.random.Generator]
 
 
 class EquationsView(list):
@@ -73,12 +84,15 @@ class _EquationsParameter:
         obj.__dict__["equations"] = value
 
 
-class CCRegressor(RegressorMixin, BaseEstimator):
-    """Base class of the characteristic-curve estimators.
+class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
+    """Abstract base class of the characteristic-curve estimators.
 
-    A backend only decides how an unknown curve ``f_i`` is represented and
-    fitted (:meth:`_fit_problem`); parsing, constraints, the gauge,
-    prediction, scoring and simulation live here.
+    It cannot be fitted itself: use :class:`PolyCCRegressor`,
+    :class:`NeuralCCRegressor` or :class:`SymbolicCCRegressor`. A backend
+    only decides how an unknown curve ``f_i`` is represented and fitted
+    (:meth:`_fit_problem`); parsing, constraints, the gauge, prediction,
+    scoring and simulation live here. Hyperparameters are keyword-only and
+    checked at the start of ``fit`` against ``_parameter_constraints``.
 
     Parameters
     ----------
@@ -164,7 +178,21 @@ class CCRegressor(RegressorMixin, BaseEstimator):
 
     equations = _EquationsParameter()
 
-    def __init__(self, equations=None, constraints=None, gauge: str = "auto",
+    #: checked at the start of ``fit`` (scikit-learn's parameter validation);
+    #: each backend extends it with its own hyperparameters
+    _parameter_constraints: dict = {
+        "equations": [list, tuple, Skeleton, None],
+        "constraints": [list, tuple, None],
+        "gauge": [StrOptions(set(GAUGES))],
+        "differentiation": [StrOptions(set(DIFFERENTIATION_METHODS)), dict, Differentiator,
+                            HasMethods(["d"]), callable],
+        "smooth_states": ["boolean"],
+        "fit_mode": [StrOptions(set(FIT_MODES))],
+        "shooting_window": [Interval(Integral, 2, None, closed="left")],
+        "shooting_iterations": [Interval(Integral, 1, None, closed="left")],
+    }
+
+    def __init__(self, *, equations=None, constraints=None, gauge: str = "auto",
                  differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30) -> None:
@@ -178,11 +206,9 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         self.shooting_iterations = shooting_iterations
 
     # -- to be provided by a backend ---------------------------------------
+    @abstractmethod
     def _fit_problem(self, problem: Problem) -> tuple[dict[str, Callable], dict[str, float]]:
         """Fit the free curves and parameters; return ``(functions, params)``."""
-        raise NotImplementedError(
-            "CCRegressor is the shared base class: use PolyCCRegressor, NeuralCCRegressor "
-            "or SymbolicCCRegressor")
 
     def _fit_simulation(self, problem: Problem, functions: dict, params: dict, plan):
         """Refine an equation-error fit by output error.
@@ -259,6 +285,10 @@ class CCRegressor(RegressorMixin, BaseEstimator):
             f"{record.snr_db:.0f} dB is below {AUTO_SIMULATION_SNR_DB:g} dB, where estimated "
             "derivatives bias the fit)")
 
+    def _check_params(self) -> None:
+        """Cross-checks of hyperparameters the constraints cannot express (a backend's)."""
+
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):
         """Fit the unknown curves and parameters of the skeleton.
 
@@ -280,7 +310,11 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         """
         for stale in _STAGE_ATTRIBUTES:  # a refit in another mode must not keep them
             self.__dict__.pop(stale, None)
+        # every hyperparameter is checked before any data work
+        self._check_params()
+        resolve_differentiation(self.differentiation)
         problem = self._problem(X, y)
+        problem.check_enough_rows()
         plan = None
         if self.fit_mode_ == "simulation":
             from ._shooting import ShootingPlan, check_iterations
@@ -368,7 +402,10 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         """
         system = self._system()
         data = read_X(self, X, self.skeleton_.variables, reset=False)
-        pred = system.evaluate(data.columns, data.n_samples)
+        with np.errstate(all="ignore"):
+            pred = system.evaluate(data.columns, data.n_samples)
+        if not np.isfinite(pred).all():
+            self._warn_not_finite(data.columns, pred)
         if self._y_1d:
             return pred[:, 0]
         return pred
@@ -382,7 +419,17 @@ class CCRegressor(RegressorMixin, BaseEstimator):
         pred = np.asarray(self.predict(X))
         pred = pred[:, None] if pred.ndim == 1 else pred
         truth = read_y(y, self.skeleton_.derivatives, pred.shape[0])
-        return float(r2_score(truth, pred, sample_weight=sample_weight))
+        bad = ~np.isfinite(pred)
+        if bad.any():
+            raise ValueError(
+                f"score: the predicted derivatives are NaN or infinite at "
+                f"{int(bad.any(axis=1).sum())} of {pred.shape[0]} rows (see the DomainWarning "
+                "predict gave), so R^2 has no value")
+        # R^2 is the same for each column scaled by its largest value; the sums of
+        # squares of data near 1e300 overflow unscaled
+        scale = np.max(np.abs(truth), axis=0)
+        scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+        return float(r2_score(truth / scale, pred / scale, sample_weight=sample_weight))
 
     def simulate(
         self,
@@ -463,6 +510,38 @@ class CCRegressor(RegressorMixin, BaseEstimator):
             if not return_derivatives:
                 frame = frame[["t", *self.skeleton_.states]]
         return frame
+
+    def _warn_not_finite(self, columns: Mapping, pred: np.ndarray) -> None:
+        """Warn that predictions are NaN or infinite, naming the equation and the term."""
+        slots = {name: i for i, name in enumerate(columns)}
+        env = [np.asarray(columns[name], dtype=float) for name in columns]
+        found = []
+        for j, eq in enumerate(self.skeleton_.parsed):
+            bad = ~np.isfinite(pred[:, j])
+            if not bad.any():
+                continue
+            row = int(np.flatnonzero(bad)[0])
+            culprit = to_text(eq.expression)
+            for term in sum_terms(eq.expression):
+                try:
+                    with np.errstate(all="ignore"):
+                        values = compile_expression(term, slots, self.params_,
+                                                    self.functions_)(env)
+                except KeyError:  # a derivative of an implicit equation: not a column
+                    continue
+                values = np.broadcast_to(np.asarray(values, dtype=float), bad.shape)
+                if not np.isfinite(values[row]):
+                    culprit = to_text(term)
+                    break
+            at = ", ".join(f"{name}={columns[name][row]:.4g}" for name in columns
+                           if name in eq.symbols())
+            found.append(f"equations[{eq.index}] ({eq.derivative}) at {int(bad.sum())} of "
+                         f"{bad.size} rows, first at row {row} ({at}): the term '{culprit}' "
+                         "is not finite there")
+        warnings.warn(
+            "predict returns NaN or infinite values: " + "; ".join(found) + ". The inputs "
+            "leave a function's domain (sqrt, log, arcsin, ...) or overflow.",
+            DomainWarning, stacklevel=3)
 
     def _warn_outside_domain(self, frame: pd.DataFrame, watched: Mapping) -> None:
         """Warn once if the trajectory takes curves beyond their training range."""

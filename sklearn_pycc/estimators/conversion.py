@@ -9,9 +9,9 @@ import numpy as np
 import pandas as pd
 import sympy
 from sklearn.base import clone
-from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
+from .._random import seeds
 from ..exceptions import GaugeWarning
 from ._basis import ZeroCurve
 from ._setup import build_skeleton, gauge_skeleton, parity_of, points_of
@@ -149,7 +149,7 @@ def to_symbolic(
         engine_options=engine_options, random_state=random_state)
     target._check_params()
     search = make_engine(engine)
-    rng = check_random_state(random_state)
+    rng = seeds(random_state)
     constraints, fixed, zeroed = _gauged(model)
     free = [f for f in model.skeleton_.functions if f not in zeroed]
     problem = residuals = None
@@ -162,7 +162,7 @@ def to_symbolic(
     checks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     pareto, summary = {}, []
     for name in free:
-        seed = int(rng.randint(0, 2**31 - 1))
+        seed = next(rng)
         grid, learned = _grid(model, name, n_points)
         # candidates are judged between the search's points too: an expression that
         # swings between them (sin of a steep tanh) matches the samples, not the curve

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 from scipy.interpolate import Akima1DInterpolator, CubicSpline, PchipInterpolator
 from sklearn.base import clone
+from sklearn.utils._param_validation import Interval, StrOptions
 
 from ._basis import ZeroCurve
 from ._setup import Problem
@@ -195,7 +196,15 @@ class InterpolatedCCRegressor(CCRegressor):
         Each curve's table, columns ``x`` and the curve's name.
     """
 
-    def __init__(self, equations=None, constraints=None, estimator=None, n_points: int = 200,
+    _parameter_constraints: dict = {
+        **{k: v for k, v in CCRegressor._parameter_constraints.items()
+         if k not in ("fit_mode", "shooting_window", "shooting_iterations")},
+        "estimator": [CCRegressor, None],
+        "n_points": [Interval(Integral, 2, None, closed="left")],
+        "method": [StrOptions(set(INTERPOLATIONS))],
+    }
+
+    def __init__(self, *, equations=None, constraints=None, estimator=None, n_points: int = 200,
                  method: str = "pchip", gauge: str = "auto", differentiation="auto",
                  smooth_states: bool = True) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,

@@ -3,17 +3,18 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from contextlib import contextmanager
 from numbers import Integral, Real
 
 import numpy as np
-from sklearn.utils import check_random_state
+from sklearn.utils._param_validation import Interval, StrOptions
 
+from .._random import seeds
+from .._threads import torch_threads
 from ._activations import ACTIVATIONS
 from ._basis import ZeroCurve
 from ._numpy_mlp import EXTRAPOLATIONS, NumpyCurve
 from ._setup import Problem, active_residuals
-from .base import CCRegressor
+from .base import RANDOM_STATES, CCRegressor
 
 __all__ = ["NeuralCCRegressor"]
 
@@ -64,22 +65,6 @@ def resolve_device(device) -> str:
         raise ValueError(f"device={device!r}, but torch finds no XPU "
                          "(torch.xpu is missing or unavailable); use 'cpu' or 'auto'")
     return device
-
-
-@contextmanager
-def torch_threads(n: int | None):
-    """Run the block with ``n`` intra-op torch threads, restoring the setting after."""
-    import torch
-
-    if n is None:
-        yield
-        return
-    previous = torch.get_num_threads()
-    torch.set_num_threads(n)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(previous)
 
 
 class NeuralCCRegressor(CCRegressor):
@@ -197,7 +182,32 @@ default="lbfgs"
     #: quasi-Newton iterations per epoch with optimizer="lbfgs" (torch's default)
     _lbfgs_iterations = 20
 
-    def __init__(self, equations=None, constraints=None, hidden_layer_sizes=(16, 16),
+    _parameter_constraints: dict = {
+        **CCRegressor._parameter_constraints,
+        "hidden_layer_sizes": [tuple, list, Interval(Integral, 1, None, closed="left")],
+        "activation": [StrOptions(set(ACTIVATIONS))],
+        "optimizer": [StrOptions(set(OPTIMIZERS)), type],
+        "lr": [Interval(Real, 0, None, closed="neither"), None],
+        "max_epochs": [Interval(Integral, 1, None, closed="left")],
+        "batch_size": [Interval(Integral, 1, None, closed="left"), None],
+        "early_stopping": ["boolean"],
+        "patience": [Interval(Integral, 1, None, closed="left")],
+        "tol": [Interval(Real, 0, None, closed="left")],
+        "validation_fraction": [Interval(Real, 0, 1, closed="neither"), None],
+        "constraint_mode": [StrOptions(set(CONSTRAINT_MODES))],
+        "constraint_weight": [Interval(Real, 0, None, closed="left")],
+        "param_init": [dict, None],
+        "extrapolation": [StrOptions(set(EXTRAPOLATIONS))],
+        "dtype": [StrOptions(set(DTYPES))],
+        "device": [str],
+        "n_threads": [Interval(Integral, 1, None, closed="left"), None],
+        "callbacks": [list, tuple, None],
+        "shooting_start_epochs": [Interval(Integral, 1, None, closed="left"), None],
+        "random_state": RANDOM_STATES,
+        "verbose": ["verbose"],
+    }
+
+    def __init__(self, *, equations=None, constraints=None, hidden_layer_sizes=(16, 16),
                  activation: str = "tanh", optimizer="lbfgs", lr: float | None = None,
                  max_epochs: int = 100, batch_size: int | None = None,
                  early_stopping: bool = True, patience: int = 5, tol: float = 1e-4,
@@ -282,7 +292,7 @@ default="lbfgs"
         checked["max_epochs"] = _positive_int(self.max_epochs, "max_epochs")
         start = _positive_int(self.shooting_start_epochs, "shooting_start_epochs",
                               allow_none=True)
-        if self.fit_mode_ == "simulation" and start is not None:
+        if getattr(self, "fit_mode_", None) == "simulation" and start is not None:
             checked["max_epochs"] = min(checked["max_epochs"], start)
         checked["batch_size"] = _positive_int(self.batch_size, "batch_size", allow_none=True)
         checked["patience"] = _positive_int(self.patience, "patience")
@@ -332,7 +342,7 @@ default="lbfgs"
 
         dtype = getattr(torch, self.dtype)
         device = checked["device"]
-        seed = int(check_random_state(self.random_state).randint(0, 2**31 - 1))
+        seed = next(seeds(self.random_state))
         slots, columns = problem.environment()
         curves = {f: self._curve_spec(problem, f, params0) for f in problem.free_functions}
         data = np.column_stack(columns)
@@ -394,7 +404,7 @@ default="lbfgs"
         if not np.isfinite(self.loss_):
             raise FloatingPointError(
                 "training diverged: the loss is not finite. Lower lr, scale the data, or "
-                "give param_init values closer to the truth")
+                "give param_init values closer to the truth" + _domain_hint(problem))
         if self.fit_mode_ == "simulation":
             self._trained = (module, X, checked["n_threads"])
         return functions, params
@@ -457,6 +467,24 @@ default="lbfgs"
 
 def _silent(*args, **kwargs) -> None:
     return None
+
+
+_LIMITED_DOMAINS = ("sqrt", "log", "log10", "arcsin", "arccos", "asin", "acos")
+
+
+def _domain_hint(problem: Problem) -> str:
+    """Advice when a parameter sits inside a function defined on part of the line only."""
+    from ..skeleton.nodes import Apply, Param, walk
+
+    inside = sorted({n.name for eq in problem.skeleton.parsed for node in walk(eq.residual)
+                     if isinstance(node, Apply) and node.func in _LIMITED_DOMAINS
+                     for n in walk(node.arg) if isinstance(n, Param)}
+                    - set(problem.bounds) - set(problem.fixed_params))
+    if not inside:
+        return ""
+    return (f"; {' and '.join(inside)} sit inside a function defined on part of the line only "
+            f"(sqrt, log, arcsin, ...): a bound such as '{inside[0]} >= 0' keeps training "
+            "inside its domain")
 
 
 def _inside(bounds: tuple[float, float] | None) -> float:

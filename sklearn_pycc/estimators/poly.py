@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping
-from numbers import Integral
+from numbers import Integral, Real
 
 import numpy as np
 from scipy.linalg import null_space
 from scipy.optimize import least_squares
+from sklearn.utils._param_validation import Interval, StrOptions
 
 from .._threads import blas_threads
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
@@ -17,7 +18,7 @@ from ._linear import curve_arguments, linearize, split_parameters
 from ._lstsq import bounded_lstsq, constrained_lstsq
 from ._setup import Problem
 from ._shooting import ShootingPlan, fit_shooting
-from .base import CCRegressor
+from .base import RANDOM_STATES, CCRegressor
 
 __all__ = ["PolyCCRegressor"]
 
@@ -192,7 +193,16 @@ class PolyCCRegressor(CCRegressor):
     1.0
     """
 
-    def __init__(self, equations=None, constraints=None, degree=7, basis: str = "legendre",
+    _parameter_constraints: dict = {
+        **CCRegressor._parameter_constraints,
+        "degree": [Interval(Integral, 0, None, closed="left"), dict],
+        "basis": [StrOptions(set(BASES))],
+        "alpha": [Interval(Real, 0, None, closed="left")],
+        "param_init": [dict, None],
+        "random_state": RANDOM_STATES,
+    }
+
+    def __init__(self, *, equations=None, constraints=None, degree=7, basis: str = "legendre",
                  alpha: float = 0.0, param_init: Mapping | None = None, gauge: str = "auto",
                  differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,

@@ -9,18 +9,25 @@ import numpy as np
 import pandas as pd
 import sympy
 from scipy.optimize import least_squares
-from sklearn.utils import check_random_state
+from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
+from .._random import seeds
 from ..exceptions import SkeletonError
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import Unknown, walk
 from ._basis import ZeroCurve
 from ._setup import Problem, active_residuals
 from ._symbolic_curves import VARIABLE, SymbolicCurve, Template, with_constants
-from ._symbolic_engines import BINARY_OPERATORS, UNARY_OPERATORS, Candidate, make_engine
+from ._symbolic_engines import (
+    BINARY_OPERATORS,
+    ENGINES,
+    UNARY_OPERATORS,
+    Candidate,
+    make_engine,
+)
 from ._sympy_skeleton import to_sympy
-from .base import CCRegressor
+from .base import RANDOM_STATES, CCRegressor
 
 __all__ = ["SymbolicCCRegressor"]
 
@@ -305,7 +312,26 @@ class SymbolicCCRegressor(CCRegressor):
         Equation loss after each round.
     """
 
-    def __init__(self, equations=None, constraints=None, engine: str = "operon",
+    _parameter_constraints: dict = {
+        **{k: v for k, v in CCRegressor._parameter_constraints.items()
+         if k not in ("fit_mode", "shooting_window", "shooting_iterations")},
+        "engine": [StrOptions(set(ENGINES))],
+        "binary_operators": [list, tuple],
+        "unary_operators": [list, tuple],
+        "maxsize": [Interval(Integral, 1, None, closed="left")],
+        "population_size": [Interval(Integral, 1, None, closed="left")],
+        "generations": [Interval(Integral, 1, None, closed="left")],
+        "max_iterations": [Interval(Integral, 1, None, closed="left")],
+        "tol": [Interval(Real, 0, None, closed="left")],
+        "n_fit_points": [Interval(Integral, 1, None, closed="left")],
+        "model_selection": [StrOptions(set(MODEL_SELECTIONS))],
+        "start_degree": [Interval(Integral, 0, None, closed="left"), None],
+        "engine_options": [dict, None],
+        "param_init": [dict, None],
+        "random_state": RANDOM_STATES,
+    }
+
+    def __init__(self, *, equations=None, constraints=None, engine: str = "operon",
                  binary_operators: Sequence[str] = ("+", "-", "*"),
                  unary_operators: Sequence[str] = ("tanh", "sin", "cos"),
                  maxsize: int = 20, population_size: int = 500, generations: int = 50,
@@ -384,7 +410,7 @@ class SymbolicCCRegressor(CCRegressor):
     def _fit_problem(self, problem: Problem):
         self._check_params()
         engine = make_engine(self.engine)
-        rng = check_random_state(self.random_state)
+        rng = seeds(self.random_state)
         residuals = _Residuals(problem)
         functions, params = self._start(problem)
         free = problem.free_functions
@@ -396,7 +422,7 @@ class SymbolicCCRegressor(CCRegressor):
         for n_rounds in range(1, int(self.max_iterations) + 1):  # noqa: B007
             before = loss
             for name in free:
-                seed = int(rng.randint(0, 2**31 - 1))
+                seed = next(rng)
                 chosen = self._search_curve(engine, problem, residuals, name, functions,
                                             params, seed)
                 if chosen is None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Collection, Sequence
 
 import numpy as np
@@ -58,7 +59,9 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X",
 
     A DataFrame is read by column name; an array's columns (and those of a
     DataFrame whose column names are not all strings) are called
-    ``x0, x1, ...``. Columns the skeleton does not use are left alone.
+    ``x0, x1, ...``, and are refused for a skeleton that reads ``x1`` but
+    not ``x0`` (its columns would be read shifted by one). Columns the
+    skeleton does not use are left alone.
     ``t`` and ``trajectory`` are read when present. Names in ``optional``
     may be missing. With ``estimator=None`` nothing is recorded about ``X``
     (``validate_data`` is for estimators learning their input).
@@ -93,6 +96,8 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X",
             values = _numeric(X[TIME], f"{who} column 't'")
             _finite_column(values, f"{who} column 't'", trajectory)
             columns[TIME] = values
+        if estimator is not None and reset:
+            _warn_if_standardised(columns, who)
         return FitData(columns, len(X), trajectory)
     if estimator is None:
         array = check_array(X, dtype=np.float64, ensure_all_finite=False, ensure_2d=True,
@@ -101,6 +106,7 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X",
         array = validate_data(estimator, X, reset=reset, dtype=np.float64,
                               ensure_all_finite=False, ensure_2d=True, copy=True)
     names = [f"x{j}" for j in range(array.shape[1])]
+    _check_array_naming(needed, optional, array.shape[1], who)
     columns = {}
     for name in needed:
         if name not in names and name in optional:
@@ -114,6 +120,49 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X",
         _finite_column(values, f"{who} column {name!r}")
         columns[name] = values
     return FitData(columns, array.shape[0])
+
+
+def _warn_if_standardised(columns: dict[str, np.ndarray], who: str) -> None:
+    """Warn when the variables arrive standardised (a scaler in front of the estimator).
+
+    A skeleton's variables are physical quantities: ``x1_dot = x2`` holds for
+    a position and its velocity, not for each divided by its own spread, so
+    a ``StandardScaler`` in a pipeline silently changes the physics fitted.
+    """
+    scaled = []
+    for name, values in columns.items():
+        if name == TIME or values.size < 3:
+            continue
+        spread = float(np.std(values))
+        if abs(float(np.mean(values))) < 1e-9 and abs(spread - 1.0) < 1e-9:
+            scaled.append(name)
+    if scaled:
+        warnings.warn(
+            f"{who} columns {', '.join(scaled)} have mean 0 and standard deviation 1 exactly, "
+            "as a StandardScaler leaves them. The skeleton's variables are physical "
+            "quantities: scaling them changes the equations (x1_dot = x2 no longer holds "
+            "between scaled columns) and the fitted curves and parameters. Drop the scaler, "
+            "or write the scales into the skeleton.", UserWarning, stacklevel=4)
+
+
+def _check_array_naming(needed: Sequence[str], optional: Collection[str], width: int,
+                        who: str) -> None:
+    """Refuse an array for a skeleton that numbers its variables from 1.
+
+    An array's columns are called ``x0, x1, ...``: a skeleton reading ``x1``
+    and ``x2`` but not ``x0`` would silently skip the first column and read
+    the others shifted by one.
+    """
+    numbered = sorted((n for n in needed if n[:1] == "x" and n[1:].isdigit()
+                       and n not in optional), key=lambda n: int(n[1:]))
+    if numbered and "x0" not in needed:
+        others = [n for n in needed if n not in numbered and n not in optional]
+        wanted = ", ".join(repr(n) for n in [*numbered, *others])
+        raise ValueError(
+            f"{who} is an array, whose {width} columns are called x0, x1, ...; the skeleton "
+            f"reads {', '.join(numbered)} but not x0, so the columns would be read shifted by "
+            f"one. Pass a DataFrame with named columns, e.g. pd.DataFrame({who}, "
+            f"columns=[{wanted}]) in the order of your array")
 
 
 def read_y(y, derivatives: Sequence[str], n_samples: int, *, with_ndim: bool = False):

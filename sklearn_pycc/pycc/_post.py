@@ -73,7 +73,19 @@ def post_processing(equations, method: str = "SymbR", params: dict | None = None
                          f"equations once ({', '.join(skeleton.functions)})")
     tables = pair_evals(read["evals"], names, where)
     coefs = dict(read["obtained_coefs"] or {})
-    values = {name: float(np.asarray(coefs.get(name, np.nan))) for name in skeleton.params}
+    missing = [name for name in skeleton.params if name not in coefs]
+    if missing:
+        raise ValueError(
+            f"{where}: the equations have the parameter(s) {', '.join(missing)} but "
+            "params['obtained_coefs'] gives no value for them: pass the coefficients "
+            "pycc.train returned (its third value)")
+    values = {}
+    for name in skeleton.params:
+        value = np.asarray(coefs[name], dtype=float)
+        if value.size != 1 or not np.isfinite(value).all():
+            raise ValueError(f"{where}: obtained_coefs[{name!r}] must be one finite number, "
+                             f"got {coefs[name]!r}")
+        values[name] = float(value.reshape(()))
     tabulated = from_tables(list(equations), tables, values, read["constraints"])
     settings = symbolic_settings(read["pysr"], where)
     model = to_symbolic(tabulated, random_state=read["random_state"], **settings)

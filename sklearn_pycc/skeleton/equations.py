@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..exceptions import SkeletonError
+from .functions import CONSTANTS, ELEMENTARY, is_param_name, is_unknown_name
 from .nodes import BinOp, Node, Param, Symbol, Unknown, walk
 
 __all__ = ["DOT", "Equation", "classify", "derivative_of", "state_of"]
@@ -96,6 +97,19 @@ def _positions(node: Node, name: str) -> int:
     return -1
 
 
+def _reserved_meaning(name: str) -> str | None:
+    """What ``name`` already means in the skeleton language, if anything."""
+    if name in CONSTANTS:
+        return f"the constant {name} = {CONSTANTS[name]:.6g}"
+    if name in ELEMENTARY:
+        return f"the function {name}()"
+    if is_param_name(name):
+        return "an unknown parameter (a1, a2, ...)"
+    if is_unknown_name(name):
+        return "an unknown curve (f1, f2, ...)"
+    return None
+
+
 def classify(parsed: list[tuple[str, Node, Node]]) -> list[Equation]:
     """Decide which derivative each equation determines and check the system.
 
@@ -116,6 +130,13 @@ def classify(parsed: list[tuple[str, Node, Node]]) -> list[Equation]:
             if isinstance(node, Symbol) and state_of(node.name) == TIME:
                 raise SkeletonError("'t' is time and has no derivative", equation=index,
                                     position=node.pos, text=text)
+            if isinstance(node, Symbol) and state_of(node.name) is not None:
+                clash = _reserved_meaning(state_of(node.name))
+                if clash:
+                    raise SkeletonError(
+                        f"the state {state_of(node.name)!r} is named like {clash}, so the "
+                        "right-hand sides could not read it: rename the state",
+                        equation=index, position=node.pos, text=text)
         if isinstance(lhs, Symbol) and state_of(lhs.name) is not None:
             in_rhs = any(isinstance(n, Symbol) and n.name == lhs.name for n in walk(rhs))
             if not in_rhs:

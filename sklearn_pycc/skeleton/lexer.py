@@ -8,6 +8,7 @@ colons, ...) is an error, so no Python construct can be smuggled through.
 from __future__ import annotations
 
 import keyword
+import math
 from dataclasses import dataclass
 
 from ..exceptions import SkeletonError
@@ -15,6 +16,10 @@ from ..exceptions import SkeletonError
 __all__ = ["Token", "tokenize"]
 
 _OPERATORS = {"+", "-", "*", "/", "^", "(", ")", "=", ","}
+#: only these digits make numbers (``str.isdigit`` also accepts Arabic-Indic,
+#: fullwidth and superscript digits)
+_DIGITS = frozenset("0123456789")
+_SUPERSCRIPTS = frozenset("⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 
 @dataclass(frozen=True)
@@ -34,21 +39,33 @@ def _scan_number(text: str, i: int) -> int:
     """Return the end offset of the number starting at ``i``."""
     n = len(text)
     j = i
-    while j < n and text[j].isdigit():
+    while j < n and text[j] in _DIGITS:
         j += 1
     if j < n and text[j] == ".":
         j += 1
-        while j < n and text[j].isdigit():
+        while j < n and text[j] in _DIGITS:
             j += 1
     if j < n and text[j] in "eE":
         k = j + 1
         if k < n and text[k] in "+-":
             k += 1
-        if k < n and text[k].isdigit():
-            while k < n and text[k].isdigit():
+        if k < n and text[k] in _DIGITS:
+            while k < n and text[k] in _DIGITS:
                 k += 1
             j = k
     return j
+
+
+def _check_number(text: str, start: int, end: int, index: int | None, kind: str) -> None:
+    """Refuse literals that overflow to infinity or underflow to zero."""
+    value = float(text[start:end])
+    if math.isinf(value):
+        raise _error(f"the number {text[start:end]} is too large for double precision",
+                     text, start, index, kind)
+    mantissa = text[start:end].lower().split("e")[0]
+    if value == 0.0 and any(c in "123456789" for c in mantissa):
+        raise _error(f"the number {text[start:end]} is too small for double precision "
+                     "(it would be read as 0)", text, start, index, kind)
 
 
 def tokenize(text: str, index: int | None = None, kind: str = "equations") -> list[Token]:
@@ -74,19 +91,30 @@ def tokenize(text: str, index: int | None = None, kind: str = "equations") -> li
         ch = text[i]
         if ch.isspace():
             i += 1
-        elif ch.isdigit() or (ch == "." and i + 1 < n and text[i + 1].isdigit()):
+        elif ch in _DIGITS or (ch == "." and i + 1 < n and text[i + 1] in _DIGITS):
             j = _scan_number(text, i)
             if j < n and text[j] == ".":
                 raise _error("malformed number", text, j, index, kind)
+            _check_number(text, i, j, index, kind)
             tokens.append(Token("NUMBER", text[i:j], i))
             i = j
+        elif ch in _SUPERSCRIPTS:
+            raise _error(f"superscript {ch!r} is not a power: write '^2' or '**2'", text, i,
+                         index, kind)
+        elif ch.isdigit():
+            raise _error(f"numbers are written with the digits 0-9, got {ch!r}", text, i,
+                         index, kind)
         elif ch.isalpha() or ch == "_":
             j = i
             while j < n and (text[j].isalnum() or text[j] == "_"):
                 j += 1
             name = text[i:j]
             if not name.isascii():
-                raise _error(f"names must be ASCII, got {name!r}", text, i, index, kind)
+                odd = next(k for k in range(i, j) if not text[k].isascii())
+                hint = (": a superscript is not a power, write '^2'"
+                        if text[odd] in _SUPERSCRIPTS else "")
+                raise _error(f"names must be ASCII, got {name!r}{hint}", text, odd, index,
+                             kind)
             if name.startswith("__"):
                 raise _error(f"names may not start with '__' ({name!r})", text, i, index, kind)
             if keyword.iskeyword(name) or keyword.issoftkeyword(name):

@@ -17,12 +17,20 @@ parameter or a variable followed by a space and ``(`` multiplies
 
 from __future__ import annotations
 
+import math
+
 from ..exceptions import SkeletonError
 from .functions import CONSTANTS, ELEMENTARY, is_param_name, is_unknown_name
 from .lexer import Token, tokenize
 from .nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
 
-__all__ = ["parse_equation", "parse_expression"]
+__all__ = ["MAX_DEPTH", "MAX_NESTING", "parse_equation", "parse_expression"]
+
+#: most parentheses, calls and powers nested inside one another
+MAX_NESTING = 40
+#: deepest expression tree accepted (a sum or product of n factors is n levels
+#: deep): every walk over a skeleton stays far from Python's recursion limit
+MAX_DEPTH = 120
 
 
 class _Parser:
@@ -32,6 +40,7 @@ class _Parser:
         self.kind = kind
         self.tokens = tokenize(text, index, kind)
         self.i = 0
+        self.nesting = 0
 
     # -- helpers -----------------------------------------------------------
     @property
@@ -60,6 +69,12 @@ class _Parser:
         if self.is_op(","):
             raise self.error("functions take exactly one argument", self.tok.pos)
         raise self.error(f"expected ')' but found {self.tok.text!r}", self.tok.pos)
+
+    def enter(self, pos: int) -> None:
+        self.nesting += 1
+        if self.nesting > MAX_NESTING:
+            raise self.error(f"nested more than {MAX_NESTING} levels deep (parentheses, "
+                             "function calls and powers)", pos)
 
     # -- grammar -------------------------------------------------------------
     def equation(self) -> tuple[Node, Node]:
@@ -124,19 +139,22 @@ class _Parser:
                 return node
 
     def unary(self) -> Node:
-        if self.is_op("-"):
+        negative, first = False, None
+        while self.is_op("-", "+"):  # a run of signs folds into at most one minus
             op = self.advance()
-            return Neg(self.unary(), pos=op.pos)
-        if self.is_op("+"):
-            self.advance()
-            return self.unary()
-        return self.power()
+            first = op.pos if first is None else first
+            negative ^= op.text == "-"
+        node = self.power()
+        return Neg(node, pos=first) if negative else node
 
     def power(self) -> Node:
         base = self.primary()
         if self.is_op("^"):
             op = self.advance()
-            return BinOp("^", base, self.unary(), pos=op.pos)
+            self.enter(op.pos)
+            exponent = self.unary()
+            self.nesting -= 1
+            return BinOp("^", base, exponent, pos=op.pos)
         return base
 
     def primary(self) -> Node:
@@ -150,7 +168,9 @@ class _Parser:
             self.advance()
             if self.is_op(")"):
                 raise self.error("empty parentheses", tok.pos)
+            self.enter(tok.pos)
             node = self.expr()
+            self.nesting -= 1
             self.expect_close(tok.pos)
             return node
         raise self.unexpected()
@@ -159,7 +179,9 @@ class _Parser:
         open_tok = self.advance()  # '('
         if self.is_op(")"):
             raise self.error(f"{name_tok.text}() needs an argument", open_tok.pos)
+        self.enter(open_tok.pos)
         arg = self.expr()
+        self.nesting -= 1
         self.expect_close(open_tok.pos)
         return arg
 
@@ -196,6 +218,77 @@ class _Parser:
             return Number(CONSTANTS[name], pos=tok.pos)
         return Symbol(name, pos=tok.pos)
 
+    def checked(self, node: Node) -> Node:
+        """``node`` once its depth and its constant parts are known to be sound."""
+        depth = {}
+        for current in _post_order(node):
+            below = [depth[id(c)] for c in current.children()]
+            depth[id(current)] = 1 + max(below, default=0)
+            if depth[id(current)] > MAX_DEPTH:
+                raise self.error(
+                    f"the expression is more than {MAX_DEPTH} levels deep (each term of a "
+                    "sum and each factor of a product is one level): split it or use "
+                    "fewer terms", max(current.pos, 0))
+        _check_constants(node, self.error)
+        return node
+
+
+def _post_order(node: Node) -> list[Node]:
+    """Every node of ``node``, children before their parent, without recursion."""
+    order, stack = [], [node]
+    while stack:
+        current = stack.pop()
+        order.append(current)
+        stack.extend(current.children())
+    return order[::-1]
+
+
+def _binary(op: str, left: float, right: float) -> float:
+    if op == "+":
+        return left + right
+    if op == "-":
+        return left - right
+    if op == "*":
+        return left * right
+    if op == "/":
+        return left / right
+    return math.pow(left, right)
+
+
+def _check_constants(node: Node, error) -> None:
+    """Evaluate every part of ``node`` made of numbers only; refuse what has no value.
+
+    ``log(-1)``, ``sqrt(-1)``, ``1/0``, ``exp(1000)`` or ``(-8)^(1/3)`` have no
+    finite real value, so a skeleton containing them describes nothing.
+    """
+    values: dict[int, float] = {}
+    for current in _post_order(node):
+        children = current.children()
+        if isinstance(current, Number):
+            values[id(current)] = current.value
+            continue
+        if isinstance(current, BinOp) and current.op == "/" and \
+                values.get(id(current.right)) == 0.0:
+            raise error("division by a constant zero", max(current.pos, 0))
+        if isinstance(current, (Symbol, Param, Unknown)) or \
+                any(id(c) not in values for c in children):
+            continue
+        args = [values[id(c)] for c in children]
+        try:
+            if isinstance(current, Neg):
+                value = -args[0]
+            elif isinstance(current, Apply):
+                value = ELEMENTARY[current.func][1](args[0])
+            else:
+                value = _binary(current.op, args[0], args[1])
+        except (ValueError, ZeroDivisionError, OverflowError):
+            value = math.nan
+        if not (isinstance(value, float | int) and math.isfinite(value)):
+            from .printer import to_text
+
+            raise error(f"the constant {to_text(current)} has no finite real value",
+                        max(current.pos, 0))
+        values[id(current)] = float(value)
 
 def parse_equation(
     text: str, index: int | None = None, kind: str = "equations"
@@ -225,11 +318,14 @@ def parse_equation(
         raise SkeletonError(
             f"each equation must be a string, got {type(text).__name__}", equation=index
         )
-    return _Parser(text, index, kind).equation()
+    parser = _Parser(text, index, kind)
+    lhs, rhs = parser.equation()
+    return parser.checked(lhs), parser.checked(rhs)
 
 
 def parse_expression(text: str, index: int | None = None, kind: str = "terms") -> Node:
     """Parse a bare expression such as ``"a7 sign(x2)"``."""
     if not isinstance(text, str):
         raise SkeletonError(f"expected a string, got {type(text).__name__}", equation=index)
-    return _Parser(text, index, kind).expression_only()
+    parser = _Parser(text, index, kind)
+    return parser.checked(parser.expression_only())

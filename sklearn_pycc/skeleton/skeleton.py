@@ -12,6 +12,7 @@ from ..exceptions import SkeletonError
 from ..simulation import (
     DEFAULT_MAX_STEPS,
     InputSignals,
+    check_solver_options,
     check_time_grid,
     integrate_sampled,
     integrate_system,
@@ -398,6 +399,7 @@ def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method=None, 
     and everything else by LSODA.
     """
     t = check_time_grid(t)
+    check_solver_options(rtol, atol, solver_options)
     y0 = np.asarray(y0, dtype=float)
     if y0.ndim != 1 or len(y0) != len(system.states):
         raise ValueError(
