@@ -10,7 +10,7 @@ STAMP := $(VENV)/.installed
 DOCS_STAMP := $(VENV)/.docs-installed
 NPROC := $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: install test test-slow demo lint docs docs-noplot bench clean
+.PHONY: install test test-slow demo lint docs docs-noplot bench bench-full clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -50,17 +50,22 @@ lint: $(STAMP)
 	$(BIN)/ruff check sklearn_pycc tests examples asv_benchmarks docs
 
 # compare.py: side-by-side timings against reference implementations (it
-# reports, never fails); then the asv suite, once (--quick), in .venv itself
-# ("existing" environment: nothing is built or downloaded). Results go to
-# asv_benchmarks/results (saved under the current commit); see them again
-# with `cd asv_benchmarks && ../.venv/bin/asv show`.
+# reports, never fails): the main lines by default (under ten minutes on two
+# cores with the asv run), every line with `make bench-full`; then the asv
+# suite, once (--quick), in .venv itself ("existing" environment: nothing is
+# built or downloaded). Results go to asv_benchmarks/results (saved under the
+# current commit); see them again with `cd asv_benchmarks && ../.venv/bin/asv show`.
+BENCH_FLAGS ?=
 bench: $(STAMP)
 	$(PIP) install "asv>=0.6"
-	$(BIN)/python asv_benchmarks/compare.py
+	$(BIN)/python asv_benchmarks/compare.py $(BENCH_FLAGS)
 	cd asv_benchmarks && $(CURDIR)/$(BIN)/asv machine --yes > /dev/null
 	cd asv_benchmarks && commit=$$(git rev-parse HEAD 2>/dev/null); \
 	  $(CURDIR)/$(BIN)/asv run -E existing:$(CURDIR)/$(BIN)/python --quick --show-stderr \
 	    $${commit:+--set-commit-hash $$commit}
+
+bench-full:
+	$(MAKE) bench BENCH_FLAGS=--full
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache demo-output docs/_build docs/generated \

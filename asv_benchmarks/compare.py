@@ -2,7 +2,8 @@
 
 Run from the repository root::
 
-    python asv_benchmarks/compare.py            # 7 repeats
+    python asv_benchmarks/compare.py            # the main lines, 3 repeats (minutes)
+    python asv_benchmarks/compare.py --full     # every line, 7 repeats (about half an hour)
     python asv_benchmarks/compare.py --quick    # 3 repeats, shorter timings
 
 Each line times one of our operations and a reference doing the same work,
@@ -32,6 +33,10 @@ e.    Time for ``NeuralCCRegressor`` (defaults) to reach the published NN-CC
       one thread, stopped when it reaches the same accuracy (checked every
       10 epochs) or after 2000 epochs. Both are timed from building the
       networks to the end of training; three interleaved repeats.
+s.    ``NeuralCCRegressor`` with its defaults (it stops when its curves stand
+      still), the whole fit, against the same published recipe run until it
+      reaches its own accuracy; the check gives our curve RMSE against the
+      goals f1 <= 1e-2 and f2 <= 5e-3. Goal: 20 times faster.
 f.    ``simulate`` of that fitted neural model against ``solve_ivp`` (LSODA)
       of the true equations in numpy, same tolerances and output times.
 
@@ -461,6 +466,26 @@ def case_neural_accuracy(frame, truth) -> Case:
                 "plain torch, published recipe", 0.1, check, repeat=3)
 
 
+def case_neural_defaults(frame, truth) -> Case:
+    """Defaults as a user runs them (no oracle stopping) against the recipe to its accuracy."""
+    from sklearn_pycc import NeuralCCRegressor
+
+    errors = _curve_errors(frame, truth)
+    X, y = frame[X_COLUMNS], frame[Y_COLUMNS]
+
+    def ours():
+        return NeuralCCRegressor(equations=FUNCTIONAL, constraints=["f1 odd", "f2 odd"],
+                                 random_state=0).fit(X, y)
+
+    model = ours()
+    e1, e2 = errors(lambda name, x: model.functions_[name](x))
+    check = (f"defaults stopped after {model.n_epochs_} epochs: curve RMSE f1 {e1:.4f} "
+             f"(goal 1e-2), f2 {e2:.4f} (goal 5e-3)")
+    return Case("s. NN-CC stick-slip, defaults to the end", ours,
+                lambda: _published_recipe(frame, errors), "plain torch, published recipe",
+                0.05, check, repeat=3)
+
+
 def case_neural_simulate(frame, truth) -> Case:
     from sklearn_pycc import NeuralCCRegressor
 
@@ -699,10 +724,24 @@ def print_table(results: list[Result]) -> None:
               f"{1e3 * max(res.reference):.3f}; {res.case.check}")
 
 
+#: lines measured only with --full (or when --only names them): each takes minutes
+FULL_ONLY = {"b", "e", "n", "o", "q", "r", "lm"}
+
+
+def _wanted(key: str, args) -> bool:
+    """Whether the line(s) ``key`` are measured in this run."""
+    if args.only:
+        return bool(set(key) & set(args.only)) if len(key) > 1 else key in args.only
+    return args.full or key not in FULL_ONLY
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=None,
-                        help="timings of each side per line (default 7, 3 with --quick)")
+                        help="timings of each side per line (default 3, 7 with --full)")
+    parser.add_argument("--full", action="store_true",
+                        help="also the long lines (" + ", ".join(sorted(FULL_ONLY))
+                        + ") and 7 repeats")
     parser.add_argument("--quick", action="store_true",
                         help="fewer repeats and shorter timings (a smoke run)")
     parser.add_argument("--only", nargs="+", metavar="LETTER",
@@ -711,7 +750,7 @@ def main(argv=None) -> int:
                         help="BLAS/OpenMP threads for the whole run (default 1; 0 leaves "
                              "the libraries' own setting)")
     args = parser.parse_args(argv)
-    repeat = args.repeat if args.repeat is not None else (3 if args.quick else 7)
+    repeat = args.repeat if args.repeat is not None else (7 if args.full else 3)
     repeat = max(1, repeat)
     target = 0.02 if args.quick else 0.1
 
@@ -739,6 +778,7 @@ def main(argv=None) -> int:
             ("c", lambda: case_sindy(5000)),
             ("d", case_simulate),
             ("e", lambda: case_neural_accuracy(*datasets.make_stick_slip(return_truth=True))),
+            ("s", lambda: case_neural_defaults(*datasets.make_stick_slip(return_truth=True))),
             ("f", lambda: case_neural_simulate(*datasets.make_stick_slip(return_truth=True))),
             ("i", case_symbolic_simulate),
             ("j", case_post_sr_simulate),
@@ -746,7 +786,7 @@ def main(argv=None) -> int:
             ("o", lambda: case_sampled_simulate(1e-3, "o. same, rtol=1e-3")),
         ]
         for key, build in builders:
-            if args.only and key not in args.only:
+            if not _wanted(key, args):
                 continue
             # one broken line must not hide the others
             try:
@@ -760,7 +800,7 @@ def main(argv=None) -> int:
                     ("q", _axis_loop_timings), ("k", _symbolic_fit_timing),
                     ("lm", _post_sr_timings)]
         for key, build in builders:
-            if args.only and not set(key) & set(args.only):
+            if not _wanted(key, args):
                 continue
             try:
                 built = build()
@@ -780,7 +820,7 @@ def main(argv=None) -> int:
                 print(f"{item.label:<44} {median:>10.1f} {min(ms):>8.1f}-{max(ms):<8.1f} "
                       f"{goal:>9} {met}")
                 print(f"    {item.check}")
-        if not args.only or "r" in args.only:
+        if _wanted("r", args):
             try:
                 print_rates()
             except Exception as exc:

@@ -187,7 +187,7 @@ def linearize(node: Node, data: Mapping[str, np.ndarray], n: int, values: Mappin
             arg = np.broadcast_to(np.asarray(go(n_.arg).const, dtype=float), (n,))
             return Affine(0.0, {n_.name: [(1.0, bases[n_.name].design(arg))]})
         if isinstance(n_, Apply):
-            return Affine(ELEMENTARY[n_.func][0](go(n_.arg).const))
+            return Affine(ELEMENTARY[n_.func].numpy(go(n_.arg).const))
         left, right = go(n_.left), go(n_.right)
         if n_.op == "+":
             return left.plus(right)

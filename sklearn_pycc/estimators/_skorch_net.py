@@ -10,7 +10,7 @@ import torch
 from skorch import NeuralNet
 from skorch.callbacks import Callback
 
-__all__ = ["EpochProgress", "SkeletonNet"]
+__all__ = ["CurvesSettled", "EpochProgress", "SkeletonNet"]
 
 
 class _TensorBatches:
@@ -115,3 +115,56 @@ class EpochProgress(Callback):
 
     def on_train_end(self, net, X=None, y=None, **kwargs) -> None:
         self.bar_.close()
+
+
+class CurvesSettled(Callback):
+    """Stop training once the fitted model has stopped changing.
+
+    After every epoch each curve is read on 65 points across its scaled
+    argument's range and each parameter is read; when, for ``patience``
+    epochs in a row, no curve moved by more than ``tol`` of its own range
+    (root mean square of the change) and no parameter by more than ``tol``
+    of its value, further epochs would only polish digits the data cannot
+    confirm, and training ends. ``stopped_at_`` holds the epoch (None when
+    training ran to its end).
+    """
+
+    def __init__(self, tol: float, patience: int = 2) -> None:
+        self.tol = tol
+        self.patience = patience
+
+    def on_train_begin(self, net, X=None, y=None, **kwargs) -> None:
+        self.previous_ = None
+        self.calm_ = 0
+        self.stopped_at_ = None
+
+    def _snapshot(self, module) -> tuple[dict, dict]:
+        curves = {}
+        with torch.no_grad():
+            for name, curve in module.curves.items():
+                grid = torch.linspace(-1.0, 1.0, 65, dtype=module.weights.dtype,
+                                      device=module.weights.device)
+                curves[name] = curve(curve.center + curve.scale * grid).double().cpu()
+            params = {name: float(module.params[name]) for name in module.params}
+        return curves, params
+
+    def _change(self, before, after) -> float:
+        worst = 0.0
+        for name, new in after[0].items():
+            old = before[0][name]
+            spread = float(new.max() - new.min())
+            moved = float(torch.sqrt(torch.mean((new - old) ** 2)))
+            worst = max(worst, moved / spread if spread > 0 else moved)
+        for name, new in after[1].items():
+            worst = max(worst, abs(new - before[1][name]) / max(abs(new), 1e-12))
+        return worst
+
+    def on_epoch_end(self, net, **kwargs) -> None:
+        current = self._snapshot(net.module_)
+        if self.previous_ is not None:
+            change = self._change(self.previous_, current)
+            self.calm_ = self.calm_ + 1 if change <= self.tol else 0
+        self.previous_ = current
+        if self.calm_ >= self.patience:
+            self.stopped_at_ = len(net.history)
+            raise KeyboardInterrupt  # skorch ends training gracefully on it

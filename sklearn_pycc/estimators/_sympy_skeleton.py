@@ -2,22 +2,26 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import sympy
 
+from ..skeleton.functions import ELEMENTARY
 from ..skeleton.nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
 from ._symbolic_curves import VARIABLE
 
 __all__ = ["to_sympy"]
 
-_FUNCTIONS = {
-    "sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan, "sinh": sympy.sinh,
-    "cosh": sympy.cosh, "tanh": sympy.tanh, "arcsin": sympy.asin, "arccos": sympy.acos,
-    "arctan": sympy.atan, "asin": sympy.asin, "acos": sympy.acos, "atan": sympy.atan,
-    "exp": sympy.exp, "log": sympy.log, "log10": lambda a: sympy.log(a, 10),
-    "sqrt": sympy.sqrt, "abs": sympy.Abs, "sign": sympy.sign,
-}
+def _sympy_function(forms) -> Callable:
+    if isinstance(forms.sympy, tuple):  # log10(x) = log(x, 10)
+        name, base = forms.sympy
+        return lambda a: getattr(sympy, name)(a, sympy.Integer(int(base)))
+    return getattr(sympy, forms.sympy)
+
+
+#: elementary function name of the skeleton language -> sympy function
+_FUNCTIONS: dict[str, Callable] = {name: _sympy_function(forms)
+                                   for name, forms in ELEMENTARY.items()}
 
 
 def to_sympy(node: Node, params: Mapping[str, float],

@@ -13,31 +13,14 @@ from collections.abc import Callable, Mapping
 
 import torch
 
+from ..skeleton.functions import ELEMENTARY
 from ..skeleton.nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
 
 __all__ = ["TORCH_FUNCTIONS", "compile_torch"]
 
 #: elementary function name of the skeleton language -> torch function
-TORCH_FUNCTIONS: dict[str, Callable] = {
-    "sin": torch.sin,
-    "cos": torch.cos,
-    "tan": torch.tan,
-    "sinh": torch.sinh,
-    "cosh": torch.cosh,
-    "tanh": torch.tanh,
-    "arcsin": torch.asin,
-    "arccos": torch.acos,
-    "arctan": torch.atan,
-    "asin": torch.asin,
-    "acos": torch.acos,
-    "atan": torch.atan,
-    "exp": torch.exp,
-    "log": torch.log,
-    "log10": torch.log10,
-    "sqrt": torch.sqrt,
-    "abs": torch.abs,
-    "sign": torch.sign,
-}
+TORCH_FUNCTIONS: dict[str, Callable] = {name: getattr(torch, forms.torch)
+                                        for name, forms in ELEMENTARY.items()}
 
 _ARITHMETIC = {
     "+": lambda a, b: a + b,

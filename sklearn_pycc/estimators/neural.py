@@ -110,11 +110,18 @@ default="lbfgs"
     early_stopping : bool, default=True
         Stop when the monitored loss has not improved by a relative ``tol``
         for ``patience`` epochs. It monitors the training loss, unless
-        ``validation_fraction`` holds out a validation set.
+        ``validation_fraction`` holds out a validation set. With L-BFGS,
+        training also stops once the model stands still (see ``curve_tol``).
     patience : int, default=5
         Epochs without improvement before stopping.
     tol : float, default=1e-4
         Relative improvement that counts.
+    curve_tol : float, default=1e-3
+        With ``early_stopping`` and L-BFGS: stop when, two epochs in a row,
+        no curve moved by more than ``curve_tol`` of its range (RMS of the
+        change across its argument's range) and no parameter by more than
+        ``curve_tol`` of its value. The curves are then settled well below
+        what the data can confirm; 0 trains until the loss stops improving.
     validation_fraction : float, optional
         Fraction of the samples held out (by skorch's ``ValidSplit``) to
         monitor ``valid_loss``; None trains on everything.
@@ -193,6 +200,7 @@ default="lbfgs"
         "early_stopping": ["boolean"],
         "patience": [Interval(Integral, 1, None, closed="left")],
         "tol": [Interval(Real, 0, None, closed="left")],
+        "curve_tol": [Interval(Real, 0, None, closed="left")],
         "validation_fraction": [Interval(Real, 0, 1, closed="neither"), None],
         "constraint_mode": [StrOptions(set(CONSTRAINT_MODES))],
         "constraint_weight": [Interval(Real, 0, None, closed="left")],
@@ -211,7 +219,8 @@ default="lbfgs"
                  activation: str = "tanh", optimizer="lbfgs", lr: float | None = None,
                  max_epochs: int = 100, batch_size: int | None = None,
                  early_stopping: bool = True, patience: int = 5, tol: float = 1e-4,
-                 validation_fraction: float | None = None, constraint_mode: str = "exact",
+                 curve_tol: float = 1e-3, validation_fraction: float | None = None,
+                 constraint_mode: str = "exact",
                  constraint_weight: float = 1.0, param_init: Mapping | None = None,
                  extrapolation: str = "linear", dtype: str = "float32", device: str = "cpu",
                  n_threads: int | None = 1, callbacks: Sequence | None = None,
@@ -232,6 +241,7 @@ default="lbfgs"
         self.early_stopping = early_stopping
         self.patience = patience
         self.tol = tol
+        self.curve_tol = curve_tol
         self.validation_fraction = validation_fraction
         self.constraint_mode = constraint_mode
         self.constraint_weight = constraint_weight
@@ -338,7 +348,7 @@ default="lbfgs"
         import torch
 
         from ._networks import SkeletonModule
-        from ._skorch_net import EpochProgress, SkeletonNet
+        from ._skorch_net import CurvesSettled, EpochProgress, SkeletonNet
 
         dtype = getattr(torch, self.dtype)
         device = checked["device"]
@@ -358,6 +368,10 @@ default="lbfgs"
                 monitor=monitor, patience=checked["patience"], threshold=checked["tol"],
                 threshold_mode="rel", lower_is_better=True,
                 sink=print if self.verbose >= 2 else _silent)))
+            if checked["lbfgs"] and self.curve_tol > 0:
+                # an L-BFGS epoch is many full-batch steps: once the curves stand
+                # still from one epoch to the next, the fit has converged
+                callbacks.append(("curves_settled", CurvesSettled(self.curve_tol)))
         if self.verbose == 1:
             callbacks.append(("progress", EpochProgress(checked["max_epochs"])))
         for k, callback in enumerate(self.callbacks or []):

@@ -103,7 +103,7 @@ class _Compiler:
                 return (lambda env, v=-c: v), -c
             return (lambda env: -fn(env)), None
         if isinstance(node, Apply):
-            vector, scalar, _ = ELEMENTARY[node.func]
+            vector, scalar = ELEMENTARY[node.func].numpy, ELEMENTARY[node.func].math
             func = scalar if self.scalar else vector
             fn, c = self.compile(node.arg)
             if c is not None:

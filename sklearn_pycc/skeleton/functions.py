@@ -3,36 +3,52 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["CONSTANTS", "ELEMENTARY", "is_param_name", "is_unknown_name"]
+__all__ = ["CONSTANTS", "ELEMENTARY", "Elementary", "is_param_name", "is_unknown_name"]
 
 
 def _sign(x: float) -> float:
     return float((x > 0) - (x < 0))
 
 
-#: name -> (vectorised numpy function, fast scalar function, sympy name)
-ELEMENTARY: dict[str, tuple] = {
-    "sin": (np.sin, math.sin, "sin"),
-    "cos": (np.cos, math.cos, "cos"),
-    "tan": (np.tan, math.tan, "tan"),
-    "sinh": (np.sinh, math.sinh, "sinh"),
-    "cosh": (np.cosh, math.cosh, "cosh"),
-    "tanh": (np.tanh, math.tanh, "tanh"),
-    "arcsin": (np.arcsin, math.asin, "asin"),
-    "arccos": (np.arccos, math.acos, "acos"),
-    "arctan": (np.arctan, math.atan, "atan"),
-    "asin": (np.arcsin, math.asin, "asin"),
-    "acos": (np.arccos, math.acos, "acos"),
-    "atan": (np.arctan, math.atan, "atan"),
-    "exp": (np.exp, math.exp, "exp"),
-    "log": (np.log, math.log, "log"),
-    "log10": (np.log10, math.log10, "log10"),
-    "sqrt": (np.sqrt, math.sqrt, "sqrt"),
-    "abs": (np.abs, abs, "Abs"),
-    "sign": (np.sign, _sign, "sign"),
+class Elementary(NamedTuple):
+    """One elementary function of the skeleton language, in every representation.
+
+    ``torch`` and ``sympy`` are names, resolved where those libraries are
+    used (the skeleton layer imports neither); a SymPy name with an argument,
+    such as ``("log", 10)``, means ``sympy.log(x, 10)``.
+    """
+
+    numpy: Callable
+    math: Callable
+    torch: str
+    sympy: str | tuple[str, float]
+
+
+#: name in the skeleton language -> its numpy, math, torch and sympy forms
+ELEMENTARY: dict[str, Elementary] = {
+    "sin": Elementary(np.sin, math.sin, "sin", "sin"),
+    "cos": Elementary(np.cos, math.cos, "cos", "cos"),
+    "tan": Elementary(np.tan, math.tan, "tan", "tan"),
+    "sinh": Elementary(np.sinh, math.sinh, "sinh", "sinh"),
+    "cosh": Elementary(np.cosh, math.cosh, "cosh", "cosh"),
+    "tanh": Elementary(np.tanh, math.tanh, "tanh", "tanh"),
+    "arcsin": Elementary(np.arcsin, math.asin, "asin", "asin"),
+    "arccos": Elementary(np.arccos, math.acos, "acos", "acos"),
+    "arctan": Elementary(np.arctan, math.atan, "atan", "atan"),
+    "asin": Elementary(np.arcsin, math.asin, "asin", "asin"),
+    "acos": Elementary(np.arccos, math.acos, "acos", "acos"),
+    "atan": Elementary(np.arctan, math.atan, "atan", "atan"),
+    "exp": Elementary(np.exp, math.exp, "exp", "exp"),
+    "log": Elementary(np.log, math.log, "log", "log"),
+    "log10": Elementary(np.log10, math.log10, "log10", ("log", 10.0)),
+    "sqrt": Elementary(np.sqrt, math.sqrt, "sqrt", "sqrt"),
+    "abs": Elementary(np.abs, abs, "abs", "Abs"),
+    "sign": Elementary(np.sign, _sign, "sign", "sign"),
 }
 
 #: named constants

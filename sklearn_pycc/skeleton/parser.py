@@ -278,7 +278,7 @@ def _check_constants(node: Node, error) -> None:
             if isinstance(current, Neg):
                 value = -args[0]
             elif isinstance(current, Apply):
-                value = ELEMENTARY[current.func][1](args[0])
+                value = ELEMENTARY[current.func].math(args[0])
             else:
                 value = _binary(current.op, args[0], args[1])
         except (ValueError, ZeroDivisionError, OverflowError):
