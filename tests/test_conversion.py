@@ -254,6 +254,25 @@ def test_interpolated_regressor_drives_a_neural_backend(duffing_poly):
     assert np.isfinite(model.predict(X)).all()
 
 
+def test_interpolated_regressor_runs_its_backends_output_error_stage():
+    frame = datasets.make_duffing(n_samples=300, t_span=(0, 15), noise=40,
+                                  noise_columns=["x1"], random_state=0)
+    X = frame[["t", "x1", "F_ext"]]
+    backend = NeuralCCRegressor(hidden_layer_sizes=(8,), max_epochs=40, random_state=0,
+                                fit_mode="simulation", shooting_start_epochs=None,
+                                shooting_iterations=5)
+    model = InterpolatedCCRegressor(equations=SECOND_ORDER, estimator=backend,
+                                    n_points=50).fit(X)
+    inner = model.estimator_
+    assert inner.fit_mode_ == "simulation" and model.fit_mode_ == "simulation"
+    assert inner.shooting_["iterations"] >= 1 and inner.n_epochs_ > 10
+    assert "_trained" not in vars(inner)  # no torch module is kept, nor pickled
+    restored = pickle.loads(pickle.dumps(model))
+    assert b"torch" not in pickle.dumps(restored.estimator_.functions_)
+    states = frame[["x1", "x2", "F_ext"]]
+    assert np.allclose(restored.predict(states), model.predict(states))
+
+
 def test_scalar_paths_agree_with_the_array_paths():
     x = np.linspace(-1, 1, 21)
     probe = np.array([-1.5, -1.0, -0.33, 0.0, 0.05, 0.999, 1.0, 1.7])

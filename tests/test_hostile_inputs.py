@@ -235,3 +235,13 @@ def test_a_scaler_in_front_of_the_estimator_is_flagged(stick_slip_model):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         PolyCCRegressor(equations=STICK_SLIP, degree=5).fit(X, y)
+
+
+def test_a_refit_forgets_what_the_previous_fit_learned(stick_slip_model):
+    _, data = stick_slip_model
+    X, y = data[["x1", "x2", "F_ext"]], data[["x1_dot", "x2_dot"]]
+    model = PolyCCRegressor(equations=STICK_SLIP, degree=5).fit(X, y)
+    model.left_over_ = "from another fit"
+    model.set_params(equations=["x1_dot = x2", "x2_dot = F_ext - f1(x2) - a1 x1"]).fit(X, y)
+    assert not hasattr(model, "left_over_")
+    assert list(model.coefficients_) == ["f1"] and list(model.params_) == ["a1"]

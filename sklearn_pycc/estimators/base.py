@@ -38,8 +38,8 @@ FIT_MODES = ("auto", "equation", "simulation")
 #: equation fit by output error: derivatives of such records bias the fit by per cents
 AUTO_SIMULATION_SNR_DB = 45.0
 _NEEDS_TIME = "fit_mode='simulation' needs the time column 't' in X"
-#: fitted state of one fit's output-error stage, cleared when the estimator is fitted again
-_STAGE_ATTRIBUTES = ("shooting_", "_trained")
+#: private fitted state, cleared with the public fitted attributes when fit starts again
+_PRIVATE_STATE = ("_compiled", "_trained", "_y_1d")
 #: what ``random_state`` may be: a Generator is honoured like a RandomState
 RANDOM_STATES = [None, Interval(Integral, 0, 2**32 - 1, closed="both"),
                  np.random.RandomState, np.random.Generator]
@@ -288,6 +288,13 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
     def _check_params(self) -> None:
         """Cross-checks of hyperparameters the constraints cannot express (a backend's)."""
 
+    def _reset_fitted(self) -> None:
+        """Forget everything a previous fit learned (attributes ending in ``_``)."""
+        for name in list(vars(self)):
+            fitted = name.endswith("_") and not name.startswith("__")
+            if fitted or name in _PRIVATE_STATE:
+                del self.__dict__[name]
+
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):
         """Fit the unknown curves and parameters of the skeleton.
@@ -308,8 +315,7 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         self : CCRegressor
             The fitted estimator.
         """
-        for stale in _STAGE_ATTRIBUTES:  # a refit in another mode must not keep them
-            self.__dict__.pop(stale, None)
+        self._reset_fitted()
         # every hyperparameter is checked before any data work
         self._check_params()
         resolve_differentiation(self.differentiation)
@@ -356,7 +362,8 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         ``source``'s.
         """
         adopted = ("skeleton_", "gauge_", "curve_ranges_", "n_features_in_",
-                   "feature_names_in_", "measured_states_", "derivative_source_", "_y_1d")
+                   "feature_names_in_", "measured_states_", "derivative_source_", "fit_mode_",
+                   "_y_1d")
         for name in adopted:
             if hasattr(source, name):
                 setattr(self, name, copy.deepcopy(getattr(source, name)))
@@ -368,7 +375,8 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         self.params_ = {a: float(params[a]) for a in skeleton.params}
         self.functions_ = {f: functions[f] for f in skeleton.functions}
         self.n_parameters_ = int(n_parameters)
-        self._compiled = None
+        solvable = all(eq.solvable for eq in skeleton.parsed)
+        self._compiled = skeleton.compile(self.functions_, self.params_) if solvable else None
 
     def _argument_ranges(self, problem: Problem) -> dict[str, tuple[float, float]]:
         ranges = {}

@@ -9,17 +9,19 @@ fits another backend and tabulates its curves; :func:`to_interpolated`
 
 from __future__ import annotations
 
+import warnings
 from bisect import bisect_right
 from numbers import Integral
 
 import numpy as np
 import pandas as pd
 from scipy.interpolate import Akima1DInterpolator, CubicSpline, PchipInterpolator
-from sklearn.base import clone
+from sklearn.base import _fit_context, clone
 from sklearn.utils._param_validation import Interval, StrOptions
 
+from ..exceptions import GaugeWarning
 from ._basis import ZeroCurve
-from ._setup import Problem
+from ._setup import Problem, gauge_skeleton
 from .base import CCRegressor
 
 __all__ = ["INTERPOLATIONS", "InterpolatedCCRegressor", "InterpolatedCurve",
@@ -213,27 +215,55 @@ class InterpolatedCCRegressor(CCRegressor):
         self.n_points = n_points
         self.method = method
 
-    def _fit_problem(self, problem: Problem):
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y=None):
+        """Fit a clone of ``estimator`` through its public ``fit``, then tabulate its curves.
+
+        The clone takes this estimator's skeleton, constraints, gauge and
+        differentiation, and keeps its own fit mode: a neural or polynomial
+        backend with ``fit_mode="simulation"`` runs its output-error stage
+        before its curves are tabulated.
+
+        Parameters
+        ----------
+        X, y
+            As for :meth:`CCRegressor.fit`.
+
+        Returns
+        -------
+        self : InterpolatedCCRegressor
+            The fitted estimator.
+        """
+        self._reset_fitted()
         n_points = check_n_points(self.n_points)
         check_method(self.method)
         if self.estimator is None:
             from .poly import PolyCCRegressor
 
             backend = PolyCCRegressor()
-        elif isinstance(self.estimator, CCRegressor):
-            backend = clone(self.estimator)
         else:
-            raise TypeError(f"estimator must be a CCRegressor backend, got "
-                            f"{type(self.estimator).__name__}")
-        backend.fit_mode_ = "equation"  # the tables are read from an equation fit
-        functions, params = backend._fit_problem(problem)
-        backend._store(problem, functions, params)
-        self.estimator_ = backend
+            backend = clone(self.estimator)
+        backend.set_params(equations=self.__dict__.get("equations"),
+                           constraints=self.constraints, gauge=self.gauge,
+                           differentiation=self.differentiation,
+                           smooth_states=self.smooth_states)
+        backend.fit(X, y)
         tables = {}
-        for name, curve in functions.items():
+        for name, curve in backend.functions_.items():
             lo, hi = backend.curve_ranges_[name]
             tables[name] = tabulate(curve, lo, hi, n_points, self.method, name)
-        return tables, params
+        with warnings.catch_warnings():  # the backend's fit has said it already
+            warnings.simplefilter("ignore", GaugeWarning)
+            _, fixed, _, _ = gauge_skeleton(backend.skeleton_, backend.gauge)
+        n_parameters = len([a for a in backend.skeleton_.params if a not in fixed]) + sum(
+            t.x.size for t in tables.values() if isinstance(t, InterpolatedCurve))
+        self._adopt(backend, tables, backend.params_, n_parameters)
+        self.estimator_ = backend
+        return self
+
+    def _fit_problem(self, problem: Problem):
+        """Not used: :meth:`fit` drives ``estimator`` through its public ``fit``."""
+        raise NotImplementedError("InterpolatedCCRegressor fits through its estimator's fit")
 
     def _curve_parameters(self, problem, name: str) -> int:
         curve = self.functions_.get(name) if hasattr(self, "functions_") else None
