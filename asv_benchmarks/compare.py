@@ -195,7 +195,7 @@ def _stick_slip_model() -> PolyCCRegressor:
 
 def _design(model: PolyCCRegressor, X, y):
     """The weighted design ``A, b`` the estimator solves (``min ||A x + b||``), and ``C``."""
-    problem = model._problem(X, y)
+    problem, _ = model._problem(X, y)
     degrees = model._degrees(problem.free_functions)
     residuals = [(eq.index, eq.text, eq.residual) for eq in problem.equations]
     linear, nonlinear = split_parameters(residuals, problem.free_params, "PolyCCRegressor")

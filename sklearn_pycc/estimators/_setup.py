@@ -17,8 +17,8 @@ from ..skeleton.constraints import Constraint, parse_constraints
 from ..skeleton.equations import Equation, unknown_names
 from ..skeleton.nodes import Node, Unknown, walk
 
-__all__ = ["GAUGES", "Problem", "active_residuals", "build_skeleton", "gauge_skeleton",
-           "parity_of", "points_of"]
+__all__ = ["GAUGES", "FitResult", "Problem", "active_residuals", "build_skeleton",
+           "gauge_skeleton", "parity_of", "points_of"]
 
 GAUGES = ("auto", "warn", "raise")
 
@@ -57,6 +57,36 @@ def build_skeleton(equations, constraints) -> Skeleton:
     return copy.deepcopy(_cached_skeleton(key, _freeze_constraints(constraints)))
 
 
+@dataclass
+class FitResult:
+    """What a backend's fit hands back; the base class alone stores it.
+
+    Attributes
+    ----------
+    functions : dict
+        Every curve of the skeleton by name: a callable on numpy arrays
+        (``ZeroCurve`` for curves the gauge pinned to zero).
+    params : dict
+        The fitted free parameters by name.
+    attributes : dict
+        The backend's own fitted attributes by name, each ending in ``_``
+        (``coefficients_``, ``history_``, ...).
+    stage : object, optional
+        What an output-error stage needs to continue from this fit (the
+        trained networks, say); never stored on the estimator.
+    """
+
+    functions: dict
+    params: dict
+    attributes: dict = field(default_factory=dict)
+    stage: object = None
+
+    def __post_init__(self) -> None:
+        odd = [name for name in self.attributes if not name.endswith("_")]
+        if odd:
+            raise ValueError(f"fitted attributes end in '_'; got {odd[0]!r}")
+
+
 @lru_cache(maxsize=256)
 def _cached_report(skeleton: Skeleton):
     return skeleton.identifiability()
@@ -90,6 +120,9 @@ class Problem:
         The inputs as measured, to drive simulations (``data`` holds them
         as the equation fit sees them, filtered when the differentiation
         filtered the states).
+    fit_mode : {"equation", "simulation"}
+        The mode of this fit: ``"simulation"`` when an output-error stage
+        follows the equation fit.
     """
 
     skeleton: Skeleton
@@ -104,6 +137,7 @@ class Problem:
     measured: dict[str, np.ndarray] = field(default_factory=dict)
     smoothed: dict[str, np.ndarray] = field(default_factory=dict)
     signals: dict[str, np.ndarray] = field(default_factory=dict)
+    fit_mode: str = "equation"
 
     @property
     def equations(self) -> list[Equation]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import copy
 import warnings
 from abc import ABCMeta, abstractmethod
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from numbers import Integral
 
 import numpy as np
@@ -29,7 +29,7 @@ from ..skeleton.nodes import Symbol, sum_terms
 from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
-from ._setup import GAUGES, Problem, build_skeleton, gauge_skeleton
+from ._setup import GAUGES, FitResult, Problem, build_skeleton, gauge_skeleton
 
 __all__ = ["FIT_MODES", "RANDOM_STATES", "CCRegressor"]
 
@@ -39,7 +39,7 @@ FIT_MODES = ("auto", "equation", "simulation")
 AUTO_SIMULATION_SNR_DB = 45.0
 _NEEDS_TIME = "fit_mode='simulation' needs the time column 't' in X"
 #: private fitted state, cleared with the public fitted attributes when fit starts again
-_PRIVATE_STATE = ("_compiled", "_trained", "_y_1d")
+_PRIVATE_STATE = ("_compiled", "_y_1d")
 #: what ``random_state`` may be: a Generator is honoured like a RandomState
 RANDOM_STATES = [None, Interval(Integral, 0, 2**32 - 1, closed="both"),
                  np.random.RandomState, np.random.Generator]
@@ -207,15 +207,19 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
 
     # -- to be provided by a backend ---------------------------------------
     @abstractmethod
-    def _fit_problem(self, problem: Problem) -> tuple[dict[str, Callable], dict[str, float]]:
-        """Fit the free curves and parameters; return ``(functions, params)``."""
+    def _fit_problem(self, problem: Problem) -> FitResult:
+        """Fit the free curves and parameters of ``problem`` (the backend's one duty).
 
-    def _fit_simulation(self, problem: Problem, functions: dict, params: dict, plan):
+        Return a :class:`~._setup.FitResult`; the base class stores it. A
+        backend writes nothing on ``self`` here.
+        """
+
+    def _fit_simulation(self, problem: Problem, result: FitResult, plan) -> FitResult:
         """Refine an equation-error fit by output error.
 
         ``plan`` is a :class:`~._shooting.ShootingPlan` with its substeps
-        chosen. Return ``(functions, params, summary)``, the summary being
-        stored as ``shooting_``.
+        chosen. Return the refined result, with the stage's summary among
+        its attributes as ``shooting_``.
         """
         raise ValueError(f"{type(self).__name__} does not support fit_mode='simulation'")
 
@@ -247,25 +251,24 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         return state
 
     # -- fitting ---------------------------------------------------------------
-    def _problem(self, X, y) -> Problem:
+    def _problem(self, X, y) -> tuple[Problem, dict]:
+        """The fitting problem, and what was learned about the record (to be stored)."""
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
         constraints, fixed, zeroed, gauge = gauge_skeleton(skeleton, self.gauge)
-        if self.fit_mode not in FIT_MODES:
-            raise ValueError(f"fit_mode must be one of {FIT_MODES}, got {self.fit_mode!r}")
         record = read_record(skeleton, X, y, differentiation=self.differentiation,
                              smooth=bool(self.smooth_states), estimator=self, reset=True,
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
                              who=type(self).__name__, trim=False)
-        self._y_1d = record.y_ndim == 1
-        self.fit_mode_, why = self._resolve_mode(skeleton, record)
-        self.derivative_source_ = record.source + why
-        self.measured_states_ = list(record.measured)
+        mode, why = self._resolve_mode(skeleton, record)
+        facts = {"fit_mode_": mode, "derivative_source_": record.source + why,
+                 "measured_states_": list(record.measured), "_y_1d": record.y_ndim == 1}
         # the equations are fitted where the derivatives can be trusted; an
         # output-error stage simulates the whole record
         trusted = record.keep()
-        return Problem(skeleton, constraints, fixed, zeroed, trusted.data, trusted.derivatives,
-                       gauge, record.experiments, record.measured, record.smoothed,
-                       record.signals)
+        problem = Problem(skeleton, constraints, fixed, zeroed, trusted.data,
+                          trusted.derivatives, gauge, record.experiments, record.measured,
+                          record.smoothed, record.signals, fit_mode=mode)
+        return problem, facts
 
     def _resolve_mode(self, skeleton, record) -> tuple[str, str]:
         """The fit mode to use, and why ``"auto"`` chose output error (else "")."""
@@ -319,71 +322,80 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         # every hyperparameter is checked before any data work
         self._check_params()
         resolve_differentiation(self.differentiation)
-        problem = self._problem(X, y)
+        problem, facts = self._problem(X, y)
         problem.check_enough_rows()
         plan = None
-        if self.fit_mode_ == "simulation":
+        if problem.fit_mode == "simulation":
             from ._shooting import ShootingPlan, check_iterations
 
             check_iterations(self.shooting_iterations)
             plan = ShootingPlan(problem, self.shooting_window)
-        functions, params = self._fit_problem(problem)
+        result = self._fit_problem(problem)
         if plan is not None:
-            start = problem.skeleton.compile(functions, {**problem.fixed_params, **params})
+            start = problem.skeleton.compile(result.functions,
+                                             {**problem.fixed_params, **result.params})
             plan.choose_substeps(start, dict(problem.data.columns))
-            functions, params, self.shooting_ = self._fit_simulation(
-                problem, functions, params, plan)
-        self._store(problem, functions, params)
+            result = self._fit_simulation(problem, result, plan)
+        self._store(problem, result, facts)
         return self
 
-    def _store(self, problem: Problem, functions: Mapping, params: Mapping) -> None:
+    def _store(self, problem: Problem, result: FitResult, facts: Mapping) -> None:
+        """Store a backend's result: the only way a fit becomes fitted state."""
         skeleton = problem.skeleton
-        self.skeleton_ = skeleton
-        self.gauge_ = dict(problem.gauge)
-        all_params = {**problem.fixed_params, **{k: float(v) for k, v in params.items()}}
-        self.params_ = {a: float(all_params[a]) for a in skeleton.params}
-        self.functions_ = {f: functions[f] for f in skeleton.functions}
-        self.curve_ranges_ = self._argument_ranges(problem)
-        self.n_parameters_ = len(problem.free_params) + sum(
-            self._curve_parameters(problem, f) for f in problem.free_functions)
-        solvable = all(eq.solvable for eq in skeleton.parsed)
-        self._compiled = skeleton.compile(self.functions_, self.params_) if solvable else None
+        all_params = {**problem.fixed_params,
+                      **{k: float(v) for k, v in result.params.items()}}
+        params = {a: float(all_params[a]) for a in skeleton.params}
+        functions = {f: result.functions[f] for f in skeleton.functions}
+        self._set_fitted({
+            **facts, **result.attributes, "skeleton_": skeleton, "gauge_": dict(problem.gauge),
+            "params_": params, "functions_": functions,
+            "curve_ranges_": _argument_ranges(problem, params, functions)})
+        self._set_fitted({"n_parameters_": len(problem.free_params) + sum(
+            self._curve_parameters(problem, f) for f in problem.free_functions)})
+
+    def _set_fitted(self, values: Mapping) -> None:
+        """The one writer of fitted state; the model is compiled when its numbers change.
+
+        Fitted attributes end in ``_``; a backend adds its own by
+        :meth:`_derived_attributes`.
+        """
+        for name, value in values.items():
+            setattr(self, name, value)
+        if "params_" in values or "functions_" in values:
+            skeleton = self.skeleton_
+            solvable = all(eq.solvable for eq in skeleton.parsed)
+            self._compiled = (skeleton.compile(self.functions_, self.params_) if solvable
+                              else None)
+            for name, value in self._derived_attributes().items():
+                setattr(self, name, value)
+
+    def _derived_attributes(self) -> dict:
+        """Fitted attributes a backend derives from ``functions_`` and ``params_``."""
+        return {}
 
     def _curve_parameters(self, problem: Problem, name: str) -> int:
         """Number of numbers fitted for the curve ``name`` (a backend's business)."""
         return 0
 
     def _adopt(self, source: CCRegressor, functions: Mapping, params: Mapping,
-               n_parameters: int) -> None:
+               n_parameters: int, attributes: Mapping | None = None) -> None:
         """Become fitted with ``functions`` and ``params`` on ``source``'s data.
 
-        Used to convert a fitted model into another representation: the
-        skeleton, gauge, curve ranges and what was learned about ``X`` are
-        ``source``'s.
+        The one documented hook by which a conversion or a meta-estimator
+        makes an estimator fitted from another fitted one: the skeleton,
+        gauge, curve ranges and what was learned about ``X`` are
+        ``source``'s; ``attributes`` are the target's own fitted attributes.
         """
         adopted = ("skeleton_", "gauge_", "curve_ranges_", "n_features_in_",
                    "feature_names_in_", "measured_states_", "derivative_source_", "fit_mode_",
                    "_y_1d")
-        for name in adopted:
-            if hasattr(source, name):
-                setattr(self, name, copy.deepcopy(getattr(source, name)))
-        self._install(functions, params, n_parameters)
-
-    def _install(self, functions: Mapping, params: Mapping, n_parameters: int) -> None:
-        """Set the fitted curves and parameters of ``skeleton_`` (already set)."""
-        skeleton = self.skeleton_
-        self.params_ = {a: float(params[a]) for a in skeleton.params}
-        self.functions_ = {f: functions[f] for f in skeleton.functions}
-        self.n_parameters_ = int(n_parameters)
-        solvable = all(eq.solvable for eq in skeleton.parsed)
-        self._compiled = skeleton.compile(self.functions_, self.params_) if solvable else None
-
-    def _argument_ranges(self, problem: Problem) -> dict[str, tuple[float, float]]:
-        ranges = {}
-        for f in problem.skeleton.functions:
-            values = problem.argument_values(f, self.params_, self.functions_)
-            ranges[f] = (float(values.min()), float(values.max())) if values.size else (0.0, 0.0)
-        return ranges
+        skeleton = source.skeleton_
+        values = {name: copy.deepcopy(getattr(source, name)) for name in adopted
+                  if hasattr(source, name)}
+        self._set_fitted({**values, **dict(attributes or {}),
+                          "params_": {a: float(params[a]) for a in skeleton.params},
+                          "functions_": {f: functions[f] for f in skeleton.functions},
+                          "n_parameters_": int(n_parameters)})
 
     # -- using a fitted model --------------------------------------------------
     def _system(self) -> CompiledSystem:
@@ -645,3 +657,13 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
     def n_states_(self) -> int:
         """Number of states (equations)."""
         return len(self.skeleton_.states)
+
+
+def _argument_ranges(problem: Problem, params: Mapping,
+                     functions: Mapping) -> dict[str, tuple[float, float]]:
+    """Range of every curve's argument over the fitted data."""
+    ranges = {}
+    for f in problem.skeleton.functions:
+        values = problem.argument_values(f, params, functions)
+        ranges[f] = (float(values.min()), float(values.max())) if values.size else (0.0, 0.0)
+    return ranges

@@ -154,7 +154,7 @@ def to_symbolic(
     free = [f for f in model.skeleton_.functions if f not in zeroed]
     problem = residuals = None
     if X is not None:
-        problem = target._problem(X, y)
+        problem, _ = target._problem(X, y)
         residuals = _Residuals(problem)
     functions = dict(model.functions_)
     params = dict(model.params_)
@@ -223,14 +223,12 @@ def to_symbolic(
             out[name] = ZeroCurve()
     n_parameters = _n_free_params(model, fixed) + sum(len(c.expression.atoms(sympy.Float))
                                        for c in out.values() if isinstance(c, SymbolicCurve))
-    target._adopt(model, out, params, n_parameters)
-    target._set_expressions()
-    target.pareto_ = pareto
-    target.n_iterations_ = 0
-    target.loss_history_ = ([residuals.loss(target.functions_, target.params_)]
-                            if residuals is not None else [])
-    target.conversion_ = pd.DataFrame(summary).set_index("curve") if summary else pd.DataFrame(
+    conversion = pd.DataFrame(summary).set_index("curve") if summary else pd.DataFrame(
         columns=["expression", "complexity", "error", "relative_error"])
+    target._adopt(model, out, params, n_parameters,
+                  {"pareto_": pareto, "n_iterations_": 0, "conversion_": conversion})
+    target._set_fitted({"loss_history_": [residuals.loss(target.functions_, target.params_)]
+                        if residuals is not None else []})
     return target
 
 
@@ -329,9 +327,10 @@ def from_tables(equations, curves: Mapping, params: Mapping | None = None, const
     functions = {name: InterpolatedCurve(*_table(name, table), method, name)
                  for name, table in curves.items()}
     functions, params = skeleton.check_values(functions, params)
-    model.skeleton_ = skeleton
-    model.gauge_ = {}
-    model.curve_ranges_ = {name: curve.domain for name, curve in functions.items()}
-    model._y_1d = False
-    model._install(functions, params, len(params) + sum(c.x.size for c in functions.values()))
+    model._set_fitted({
+        "skeleton_": skeleton, "gauge_": {},
+        "curve_ranges_": {name: curve.domain for name, curve in functions.items()},
+        "_y_1d": False, "params_": {a: float(params[a]) for a in skeleton.params},
+        "functions_": {f: functions[f] for f in skeleton.functions},
+        "n_parameters_": len(params) + sum(c.x.size for c in functions.values())})
     return model

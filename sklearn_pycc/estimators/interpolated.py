@@ -21,7 +21,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 
 from ..exceptions import GaugeWarning
 from ._basis import ZeroCurve
-from ._setup import Problem, gauge_skeleton
+from ._setup import FitResult, Problem, gauge_skeleton
 from .base import CCRegressor
 
 __all__ = ["INTERPOLATIONS", "InterpolatedCCRegressor", "InterpolatedCurve",
@@ -257,11 +257,10 @@ class InterpolatedCCRegressor(CCRegressor):
             _, fixed, _, _ = gauge_skeleton(backend.skeleton_, backend.gauge)
         n_parameters = len([a for a in backend.skeleton_.params if a not in fixed]) + sum(
             t.x.size for t in tables.values() if isinstance(t, InterpolatedCurve))
-        self._adopt(backend, tables, backend.params_, n_parameters)
-        self.estimator_ = backend
+        self._adopt(backend, tables, backend.params_, n_parameters, {"estimator_": backend})
         return self
 
-    def _fit_problem(self, problem: Problem):
+    def _fit_problem(self, problem: Problem) -> FitResult:
         """Not used: :meth:`fit` drives ``estimator`` through its public ``fit``."""
         raise NotImplementedError("InterpolatedCCRegressor fits through its estimator's fit")
 

@@ -13,7 +13,7 @@ from .._threads import torch_threads
 from ._activations import ACTIVATIONS
 from ._basis import ZeroCurve
 from ._numpy_mlp import EXTRAPOLATIONS, NumpyCurve
-from ._setup import Problem, active_residuals
+from ._setup import FitResult, Problem, active_residuals
 from .base import RANDOM_STATES, CCRegressor
 
 __all__ = ["NeuralCCRegressor"]
@@ -300,10 +300,8 @@ default="lbfgs"
             raise ValueError(f"lr must be a positive number, got {self.lr!r}")
         checked["lr"] = float(lr)
         checked["max_epochs"] = _positive_int(self.max_epochs, "max_epochs")
-        start = _positive_int(self.shooting_start_epochs, "shooting_start_epochs",
-                              allow_none=True)
-        if getattr(self, "fit_mode_", None) == "simulation" and start is not None:
-            checked["max_epochs"] = min(checked["max_epochs"], start)
+        checked["start_epochs"] = _positive_int(self.shooting_start_epochs,
+                                                "shooting_start_epochs", allow_none=True)
         checked["batch_size"] = _positive_int(self.batch_size, "batch_size", allow_none=True)
         checked["patience"] = _positive_int(self.patience, "patience")
         checked["tol"] = _non_negative(self.tol, "tol")
@@ -336,13 +334,15 @@ default="lbfgs"
         functions: dict = {name: ZeroCurve() for name in problem.zeroed}
         residuals, weights = active_residuals(problem)
         if not residuals:
-            self.history_, self.n_epochs_, self.loss_ = [], 0, 0.0
-            self.device_ = checked["device"]
-            return functions, params0
+            return FitResult(functions, params0, {"history_": [], "n_epochs_": 0,
+                                                  "loss_": 0.0, "device_": checked["device"]})
+        if problem.fit_mode == "simulation" and checked["start_epochs"] is not None:
+            # the output-error stage takes over from a short equation fit
+            checked["max_epochs"] = min(checked["max_epochs"], checked["start_epochs"])
         with torch_threads(checked["n_threads"]):
-            trained, params = self._train(problem, residuals, weights, params0, checked)
-        functions.update(trained)
-        return functions, params
+            result = self._train(problem, residuals, weights, params0, checked)
+        result.functions.update(functions)
+        return result
 
     def _train(self, problem, residuals, weights, params0, checked):
         import torch
@@ -411,17 +411,14 @@ default="lbfgs"
         module = net.module_
         functions, params = self._export(module, X)
         history = net.history
-        self.history_ = history
-        self.n_epochs_ = len(history)
-        self.loss_ = float(history[-1, "train_loss"]) if len(history) else float("nan")
-        self.device_ = device
-        if not np.isfinite(self.loss_):
+        loss = float(history[-1, "train_loss"]) if len(history) else float("nan")
+        if not np.isfinite(loss):
             raise FloatingPointError(
                 "training diverged: the loss is not finite. Lower lr, scale the data, or "
                 "give param_init values closer to the truth" + _domain_hint(problem))
-        if self.fit_mode_ == "simulation":
-            self._trained = (module, X, checked["n_threads"])
-        return functions, params
+        stage = (module, X, checked["n_threads"]) if problem.fit_mode == "simulation" else None
+        return FitResult(functions, params, {"history_": history, "n_epochs_": len(history),
+                                             "loss_": loss, "device_": device}, stage)
 
     def _export(self, module, X) -> tuple[dict, dict]:
         ranges = module.record_ranges(X)
@@ -433,19 +430,19 @@ default="lbfgs"
         return functions, params
 
     # -- output error ----------------------------------------------------------
-    def _fit_simulation(self, problem: Problem, functions: dict, params: dict, plan):
+    def _fit_simulation(self, problem: Problem, result: FitResult, plan) -> FitResult:
         """Refine the trained networks by multiple shooting through a torch RK4."""
         from ._torch_shooting import shoot_module
 
-        trained = self.__dict__.pop("_trained", None)
-        if trained is None:  # nothing was trained: no free curve or parameter
-            return functions, params, {}
-        module, X, n_threads = trained
+        if result.stage is None:  # nothing was trained: no free curve or parameter
+            return FitResult(result.functions, result.params,
+                             {**result.attributes, "shooting_": {}})
+        module, X, n_threads = result.stage
         with torch_threads(n_threads):
             info = shoot_module(plan, problem, module, self.shooting_iterations, X)
             refined, values = self._export(module, X)
-        functions = {**functions, **refined}
-        return functions, {**params, **values}, info
+        return FitResult({**result.functions, **refined}, {**result.params, **values},
+                         {**result.attributes, "shooting_": info})
 
     def _curve_spec(self, problem: Problem, name: str, params: Mapping[str, float]) -> dict:
         """Input scaling and constraints of one curve's network."""

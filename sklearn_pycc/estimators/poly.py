@@ -16,7 +16,7 @@ from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
 from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
 from ._linear import curve_arguments, linearize, split_parameters
 from ._lstsq import bounded_lstsq, constrained_lstsq
-from ._setup import Problem
+from ._setup import FitResult, Problem
 from ._shooting import ShootingPlan, fit_shooting
 from .base import RANDOM_STATES, CCRegressor
 
@@ -277,14 +277,13 @@ class PolyCCRegressor(CCRegressor):
         for name in problem.zeroed:
             functions[name] = ZeroCurve()
             coefficients[name] = np.zeros(0)
-        self.coefficients_ = coefficients
-        self.nonlinear_params_ = list(nonlinear)
-        self.cost_ = result.cost
-        return functions, params
+        return FitResult(functions, params, {"coefficients_": coefficients,
+                                             "nonlinear_params_": list(nonlinear),
+                                             "cost_": result.cost})
 
     # -- output error ----------------------------------------------------------
-    def _fit_simulation(self, problem: Problem, functions: dict, params: dict,
-                        plan: ShootingPlan):
+    def _fit_simulation(self, problem: Problem, result: FitResult,
+                        plan: ShootingPlan) -> FitResult:
         """Refine the coefficients and parameters so that simulations match the states.
 
         The curves keep their bases; coefficients move in the null space of
@@ -292,6 +291,8 @@ class PolyCCRegressor(CCRegressor):
         parameters stay within their bounds, and monotone curves keep the
         shape the equation fit gave them.
         """
+        functions, params = result.functions, result.params
+        coefficients_at_start = result.attributes["coefficients_"]
         degrees = self._degrees(problem.free_functions)
         free_params = problem.free_params
         pieces = []  # (curve, basis, coefficients at start, null-space directions)
@@ -305,7 +306,7 @@ class PolyCCRegressor(CCRegressor):
                 directions = null_space(basis.design(np.array([at for at, _ in points])))
             else:
                 directions = np.eye(basis.size)
-            pieces.append((name, basis, self.coefficients_[name], directions))
+            pieces.append((name, basis, coefficients_at_start[name], directions))
         sizes = [d.shape[1] for *_, d in pieces]
         theta0 = np.concatenate([[params[a] for a in free_params], np.zeros(sum(sizes))])
         fixed = dict(problem.fixed_params)
@@ -336,11 +337,13 @@ class PolyCCRegressor(CCRegressor):
                                        self.shooting_iterations, bounds=(low, high))
         values, curves = unpack(theta)
         functions = dict(functions)
+        refined = dict(coefficients_at_start)
         for name, (basis, coefficients) in curves.items():
             functions[name] = basis.curve(coefficients)
-            self.coefficients_[name] = coefficients
+            refined[name] = coefficients
         params = {**params, **{a: float(values[a]) for a in free_params}}
-        return functions, params, info
+        return FitResult(functions, params, {**result.attributes, "coefficients_": refined,
+                                             "shooting_": info})
 
     def _curve_parameters(self, problem: Problem, name: str) -> int:
         # coefficients of the basis, less one per point value they must satisfy

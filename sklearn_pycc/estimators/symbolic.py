@@ -17,7 +17,7 @@ from ..exceptions import SkeletonError
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import Unknown, walk
 from ._basis import ZeroCurve
-from ._setup import Problem, active_residuals
+from ._setup import FitResult, Problem, active_residuals
 from ._symbolic_curves import VARIABLE, SymbolicCurve, Template, with_constants
 from ._symbolic_engines import (
     BINARY_OPERATORS,
@@ -399,12 +399,13 @@ class SymbolicCCRegressor(CCRegressor):
         from .poly import PolyCCRegressor
 
         poly = PolyCCRegressor(degree=self.start_degree, param_init=self.param_init)
-        try:
-            curves, values = poly._fit_problem(problem)
+        try:  # the documented backend hook, on the same problem
+            start = poly._fit_problem(problem)
         except SkeletonError:  # a curve enters nonlinearly: start from zero curves
             return functions, params
-        functions.update(curves)
-        params.update({a: float(values[a]) for a in problem.free_params if a in values})
+        functions.update(start.functions)
+        params.update({a: float(start.params[a]) for a in problem.free_params
+                       if a in start.params})
         return functions, params
 
     def _fit_problem(self, problem: Problem):
@@ -415,7 +416,7 @@ class SymbolicCCRegressor(CCRegressor):
         functions, params = self._start(problem)
         free = problem.free_functions
         curves: dict[str, _Curve] = {}
-        self.pareto_ = {}
+        pareto: dict[str, pd.DataFrame] = {}
         history = []
         loss = residuals.loss(functions, params)
         n_rounds = 0
@@ -424,7 +425,7 @@ class SymbolicCCRegressor(CCRegressor):
             for name in free:
                 seed = next(rng)
                 chosen = self._search_curve(engine, problem, residuals, name, functions,
-                                            params, seed)
+                                            params, seed, pareto)
                 if chosen is None:
                     continue
                 trial = {**functions, name: chosen.function()}
@@ -444,14 +445,14 @@ class SymbolicCCRegressor(CCRegressor):
                 "it (its equations do not change when it does), or every candidate of the "
                 "search gave a non-finite residual or broke its monotony")
         params = self._polish(residuals, problem, curves, functions, params)
-        self.n_iterations_ = n_rounds
-        self.loss_history_ = history
         out = {name: ZeroCurve() for name in problem.zeroed}
         for name, curve in curves.items():
             out[name] = SymbolicCurve(curve.expression(), curve.domain)
-        return out, params
+        return FitResult(out, params, {"pareto_": pareto, "n_iterations_": n_rounds,
+                                       "loss_history_": history})
 
-    def _search_curve(self, engine, problem, residuals, name, functions, params, seed):
+    def _search_curve(self, engine, problem, residuals, name, functions, params, seed,
+                      pareto: dict):
         x, target, weight = residuals.isolated(name, functions, params)
         if x.size == 0:
             return None
@@ -476,7 +477,7 @@ class SymbolicCCRegressor(CCRegressor):
         for j, (candidate, loss, curve) in enumerate(scored):
             rows.append({"complexity": candidate.complexity, "search_loss": candidate.loss,
                          "loss": loss, "expression": curve.expression(), "chosen": j == k})
-        self.pareto_[name] = pd.DataFrame(rows).sort_values("complexity", ignore_index=True)
+        pareto[name] = pd.DataFrame(rows).sort_values("complexity", ignore_index=True)
         return scored[k][2]
 
     def _run_engine(self, engine, x: np.ndarray, y: np.ndarray, parity: str | None,
@@ -560,16 +561,13 @@ class SymbolicCCRegressor(CCRegressor):
         return {**params, **dict(zip(names, (float(v) for v in theta[:len(names)])))}
 
     # -- results -------------------------------------------------------------------
-    def _store(self, problem: Problem, functions: Mapping, params: Mapping) -> None:
-        super()._store(problem, functions, params)
-        self._set_expressions()
-
-    def _set_expressions(self) -> None:
-        self.expressions_ = {}
+    def _derived_attributes(self) -> dict:
+        expressions = {}
         for name, curve in self.functions_.items():
             expression = getattr(curve, "expression", sympy.Integer(0))
-            self.expressions_[name] = expression.xreplace(
+            expressions[name] = expression.xreplace(
                 {VARIABLE: sympy.Symbol(self._variable(name))})
+        return {"expressions_": expressions}
 
     def _curve_parameters(self, problem, name: str) -> int:
         curve = self.functions_.get(name) if hasattr(self, "functions_") else None
