@@ -65,7 +65,7 @@ bench: $(STAMP)
 	    $${commit:+--set-commit-hash $$commit}
 
 bench-full:
-	$(MAKE) bench BENCH_FLAGS=--full
+	SKLEARN_PYCC_BENCH_FULL=1 $(MAKE) bench BENCH_FLAGS=--full
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache demo-output docs/_build docs/generated \

@@ -28,12 +28,17 @@ tells caches apart by where ``setup_cache`` is written.
 from __future__ import annotations
 
 import itertools
+import os
 import time
 import warnings
 from abc import ABC, abstractmethod
 
 from sklearn.base import clone
 from threadpoolctl import threadpool_limits
+
+#: the long cases (a million samples, a loop at 100,000) run only with
+#: SKLEARN_PYCC_BENCH_FULL=1 (``make bench-full``); asv hands the environment on
+FULL = os.environ.get("SKLEARN_PYCC_BENCH_FULL") == "1"
 
 
 class Benchmark(ABC):

@@ -16,6 +16,8 @@ from numpy.polynomial import chebyshev, legendre
 from numpy.polynomial import polynomial as power
 from scipy.special import comb
 
+from ..skeleton.curves import Curve
+
 __all__ = ["BASES", "PolyBasis", "PolyCurve", "ZeroCurve"]
 
 #: name -> (vandermonde(u, degree), to_power_series(coefficients))
@@ -134,7 +136,7 @@ class PolyBasis:
         return PolyCurve(series, self.center, self.half, (self.lo, self.hi))
 
 
-class PolyCurve:
+class PolyCurve(Curve):
     """A fitted polynomial curve, evaluated by Horner's rule.
 
     Works on floats (fast, for ODE right-hand sides) and on numpy arrays.
@@ -173,6 +175,18 @@ class PolyCurve:
         u = np.polynomial.Polynomial([-self.center / self.half, 1.0 / self.half])
         return np.polynomial.Polynomial(self.series)(u)
 
+    def to_sympy(self, variable):
+        """The polynomial in ``variable``."""
+        import sympy
+
+        return sum((sympy.Float(float(c)) * variable**k
+                    for k, c in enumerate(self.polynomial().coef)), sympy.Integer(0))
+
+    @property
+    def n_numbers(self) -> int:
+        """Coefficients of the series."""
+        return int(self.series.size)
+
     def __getstate__(self) -> dict:
         return {"series": self.series, "center": self.center, "half": self.half,
                 "domain": self.domain}
@@ -184,7 +198,7 @@ class PolyCurve:
         return f"PolyCurve(degree={len(self.series) - 1}, domain={self.domain})"
 
 
-class ZeroCurve:
+class ZeroCurve(Curve):
     """The zero function (a curve pinned to zero by the gauge)."""
 
     domain = (0.0, 0.0)
@@ -193,6 +207,16 @@ class ZeroCurve:
         if isinstance(x, np.ndarray):
             return np.zeros(x.shape)
         return 0.0
+
+    def scalar(self, x: float) -> float:
+        """``0.0``."""
+        return 0.0
+
+    def to_sympy(self, variable):
+        """``0``."""
+        import sympy
+
+        return sympy.Integer(0)
 
     def text(self, variable: str, precision: int = 6) -> str:
         """``"0"``."""

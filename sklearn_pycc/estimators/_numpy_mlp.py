@@ -21,6 +21,7 @@ from bisect import bisect_right
 
 import numpy as np
 
+from ..skeleton.curves import Curve
 from ._activations import is_smooth, numpy_activation, numpy_derivative
 
 __all__ = ["EXTRAPOLATIONS", "NumpyCurve", "OutsideTrainingRange"]
@@ -37,7 +38,7 @@ class OutsideTrainingRange(ValueError):
     """A curve with ``extrapolation="raise"`` was evaluated outside its training range."""
 
 
-class NumpyCurve:
+class NumpyCurve(Curve):
     """Forward pass of a one-input MLP with exact constraints, in numpy.
 
     Parameters
@@ -198,6 +199,11 @@ class NumpyCurve:
         return OutsideTrainingRange(
             f"{self.name} was evaluated at {float(x):.6g}, outside its training range "
             f"[{lo:.6g}, {hi:.6g}] (extrapolation='raise')")
+
+    @property
+    def n_numbers(self) -> int:
+        """Weights and biases of the network."""
+        return sum(w.size + b.size for w, b in self.layers)
 
     def __call__(self, x):
         """Evaluate the curve on a float or an array."""

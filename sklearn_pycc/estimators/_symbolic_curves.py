@@ -16,6 +16,8 @@ import math
 import numpy as np
 import sympy
 
+from ..skeleton.curves import Curve
+
 __all__ = ["VARIABLE", "SymbolicCurve", "Template", "constants_of", "with_constants"]
 
 #: the variable every curve expression is written in
@@ -114,7 +116,7 @@ def with_constants(expression: sympy.Expr) -> tuple[sympy.Expr, list[sympy.Symbo
             np.array([float(c) for c in floats]))
 
 
-class SymbolicCurve:
+class SymbolicCurve(Curve):
     """A fitted curve given by a SymPy expression of :data:`VARIABLE`.
 
     Calls evaluate a numpy function compiled once from the expression
@@ -161,6 +163,15 @@ class SymbolicCurve:
             return float(self._scalar(x))
         except (ValueError, OverflowError, ZeroDivisionError, TypeError):
             return math.nan
+
+    def to_sympy(self, variable):
+        """The expression written in ``variable``."""
+        return self.expression.xreplace({VARIABLE: variable})
+
+    @property
+    def n_numbers(self) -> int:
+        """Floating-point constants of the expression."""
+        return len(self.expression.atoms(sympy.Float))
 
     def complexity(self) -> int:
         """Number of nodes of the expression tree."""

@@ -25,6 +25,7 @@ from ..measurements.differentiation import (
 )
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
+from ..skeleton.curves import as_curve
 from ..skeleton.nodes import Symbol, sum_terms
 from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
@@ -225,11 +226,7 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
 
     def _curve_text(self, name: str, variable: str, precision: int) -> str:
         """Text of a fitted curve as a function of ``variable``."""
-        curve = self.functions_[name]
-        text = getattr(curve, "text", None)
-        if callable(text):
-            return text(variable, precision)
-        return f"<{type(curve).__name__}>"
+        return self.functions_[name].text(variable, precision)
 
     # -- scikit-learn plumbing -------------------------------------------------
     def __sklearn_tags__(self):
@@ -359,6 +356,10 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         Fitted attributes end in ``_``; a backend adds its own by
         :meth:`_derived_attributes`.
         """
+        values = dict(values)
+        if "functions_" in values:  # every stored curve speaks the Curve protocol
+            values["functions_"] = {name: as_curve(curve)
+                                    for name, curve in values["functions_"].items()}
         for name, value in values.items():
             setattr(self, name, value)
         if "params_" in values or "functions_" in values:
@@ -374,8 +375,8 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         return {}
 
     def _curve_parameters(self, problem: Problem, name: str) -> int:
-        """Number of numbers fitted for the curve ``name`` (a backend's business)."""
-        return 0
+        """Number of numbers fitted for the curve ``name`` (its own count by default)."""
+        return self.functions_[name].n_numbers
 
     def _adopt(self, source: CCRegressor, functions: Mapping, params: Mapping,
                n_parameters: int, attributes: Mapping | None = None) -> None:
@@ -521,7 +522,7 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
                 raise ValueError(f"y0 has no value for the state {missing[0]!r}")
             y0 = [y0[s] for s in states]
         watched = {name: curve for name, curve in self.functions_.items()
-                   if getattr(curve, "extrapolation", None)}
+                   if curve.extrapolation}
         frame = simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
                                 return_derivatives=return_derivatives or bool(watched),
                                 input_hold=input_hold, verbose=verbose, **solver_options)

@@ -26,7 +26,7 @@ from .interpolated import (
     sample_curve,
     tabulate,
 )
-from .symbolic import SymbolicCCRegressor, _Curve, _Residuals, keeps_monotone, select
+from .symbolic import SymbolicCCRegressor, _Curve, _Residuals, choose_candidate
 
 __all__ = ["from_tables", "to_interpolated", "to_symbolic"]
 
@@ -171,41 +171,33 @@ def to_symbolic(
         found = target._run_engine(search, grid, learned, parity, seed)
         template = Template(parity, points_of(constraints[name]))
         domain = (float(grid[0]), float(grid[-1]))
-        scored = []
         monotone = next((c.kind for c in constraints[name]
                          if c.kind in ("increasing", "decreasing")), None)
-        for candidate in found:
-            curve = _Curve(candidate.expression, template, domain)
-            if not keeps_monotone(curve.function(), domain, monotone):
-                continue
-            trial_params = params
-            if residuals is not None:
-                trial_params = SymbolicCCRegressor._polish(
-                    residuals, problem, {name: curve}, functions, params,
-                    effort=CANDIDATE_EFFORT)
-                loss = residuals.loss({**functions, name: curve.function()}, trial_params)
+
+        def score(curve, name=name, dense=dense, dense_learned=dense_learned, start=params):
+            trial_params = start
             error = _rms(curve.function()(dense) - dense_learned)
             if residuals is None:
-                loss = error**2
-            if np.isfinite(loss) and np.isfinite(error):
-                scored.append((candidate, loss, error, curve, trial_params))
-        if not scored:
+                loss, columns = error**2, {"error": error}
+            else:
+                trial_params = SymbolicCCRegressor._polish(
+                    residuals, problem, {name: curve}, functions, start,
+                    effort=CANDIDATE_EFFORT)
+                loss = residuals.loss({**functions, name: curve.function()}, trial_params)
+                columns = {"error": error, "loss": loss}
+            if not (np.isfinite(loss) and np.isfinite(error)):
+                return None
+            return loss, columns, trial_params
+
+        chosen = choose_candidate(found, template, domain, monotone, score, model_selection)
+        if chosen is None:
             raise ValueError(f"the search found no finite expression for {name}"
                              + (f" that is {monotone}" if monotone else "")
                              + ": widen the operators or raise maxsize, population_size or "
                              "generations")
-        k = select([(c, loss) for c, loss, *_ in scored], model_selection)
-        rows = []
-        for j, (candidate, loss, error, curve, _) in enumerate(scored):
-            row = {"complexity": candidate.complexity, "search_loss": candidate.loss,
-                   "error": error, "expression": curve.expression(), "chosen": j == k}
-            if residuals is not None:
-                row["loss"] = loss
-            rows.append(row)
-        pareto[name] = pd.DataFrame(rows).sort_values("complexity", ignore_index=True)
-        _, _, _, chosen, params = scored[k]
-        curves[name] = chosen
-        functions[name] = chosen.function()
+        curve, params, pareto[name] = chosen
+        curves[name] = curve
+        functions[name] = curve.function()
     if residuals is not None and curves:
         params = SymbolicCCRegressor._polish(residuals, problem, curves, functions, params)
     out = dict(model.functions_)

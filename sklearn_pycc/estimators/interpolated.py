@@ -20,6 +20,7 @@ from sklearn.base import _fit_context, clone
 from sklearn.utils._param_validation import Interval, StrOptions
 
 from ..exceptions import GaugeWarning
+from ..skeleton.curves import Curve
 from ._basis import ZeroCurve
 from ._setup import FitResult, Problem, gauge_skeleton
 from .base import CCRegressor
@@ -39,7 +40,7 @@ def check_method(method: str) -> str:
     return method
 
 
-class InterpolatedCurve:
+class InterpolatedCurve(Curve):
     """A curve interpolated from a table of values.
 
     Inside the table the curve is the chosen piecewise polynomial; beyond it
@@ -127,6 +128,11 @@ class InterpolatedCurve:
         for c in self._piece_list[piece]:
             out = out * dx + c
         return out
+
+    @property
+    def n_numbers(self) -> int:
+        """Values of the table."""
+        return int(self.x.size)
 
     def text(self, variable: str, precision: int = 6) -> str:
         """A description of the table as a function of ``variable``."""
@@ -263,10 +269,6 @@ class InterpolatedCCRegressor(CCRegressor):
     def _fit_problem(self, problem: Problem) -> FitResult:
         """Not used: :meth:`fit` drives ``estimator`` through its public ``fit``."""
         raise NotImplementedError("InterpolatedCCRegressor fits through its estimator's fit")
-
-    def _curve_parameters(self, problem, name: str) -> int:
-        curve = self.functions_.get(name) if hasattr(self, "functions_") else None
-        return int(curve.x.size) if isinstance(curve, InterpolatedCurve) else 0
 
     @property
     def tables_(self) -> dict:

@@ -461,10 +461,6 @@ default="lbfgs"
         return {"center": center, "scale": scale, "parity": parity,
                 "points": problem.points(name), "monotone": problem.monotone(name)}
 
-    def _curve_parameters(self, problem, name: str) -> int:
-        # weights and biases of the network
-        return sum(w.size + b.size for w, b in getattr(self.functions_[name], "layers", ()))
-
     def _curve_text(self, name: str, variable: str, precision: int) -> str:
         curve = self.functions_[name]
         if not isinstance(curve, NumpyCurve):

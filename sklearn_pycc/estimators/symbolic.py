@@ -231,6 +231,45 @@ class _Curve:
         return self.template.symbolic(g)
 
 
+def choose_candidate(found, template: Template, domain: tuple[float, float],
+                     monotone: str | None, score, rule: str):
+    """Turn a search's candidates into curves, score them, and choose one.
+
+    Each candidate becomes a curve under ``template`` (parity and point
+    values) over ``domain``; a curve that breaks the ``monotone`` shape asked
+    for is dropped. ``score(curve)`` returns ``(loss, columns, payload)``,
+    or None to drop the candidate: the loss decides (by :func:`select` with
+    ``rule``), the columns go into the Pareto table, the payload comes back
+    with the choice. Shared by :class:`SymbolicCCRegressor` and
+    :func:`~sklearn_pycc.to_symbolic`.
+
+    Returns
+    -------
+    (curve, payload, table) or None
+        The chosen curve, its payload and the table of every scored
+        candidate (``complexity``, ``search_loss``, the columns,
+        ``expression``, ``chosen``), by complexity; None when no candidate
+        scored.
+    """
+    scored = []
+    for candidate in found:
+        curve = _Curve(candidate.expression, template, domain)
+        if not keeps_monotone(curve.function(), domain, monotone):
+            continue
+        outcome = score(curve)
+        if outcome is not None:
+            scored.append((candidate, curve, *outcome))
+    if not scored:
+        return None
+    k = select([(candidate, loss) for candidate, _, loss, *_ in scored], rule)
+    rows = [{"complexity": candidate.complexity, "search_loss": candidate.loss, **columns,
+             "expression": curve.expression(), "chosen": j == k}
+            for j, (candidate, curve, _, columns, _) in enumerate(scored)]
+    table = pd.DataFrame(rows).sort_values("complexity", ignore_index=True)
+    _, curve, _, _, payload = scored[k]
+    return curve, payload, table
+
+
 class SymbolicCCRegressor(CCRegressor):
     """Characteristic curves as analytic expressions (symbolic regression, SymbR-CC).
 
@@ -461,24 +500,17 @@ class SymbolicCCRegressor(CCRegressor):
         found = self._run_engine(engine, xb, yb, parity, seed)
         template = Template(parity, problem.points(name))
         domain = (float(np.min(x)), float(np.max(x)))
-        scored, rows = [], []
-        monotone = problem.monotone(name)
-        for candidate in found:
-            curve = _Curve(candidate.expression, template, domain)
-            if not keeps_monotone(curve.function(), domain, monotone):
-                continue
-            trial = {**functions, name: curve.function()}
-            loss = residuals.loss(trial, params)
-            if np.isfinite(loss):
-                scored.append((candidate, loss, curve))
-        if not scored:
+
+        def score(curve):
+            loss = residuals.loss({**functions, name: curve.function()}, params)
+            return (loss, {"loss": loss}, None) if np.isfinite(loss) else None
+
+        chosen = choose_candidate(found, template, domain, problem.monotone(name), score,
+                                  self.model_selection)
+        if chosen is None:
             return None
-        k = select([(c, loss) for c, loss, _ in scored], self.model_selection)
-        for j, (candidate, loss, curve) in enumerate(scored):
-            rows.append({"complexity": candidate.complexity, "search_loss": candidate.loss,
-                         "loss": loss, "expression": curve.expression(), "chosen": j == k})
-        pareto[name] = pd.DataFrame(rows).sort_values("complexity", ignore_index=True)
-        return scored[k][2]
+        curve, _, pareto[name] = chosen
+        return curve
 
     def _run_engine(self, engine, x: np.ndarray, y: np.ndarray, parity: str | None,
                     seed: int) -> list[Candidate]:
@@ -564,20 +596,16 @@ class SymbolicCCRegressor(CCRegressor):
     def _derived_attributes(self) -> dict:
         expressions = {}
         for name, curve in self.functions_.items():
-            expression = getattr(curve, "expression", sympy.Integer(0))
-            expressions[name] = expression.xreplace(
-                {VARIABLE: sympy.Symbol(self._variable(name))})
+            expression = curve.to_sympy(sympy.Symbol(self._variable(name)))
+            expressions[name] = sympy.Integer(0) if expression is None else expression
         return {"expressions_": expressions}
-
-    def _curve_parameters(self, problem, name: str) -> int:
-        curve = self.functions_.get(name) if hasattr(self, "functions_") else None
-        return len(getattr(curve, "expression", sympy.Integer(0)).atoms(sympy.Float))
 
     def to_sympy(self) -> list[sympy.Eq]:
         """The fitted model as SymPy equations, curves written out."""
         check_is_fitted(self, "expressions_")
-        curves = {name: getattr(curve, "expression", sympy.Integer(0))
-                  for name, curve in self.functions_.items()}
+        written = {name: curve.to_sympy(VARIABLE) for name, curve in self.functions_.items()}
+        curves = {name: expression for name, expression in written.items()
+                  if expression is not None}
         return [sympy.Eq(to_sympy(eq.lhs, self.params_, curves),
                          to_sympy(eq.rhs, self.params_, curves))
                 for eq in self.skeleton_.parsed]

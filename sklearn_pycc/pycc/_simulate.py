@@ -7,10 +7,12 @@ from collections.abc import Callable, Mapping
 import numpy as np
 from scipy.optimize import OptimizeResult
 
+from ..estimators._symbolic_curves import VARIABLE
 from ..estimators.conversion import from_tables
 from ..estimators.interpolated import InterpolatedCurve
 from ..exceptions import SimulationError
 from ..skeleton import Skeleton
+from ..skeleton.curves import as_curve
 from ._params import Params
 from ._shared import pair_evals
 
@@ -173,7 +175,8 @@ def simulate(equations, method: str = "Theoretical", params: dict | None = None)
         values[name] = float(value.item() if hasattr(value, "item") else value)
     if read["print_models"]:
         for name, curve in functions.items():
-            print(f"{name}: {getattr(curve, 'expression', curve)}")
+            expression = as_curve(curve).to_sympy(VARIABLE)
+            print(f"{name}: {curve if expression is None else expression}")
     t, prepended = _times(read, where)
     options = {"method": read["method"], "rtol": float(read["rtol"]),
                "atol": float(read["atol"])}

@@ -4,6 +4,7 @@ This subpackage knows nothing of estimators.
 """
 
 from .constraints import Bound, Constraint, parse_constraints
+from .curves import Curve, as_curve
 from .nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
 from .parser import parse_equation, parse_expression
 from .skeleton import Skeleton
@@ -13,6 +14,7 @@ __all__ = [
     "BinOp",
     "Bound",
     "Constraint",
+    "Curve",
     "Neg",
     "Node",
     "Number",
@@ -20,6 +22,7 @@ __all__ = [
     "Skeleton",
     "Symbol",
     "Unknown",
+    "as_curve",
     "parse_constraints",
     "parse_equation",
     "parse_expression",

@@ -24,6 +24,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from .curves import as_curve
 from .functions import ELEMENTARY
 from .nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
 
@@ -113,12 +114,9 @@ class _Compiler:
         if isinstance(node, Unknown):
             curve = self.functions[node.name]
             fn, c = self.compile(node.arg)
-            if self.scalar:
-                # a curve may offer a float -> float fast path for ODE right-hand sides
-                fast = getattr(curve, "scalar", None)
-                if callable(fast):
-                    return (lambda env: fast(fn(env))), None
-                return (lambda env: float(curve(fn(env)))), None
+            if self.scalar:  # the float -> float fast path of ODE right-hand sides
+                fast = as_curve(curve).scalar
+                return (lambda env: fast(fn(env))), None
             return (lambda env: curve(fn(env))), None
         if isinstance(node, BinOp):
             return self.binop(node)
