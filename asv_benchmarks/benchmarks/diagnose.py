@@ -8,6 +8,8 @@ from threadpoolctl import threadpool_limits
 
 from sklearn_pycc import PolyCCRegressor, datasets, diagnose
 
+from .common import FULL
+
 X_COLUMNS = ["t", "x1", "x2", "F_ext"]
 Y_COLUMNS = ["x1_dot", "x2_dot"]
 
@@ -27,7 +29,7 @@ class HypothesisLoop:
     """
 
     param_names = ["n_samples"]
-    params = ([2_000, 10_000],)
+    params = ([2_000, *([10_000] if FULL else [])],)
     processes = 1
     repeat = (3, 5, 20.0)
     timeout = 120

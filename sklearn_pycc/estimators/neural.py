@@ -188,6 +188,8 @@ default="lbfgs"
 
     #: quasi-Newton iterations per epoch with optimizer="lbfgs" (torch's default)
     _lbfgs_iterations = 20
+    #: curvature pairs L-BFGS keeps (torch's default)
+    _lbfgs_history = 100
 
     _parameter_constraints: dict = {
         **CCRegressor._parameter_constraints,
@@ -384,7 +386,8 @@ default="lbfgs"
         optimizer_params = {}
         if checked["lbfgs"]:
             optimizer_params = {"optimizer__line_search_fn": "strong_wolfe",
-                                "optimizer__max_iter": self._lbfgs_iterations}
+                                "optimizer__max_iter": self._lbfgs_iterations,
+                                "optimizer__history_size": self._lbfgs_history}
         if self.verbose < 2:
             optimizer_params["callbacks__print_log"] = None
         shuffle = None
