@@ -196,14 +196,12 @@ class Windows:
         out[:, 0] = x
         escaped = np.zeros(K, dtype=bool)
         self.escape_step = np.full(K, L + 1)
-        env: dict[str, np.ndarray] = {}
+        signals = [name for name in fine if name in system.slots]
+        columns = [fine[name].T.copy() for name in signals]  # (stage, K): contiguous rows
+        evaluate = system.batch_rhs(K, signals)
 
         def rhs(state, column):
-            for q, name in enumerate(names):
-                env[name] = state[:, q]
-            for name, values in fine.items():
-                env[name] = values[:, column]
-            return system.evaluate(env, K)
+            return evaluate(state, [values[column] for values in columns])
 
         with np.errstate(all="ignore"):
             for i in range(L):

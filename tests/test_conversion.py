@@ -59,6 +59,7 @@ def duffing_poly():
 
 
 # -- post-SR: acceptance ---------------------------------------------------------------------
+@pytest.mark.slow
 def test_post_sr_on_the_data_lowers_both_curve_errors_of_a_neural_fit(noisy_stick_slip,
                                                                       post_sr):
     _, truth, model = noisy_stick_slip
@@ -71,6 +72,7 @@ def test_post_sr_on_the_data_lowers_both_curve_errors_of_a_neural_fit(noisy_stic
     assert post_sr.expressions_["f1"].free_symbols == {sympy.Symbol("x2")}
 
 
+@pytest.mark.slow
 def test_post_sr_of_the_curves_alone_keeps_their_accuracy(noisy_stick_slip):
     _, truth, model = noisy_stick_slip
     converted = to_symbolic(model, random_state=0)
@@ -81,6 +83,7 @@ def test_post_sr_of_the_curves_alone_keeps_their_accuracy(noisy_stick_slip):
     assert converted.loss_history_ == []
 
 
+@pytest.mark.slow
 def test_post_sr_returns_a_fitted_symbolic_model(noisy_stick_slip, post_sr):
     frame, truth, _ = noisy_stick_slip
     assert isinstance(post_sr, SymbolicCCRegressor)

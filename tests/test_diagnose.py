@@ -57,7 +57,8 @@ def loop(frame, equations, estimator=None, rounds=3):
     return found, reports
 
 
-@pytest.fixture(scope="module", params=[NOISE, None], ids=["noisy", "noise-free"])
+@pytest.fixture(scope="module", params=[
+    NOISE, pytest.param(None, marks=pytest.mark.slow)], ids=["noisy", "noise-free"])
 def noise(request):
     return request.param
 
@@ -136,6 +137,7 @@ def test_linear_data_leave_the_linear_model_alone(noise):
     assert not report.ranking.empty  # effects were tried, none was invented
 
 
+@pytest.mark.slow
 def test_the_loop_works_with_the_neural_backend():
     frame, _ = oscillator(["coulomb_friction", "cubic_stiffness"])
     X, y = xy(frame)

@@ -21,6 +21,7 @@ def search(n_jobs):
                         error_score="raise", n_jobs=n_jobs)
 
 
+@pytest.mark.slow
 def test_grid_search_over_skeletons_on_a_local_dask_cluster():
     from joblib import parallel_backend
 

@@ -46,6 +46,9 @@ def test_every_example_has_a_title_and_an_introduction():
             f"{path.name}: the title must be underlined with '='"
 
 
+# the documentation build (``make docs``, run by CI) executes every example with its
+# full settings; here they run small, in the slow suite
+@pytest.mark.slow
 @pytest.mark.parametrize("path", GALLERY, ids=[path.stem for path in GALLERY])
 def test_example_runs_and_draws_its_figures(path, tmp_path, monkeypatch):
     if path.name == "plot_dask_sweep.py":

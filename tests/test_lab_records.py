@@ -80,7 +80,8 @@ def _larger_resonator(truth, amplitude, noise):
     return make(0.05 * truth.params["a4"] / probe.params["a4"])
 
 
-@pytest.mark.parametrize("noise, drop", [(60.0, 0.0), (30.0, 0.02)])
+@pytest.mark.parametrize("noise, drop", [
+    (60.0, 0.0), pytest.param(30.0, 0.02, marks=pytest.mark.slow)])
 def test_output_error_cubic_simulates_a_larger_held_out_record(noise, drop):
     frame, truth = datasets.make_resonator(n_samples=4000, noise=noise, drop_fraction=drop,
                                            random_state=0, return_truth=True)

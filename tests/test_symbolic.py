@@ -97,7 +97,8 @@ def test_odd_constraint_holds_by_construction():
     frame = datasets.make_stick_slip(n_samples=600, noise=30, random_state=0,
                                      noise_columns=["F_ext"])
     model = SymbolicCCRegressor(equations=SECOND_ORDER, constraints=["f1 odd", "f2(0)=0"],
-                                generations=20, random_state=0)
+                                generations=5, population_size=100, max_iterations=1,
+                                random_state=0)
     model.fit(frame[X_COLUMNS], frame[Y_COLUMNS])
     v = np.linspace(-1.5, 1.5, 31)
     f1 = model.functions_["f1"]
@@ -145,7 +146,7 @@ def test_fitted_model_pickles_and_simulates(duffing):
 
 def test_same_seed_same_expressions(duffing):
     frame, _ = duffing
-    settings = dict(equations=SECOND_ORDER, population_size=100, generations=10,
+    settings = dict(equations=SECOND_ORDER, population_size=50, generations=5,
                     max_iterations=1, random_state=3)
     a = SymbolicCCRegressor(**settings).fit(frame[X_COLUMNS], frame[Y_COLUMNS])
     b = SymbolicCCRegressor(**settings).fit(frame[X_COLUMNS], frame[Y_COLUMNS])

@@ -33,8 +33,9 @@ class Measurements:
     ----------
     X : DataFrame
         What the model is judged on: ``t``, ``trajectory``, the states
-        (smoothed or reconstructed when derivatives were estimated) and the
-        inputs (a new frame; the user's is never modified).
+        (smoothed or reconstructed when derivatives were estimated), the
+        inputs and the outputs of static equations (a new frame; the user's
+        is never modified).
     columns : dict
         Name -> float array: states, inputs, ``t`` and the measured
         derivatives ``NAME_dot``.
@@ -66,8 +67,13 @@ class Measurements:
         return self.derivatives.shape[0]
 
     def predict(self, model) -> np.ndarray:
-        """A fitted model's derivatives on these rows, ``(n_samples, n_states)``."""
-        return np.asarray(model.predict(self.X), dtype=float).reshape(self.n_samples, -1)
+        """A fitted model's derivatives on these rows, ``(n_samples, n_states)``.
+
+        The outputs of static equations, which ``predict`` returns after the
+        derivatives, are left out.
+        """
+        predicted = np.asarray(model.predict(self.X), dtype=float).reshape(self.n_samples, -1)
+        return predicted[:, :self.derivatives.shape[1]]
 
 
 def read_measurements(skeleton, X, y, differentiation="auto",
@@ -90,6 +96,10 @@ def read_measurements(skeleton, X, y, differentiation="auto",
     if not isinstance(X, pd.DataFrame):
         raise TypeError(f"diagnose needs X as a pandas DataFrame with the columns "
                         f"{skeleton.variables}, got {type(X).__name__}")
+    if not skeleton.states:
+        raise ValueError("the skeleton has no differential equation: a diagnosis compares "
+                         "derivatives and simulated trajectories with the measurements; "
+                         "judge a static model by its score")
     record = read_record(skeleton, X, y, differentiation=differentiation, smooth=smooth,
                          derivatives_from_X=True, split=True)
     has_time = TIME in record.data
@@ -99,7 +109,7 @@ def read_measurements(skeleton, X, y, differentiation="auto",
         groups = [(None, np.arange(record.n_samples))]
     else:
         groups = [(e.label, e.rows) for e in record.experiments]
-    names = [*skeleton.states, *(n for n in skeleton.inputs if n != TIME)]
+    names = [*skeleton.states, *(n for n in skeleton.inputs if n != TIME), *skeleton.outputs]
     frame = record.frame(names)
     estimated = record.source if record.estimated else ""
     return Measurements(frame, dict(record.columns), record.derivatives, groups, has_time,

@@ -15,6 +15,14 @@ def _relu(x):
     return np.maximum(x, 0.0)
 
 
+#: torch's LeakyReLU default slope below zero
+_LEAK = 0.01
+
+
+def _leaky_relu(x):
+    return np.where(x > 0.0, x, _LEAK * x)
+
+
 def _silu(x):
     return x * expit(x)
 
@@ -39,6 +47,10 @@ def _d_tanh(z, a):
 
 def _d_relu(z, a):
     return (z > 0.0).astype(float)
+
+
+def _d_leaky_relu(z, a):
+    return np.where(z > 0.0, 1.0, _LEAK)
 
 
 def _d_silu(z, a):
@@ -66,6 +78,7 @@ def _d_gelu(z, a):
 ACTIVATIONS: dict[str, tuple[str, object, object, bool]] = {
     "tanh": ("Tanh", np.tanh, _d_tanh, True),
     "relu": ("ReLU", _relu, _d_relu, False),
+    "leaky_relu": ("LeakyReLU", _leaky_relu, _d_leaky_relu, False),
     "silu": ("SiLU", _silu, _d_silu, True),
     "elu": ("ELU", _elu, _d_elu, False),
     "softplus": ("Softplus", _softplus, _d_softplus, True),

@@ -18,7 +18,7 @@ from ..skeleton.equations import Equation, unknown_names
 from ..skeleton.nodes import Node, Unknown, walk
 
 __all__ = ["GAUGES", "FitResult", "Problem", "active_residuals", "build_skeleton",
-           "gauge_skeleton", "parity_of", "points_of"]
+           "gauge_skeleton", "parity_of", "points_of", "residual_scale"]
 
 GAUGES = ("auto", "warn", "raise")
 
@@ -123,6 +123,9 @@ class Problem:
     fit_mode : {"equation", "simulation"}
         The mode of this fit: ``"simulation"`` when an output-error stage
         follows the equation fit.
+    equation_weights : tuple of float or None
+        The user's weight of each equation, in the order given (None: 1 for
+        each); it multiplies the equation's residual after its own scaling.
     """
 
     skeleton: Skeleton
@@ -138,11 +141,28 @@ class Problem:
     smoothed: dict[str, np.ndarray] = field(default_factory=dict)
     signals: dict[str, np.ndarray] = field(default_factory=dict)
     fit_mode: str = "equation"
+    equation_weights: tuple | None = None
 
     @property
     def equations(self) -> list[Equation]:
-        """Classified equations."""
+        """Every equation to make hold on the data, in the order given.
+
+        The differential equations and the algebraic ones (static,
+        implicit, conserved quantities); :attr:`dynamic` are those a
+        simulation integrates.
+        """
+        return self.skeleton.residual_equations
+
+    @property
+    def dynamic(self) -> list[Equation]:
+        """The differential equations."""
         return self.skeleton.parsed
+
+    def weight(self, index: int) -> float:
+        """The user's weight of ``equations[index]`` (1 by default)."""
+        if self.equation_weights is None:
+            return 1.0
+        return float(self.equation_weights[index])
 
     @property
     def free_functions(self) -> list[str]:
@@ -300,21 +320,53 @@ def gauge_skeleton(skeleton: Skeleton, gauge: str):
     return constraints, fixed, zeroed, gauge
 
 
-def active_residuals(problem: Problem) -> tuple[list[Node], list[float]]:
-    """Residuals of the equations with something to fit, and their scales."""
+def residual_scale(problem: Problem, eq: Equation) -> float:
+    """The size of an equation's residual on the data, to weight it by.
+
+    The root mean square of its measured left side (``x2_dot``, ``F_ext``);
+    for a left side that is constant or holds unknowns (``0 = x2 x2_dot +
+    f2(x1) x2``), and for an equation fitted with its denominator multiplied
+    out (:attr:`~sklearn_pycc.skeleton.equations.Equation.fit_residual`),
+    that of the fitted residual with the free curves and parameters set to
+    zero (``x2 x2_dot``). 1 when neither has a finite, nonzero size.
+    """
     slots, env = problem.environment()
     fixed = problem.fixed_params
+    n = problem.data.n_samples
+    lhs_curves, lhs_params = unknown_names(eq.lhs)
+    candidates = []
+    as_written = eq.fit_residual == eq.residual
+    if as_written and not lhs_curves and not (lhs_params - set(fixed)):
+        candidates.append(compile_expression(eq.lhs, slots, fixed))
+    zero = {a: 0.0 for a in problem.free_params}
+    zero_curves = {f: _zero_curve for f in problem.skeleton.functions}
+    candidates.append(compile_expression(eq.fit_residual, slots, {**zero, **fixed},
+                                         zero_curves))
+    for fn in candidates:
+        try:
+            with np.errstate(all="ignore"):
+                value = np.broadcast_to(np.asarray(fn(env), dtype=float), (n,))
+        except KeyError:  # a column the data do not hold
+            continue
+        rms = float(np.sqrt(np.mean(value * value)))
+        if np.isfinite(rms) and rms > 0:
+            return rms
+    return 1.0
+
+
+def _zero_curve(u):
+    return np.zeros_like(np.asarray(u, dtype=float))
+
+
+def active_residuals(problem: Problem) -> tuple[list[Node], list[float]]:
+    """Residuals of the equations with something to fit, and their weights.
+
+    Each residual is divided by its size on the data
+    (:func:`residual_scale`) and multiplied by the user's weight.
+    """
     residuals, weights = [], []
     for i in problem.active:
         eq = problem.equations[i]
-        residuals.append(eq.residual)
-        weight = 1.0
-        lhs_curves, lhs_params = unknown_names(eq.lhs)
-        if not lhs_curves and not (lhs_params - set(fixed)):
-            value = compile_expression(eq.lhs, slots, fixed)(env)
-            value = np.broadcast_to(np.asarray(value, dtype=float), (problem.data.n_samples,))
-            rms = float(np.sqrt(np.mean(value * value)))
-            if np.isfinite(rms) and rms > 0:
-                weight = 1.0 / rms
-        weights.append(weight)
+        residuals.append(eq.fit_residual)
+        weights.append(problem.weight(i) / residual_scale(problem, eq))
     return residuals, weights

@@ -34,7 +34,7 @@ class _Integrator:
         slots = {name: i for i, name in enumerate(names)}
         fixed = problem.fixed_params
         self.rhs = []
-        for eq in problem.equations:
+        for eq in problem.dynamic:
             if not eq.solvable or eq.derivatives_used():
                 raise ValueError(
                     f"fit_mode='simulation' needs every equation solved for its derivative; "

@@ -142,6 +142,13 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         Samples per shooting segment in ``fit_mode="simulation"``.
     shooting_iterations : int, default=30
         Most iterations of the output-error optimisation.
+    equation_weights : list of float, optional
+        One non-negative weight per equation, in the order given (default 1
+        each). Each equation's residual is first divided by its size on the
+        data (its measured left side, e.g. ``x2_dot``, or for ``0 = ...`` the
+        part without unknowns), then multiplied by its weight: raise the
+        weight of a relation the fit must honour more closely, such as a
+        conserved quantity.
 
     Attributes
     ----------
@@ -191,14 +198,16 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         "fit_mode": [StrOptions(set(FIT_MODES))],
         "shooting_window": [Interval(Integral, 2, None, closed="left")],
         "shooting_iterations": [Interval(Integral, 1, None, closed="left")],
+        "equation_weights": ["array-like", None],
     }
 
     def __init__(self, *, equations=None, constraints=None, gauge: str = "auto",
                  differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,
-                 shooting_iterations: int = 30) -> None:
+                 shooting_iterations: int = 30, equation_weights=None) -> None:
         self.equations = equations
         self.constraints = constraints
+        self.equation_weights = equation_weights
         self.gauge = gauge
         self.differentiation = differentiation
         self.smooth_states = smooth_states
@@ -251,20 +260,25 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
     def _problem(self, X, y) -> tuple[Problem, dict]:
         """The fitting problem, and what was learned about the record (to be stored)."""
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
+        if self.fit_mode == "simulation":
+            _check_simulable(skeleton)
         constraints, fixed, zeroed, gauge = gauge_skeleton(skeleton, self.gauge)
         record = read_record(skeleton, X, y, differentiation=self.differentiation,
                              smooth=bool(self.smooth_states), estimator=self, reset=True,
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
                              who=type(self).__name__, trim=False)
+        weights = _equation_weights(self.equation_weights, skeleton)
         mode, why = self._resolve_mode(skeleton, record)
         facts = {"fit_mode_": mode, "derivative_source_": record.source + why,
-                 "measured_states_": list(record.measured), "_y_1d": record.y_ndim == 1}
+                 "measured_states_": list(record.measured),
+                 "_y_1d": record.y_ndim == 1 and len(skeleton.targets) == 1}
         # the equations are fitted where the derivatives can be trusted; an
         # output-error stage simulates the whole record
         trusted = record.keep()
         problem = Problem(skeleton, constraints, fixed, zeroed, trusted.data,
                           trusted.derivatives, gauge, record.experiments, record.measured,
-                          record.smoothed, record.signals, fit_mode=mode)
+                          record.smoothed, record.signals, fit_mode=mode,
+                          equation_weights=weights)
         return problem, facts
 
     def _resolve_mode(self, skeleton, record) -> tuple[str, str]:
@@ -276,6 +290,7 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         simulable = (type(self)._fit_simulation is not CCRegressor._fit_simulation
                      and record.experiments is not None
                      and all(eq.explicit for eq in skeleton.parsed)
+                     and not skeleton.algebraic
                      and all(s in record.smoothed for s in skeleton.states)
                      and all(e.n_samples >= 2 for e in record.experiments))
         if not (noisy and simulable):
@@ -408,7 +423,7 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         return compiled
 
     def predict(self, X) -> np.ndarray:
-        """Derivatives predicted by the fitted model.
+        """Derivatives (and static outputs) predicted by the fitted model.
 
         Parameters
         ----------
@@ -417,14 +432,17 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
 
         Returns
         -------
-        ndarray of shape (n_samples, n_states)
-            One column per equation, in the order of ``equations`` (1-D when
-            ``y`` was 1-D in ``fit``).
+        ndarray of shape (n_samples, n_targets)
+            One column per differential equation, in the order of
+            ``equations``, then one per static equation ``NAME = rhs``
+            (its ``NAME``): the skeleton's ``targets``. 1-D when ``y`` was
+            1-D in ``fit``.
         """
         system = self._system()
         data = read_X(self, X, self.skeleton_.variables, reset=False)
         with np.errstate(all="ignore"):
-            pred = system.evaluate(data.columns, data.n_samples)
+            pred = np.hstack([system.evaluate(data.columns, data.n_samples),
+                              system.evaluate_outputs(data.columns, data.n_samples)])
         if not np.isfinite(pred).all():
             self._warn_not_finite(data.columns, pred)
         if self._y_1d:
@@ -432,18 +450,19 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         return pred
 
     def score(self, X, y, sample_weight=None) -> float:
-        """Coefficient of determination R² of the predicted derivatives.
+        """Coefficient of determination R² of the predictions.
 
-        ``y`` is matched to the equations by name when it is a DataFrame.
+        ``y`` holds what :meth:`predict` returns: the derivatives, then the
+        outputs of static equations; a DataFrame is matched by name.
         """
         check_is_fitted(self, "functions_")
         pred = np.asarray(self.predict(X))
         pred = pred[:, None] if pred.ndim == 1 else pred
-        truth = read_y(y, self.skeleton_.derivatives, pred.shape[0])
+        truth = read_y(y, self.skeleton_.targets, pred.shape[0])
         bad = ~np.isfinite(pred)
         if bad.any():
             raise ValueError(
-                f"score: the predicted derivatives are NaN or infinite at "
+                f"score: the predictions are NaN or infinite at "
                 f"{int(bad.any(axis=1).sum())} of {pred.shape[0]} rows (see the DomainWarning "
                 "predict gave), so R^2 has no value")
         # R^2 is the same for each column scaled by its largest value; the sums of
@@ -496,24 +515,45 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         Returns
         -------
         pandas.DataFrame
-            Columns ``t`` and the states.
+            Columns ``t``, the states and the outputs of static equations
+            (``F1`` of ``F1 = f1(x1)``) along the trajectory.
 
         Raises
         ------
         SimulationError
             When the model diverges or the solver fails; it carries the time
             reached and the partial trajectory.
+        ValueError
+            When the skeleton has no differential equation.
 
         Warns
         -----
+        UserWarning
+            Once per call, naming the equations without a derivative of
+            their own and without an output (``0 = ...``, a conserved
+            quantity): they were fitted, and are left out of the simulation.
         ExtrapolationWarning
             Once, when the trajectory takes a curve that declares an
             ``extrapolation`` policy more than 1 % of its training range
             beyond that range.
         """
         system = self._system()
+        skeleton = self.skeleton_
+        if not skeleton.states:
+            raise ValueError(
+                "the skeleton has no differential equation, so there is nothing to "
+                f"simulate: its equations ({'; '.join(skeleton.equations)}) are static; "
+                "use predict")
+        loose = [eq for eq in skeleton.algebraic if eq.output is None]
+        if loose:
+            warnings.warn(
+                "simulate integrates the differential equations only: "
+                + "; ".join(f"equations[{eq.index}] ({eq.text!r})" for eq in loose)
+                + (" has" if len(loose) == 1 else " have") + " no derivative of its own "
+                "and, fitted with the others, takes no part in the simulation",
+                UserWarning, stacklevel=2)
         if isinstance(y0, Mapping):
-            states = self.skeleton_.states
+            states = skeleton.states
             unknown = [k for k in y0 if k not in states]
             if unknown:
                 raise ValueError(f"y0 names {unknown[0]!r}, which is not a state of {states}")
@@ -523,13 +563,20 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
             y0 = [y0[s] for s in states]
         watched = {name: curve for name, curve in self.functions_.items()
                    if curve.extrapolation}
+        outputs = skeleton.outputs
         frame = simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
-                                return_derivatives=return_derivatives or bool(watched),
+                                return_derivatives=(return_derivatives or bool(watched)
+                                                    or bool(outputs)),
                                 input_hold=input_hold, verbose=verbose, **solver_options)
         if watched:
             self._warn_outside_domain(frame, watched)
-            if not return_derivatives:
-                frame = frame[["t", *self.skeleton_.states]]
+        if outputs:
+            columns = {name: frame[name].to_numpy() for name in frame.columns}
+            values = system.evaluate_outputs(columns, len(frame))
+            for j, name in enumerate(outputs):
+                frame[name] = values[:, j]
+        if not return_derivatives:
+            frame = frame[["t", *skeleton.states, *outputs]]
         return frame
 
     def _warn_not_finite(self, columns: Mapping, pred: np.ndarray) -> None:
@@ -537,7 +584,9 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         slots = {name: i for i, name in enumerate(columns)}
         env = [np.asarray(columns[name], dtype=float) for name in columns]
         found = []
-        for j, eq in enumerate(self.skeleton_.parsed):
+        predicted = [*self.skeleton_.parsed,
+                     *(eq for eq in self.skeleton_.algebraic if eq.output is not None)]
+        for j, eq in enumerate(predicted):
             bad = ~np.isfinite(pred[:, j])
             if not bad.any():
                 continue
@@ -556,7 +605,8 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
                     break
             at = ", ".join(f"{name}={columns[name][row]:.4g}" for name in columns
                            if name in eq.symbols())
-            found.append(f"equations[{eq.index}] ({eq.derivative}) at {int(bad.sum())} of "
+            found.append(f"equations[{eq.index}] ({eq.derivative or eq.output}) at "
+                         f"{int(bad.sum())} of "
                          f"{bad.size} rows, first at row {row} ({at}): the term '{culprit}' "
                          "is not finite there")
         warnings.warn(
@@ -614,7 +664,7 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         """
         check_is_fitted(self, "functions_")
         lines = []
-        for eq in self.skeleton_.parsed:
+        for eq in self.skeleton_.residual_equations:
             lhs = to_text(eq.lhs, self.params_, precision)
             rhs = to_text(eq.rhs, self.params_, precision)
             lines.append(f"{lhs} = {rhs}")
@@ -656,8 +706,44 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
 
     @property
     def n_states_(self) -> int:
-        """Number of states (equations)."""
+        """Number of states (differential equations)."""
         return len(self.skeleton_.states)
+
+
+def _check_simulable(skeleton: Skeleton) -> None:
+    """Refuse ``fit_mode="simulation"`` for a skeleton with equations it cannot simulate."""
+    if not skeleton.states:
+        raise ValueError("fit_mode='simulation' fits simulated states, and the skeleton has "
+                         "no differential equation")
+    if skeleton.algebraic:
+        eq = skeleton.algebraic[0]
+        raise ValueError(
+            f"fit_mode='simulation' fits simulated states, which equations[{eq.index}] "
+            f"({eq.text!r}), without a derivative of its own, takes no part in: fit it by "
+            "equation error (fit_mode='equation')")
+
+
+def _equation_weights(weights, skeleton: Skeleton) -> tuple | None:
+    """The ``equation_weights`` hyperparameter checked against the skeleton's equations."""
+    if weights is None:
+        return None
+    try:
+        values = np.asarray(weights, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"equation_weights must be numbers, one per equation, got "
+                         f"{weights!r}") from None
+    n = len(skeleton.equations)
+    if values.ndim != 1 or len(values) != n:
+        raise ValueError(f"equation_weights holds {values.size} value(s) but the skeleton has "
+                         f"{n} equation(s): give one weight per equation, in their order")
+    bad = np.flatnonzero(~np.isfinite(values) | (values < 0))
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(f"equation_weights[{k}] = {weights[k]!r} (for equations[{k}], "
+                         f"{skeleton.equations[k]!r}) must be a finite, non-negative number")
+    if not values.any():
+        raise ValueError("equation_weights are all zero: nothing would be fitted")
+    return tuple(float(v) for v in values)
 
 
 def _argument_ranges(problem: Problem, params: Mapping,

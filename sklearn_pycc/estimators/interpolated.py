@@ -185,7 +185,7 @@ class InterpolatedCCRegressor(CCRegressor):
 
     Parameters
     ----------
-    equations, constraints, gauge, differentiation, smooth_states
+    equations, constraints, gauge, differentiation, smooth_states, equation_weights
         See :class:`CCRegressor`. They override the ``estimator``'s own.
     estimator : CCRegressor, optional
         The backend whose fitted curves are tabulated (not modified; a
@@ -214,9 +214,10 @@ class InterpolatedCCRegressor(CCRegressor):
 
     def __init__(self, *, equations=None, constraints=None, estimator=None, n_points: int = 200,
                  method: str = "pchip", gauge: str = "auto", differentiation="auto",
-                 smooth_states: bool = True) -> None:
+                 smooth_states: bool = True, equation_weights=None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
-                         differentiation=differentiation, smooth_states=smooth_states)
+                         differentiation=differentiation, smooth_states=smooth_states,
+                         equation_weights=equation_weights)
         self.estimator = estimator
         self.n_points = n_points
         self.method = method
@@ -252,7 +253,8 @@ class InterpolatedCCRegressor(CCRegressor):
         backend.set_params(equations=self.__dict__.get("equations"),
                            constraints=self.constraints, gauge=self.gauge,
                            differentiation=self.differentiation,
-                           smooth_states=self.smooth_states)
+                           smooth_states=self.smooth_states,
+                           equation_weights=self.equation_weights)
         backend.fit(X, y)
         tables = {}
         for name, curve in backend.functions_.items():

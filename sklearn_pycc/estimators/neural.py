@@ -90,7 +90,8 @@ class NeuralCCRegressor(CCRegressor):
         ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, ...
     hidden_layer_sizes : tuple of int, default=(16, 16)
         Hidden layers of each curve's network.
-    activation : {"tanh", "relu", "silu", "elu", "softplus", "sigmoid", "gelu"}, default="tanh"
+    activation : {"tanh", "relu", "leaky_relu", "silu", "elu", "softplus", "sigmoid", "gelu"}, \
+default="tanh"
         Activation of the hidden layers.
     optimizer : {"lbfgs", "adam", "adamw", "rmsprop", "sgd"} or torch optimizer class, \
 default="lbfgs"
@@ -150,6 +151,8 @@ default="lbfgs"
     differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations
         How measurements without derivatives are used, and output-error
         fitting: see :class:`CCRegressor`.
+    equation_weights : list of float, optional
+        One weight per equation: see :class:`CCRegressor`.
     shooting_start_epochs : int or None, default=10
         When the fit refines by output error, epochs of the equation-error fit that
         starts the output-error stage (at most ``max_epochs``; None uses
@@ -229,11 +232,12 @@ default="lbfgs"
                  gauge: str = "auto", differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, shooting_start_epochs: int | None = 10,
-                 random_state=None, verbose: int = 0) -> None:
+                 equation_weights=None, random_state=None, verbose: int = 0) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
-                         shooting_iterations=shooting_iterations)
+                         shooting_iterations=shooting_iterations,
+                         equation_weights=equation_weights)
         self.hidden_layer_sizes = hidden_layer_sizes
         self.activation = activation
         self.optimizer = optimizer
@@ -486,7 +490,7 @@ def _domain_hint(problem: Problem) -> str:
     """Advice when a parameter sits inside a function defined on part of the line only."""
     from ..skeleton.nodes import Apply, Param, walk
 
-    inside = sorted({n.name for eq in problem.skeleton.parsed for node in walk(eq.residual)
+    inside = sorted({n.name for eq in problem.equations for node in walk(eq.residual)
                      if isinstance(node, Apply) and node.func in _LIMITED_DOMAINS
                      for n in walk(node.arg) if isinstance(n, Param)}
                     - set(problem.bounds) - set(problem.fixed_params))

@@ -16,7 +16,7 @@ from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
 from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
 from ._linear import curve_arguments, linearize, split_parameters
 from ._lstsq import bounded_lstsq, constrained_lstsq
-from ._setup import FitResult, Problem
+from ._setup import FitResult, Problem, residual_scale
 from ._shooting import ShootingPlan, fit_shooting
 from .base import RANDOM_STATES, CCRegressor
 
@@ -41,8 +41,8 @@ class _Design:
         self.curves = problem.free_functions
         self.data = problem.data.columns
         self.n = problem.data.n_samples
-        eqs = problem.equations
-        self.residuals = [eq.residual for eq in eqs]
+        self.equations = problem.equations
+        self.residuals = [eq.fit_residual for eq in self.equations]
         # only equations with something to fit take part
         self.active = problem.active
         self.weights = {}
@@ -83,7 +83,9 @@ class _Design:
             const = np.broadcast_to(np.asarray(form.const, dtype=float), (n,))
             if i not in self.weights:
                 scale = float(np.sqrt(np.mean(const * const)))
-                self.weights[i] = 1.0 / scale if np.isfinite(scale) and scale > 0 else 1.0
+                self.weights[i] = self.problem.weight(i) / (
+                    scale if np.isfinite(scale) and scale > 0 else residual_scale(self.problem,
+                                                                                  self.equations[i]))
             w = self.weights[i]
             rows = slice(row * n, (row + 1) * n)
             np.multiply(const, w, out=b[rows])
@@ -168,6 +170,8 @@ class PolyCCRegressor(CCRegressor):
     differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations
         How measurements without derivatives are used, and output-error
         fitting: see :class:`CCRegressor`.
+    equation_weights : list of float, optional
+        One weight per equation: see :class:`CCRegressor`.
     random_state : int, RandomState or None
         Seeds the multi-start search when there are three or more nonlinear
         parameters.
@@ -206,11 +210,13 @@ class PolyCCRegressor(CCRegressor):
                  alpha: float = 0.0, param_init: Mapping | None = None, gauge: str = "auto",
                  differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,
-                 shooting_iterations: int = 30, random_state=None) -> None:
+                 shooting_iterations: int = 30, equation_weights=None,
+                 random_state=None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
-                         shooting_iterations=shooting_iterations)
+                         shooting_iterations=shooting_iterations,
+                         equation_weights=equation_weights)
         self.degree = degree
         self.basis = basis
         self.alpha = alpha
@@ -240,7 +246,7 @@ class PolyCCRegressor(CCRegressor):
     def _fit_problem(self, problem: Problem):
         self._check_params()
         degrees = self._degrees(problem.free_functions)
-        residuals = [(eq.index, eq.text, eq.residual) for eq in problem.equations]
+        residuals = [(eq.index, eq.text, eq.fit_residual) for eq in problem.equations]
         linear, nonlinear = split_parameters(residuals, problem.free_params, type(self).__name__)
         design = _Design(problem, linear, nonlinear, degrees, self.basis)
         fixed = dict(problem.fixed_params)

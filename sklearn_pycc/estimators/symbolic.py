@@ -330,7 +330,7 @@ class SymbolicCCRegressor(CCRegressor):
         ``SymbolicRegressor`` or ``PySRRegressor``).
     param_init : dict, optional
         Starting values of the parameters (1.0 otherwise).
-    gauge, differentiation, smooth_states
+    gauge, differentiation, smooth_states, equation_weights
         See :class:`CCRegressor`.
     random_state : int, RandomState or None
         Seeds every search.
@@ -378,9 +378,10 @@ class SymbolicCCRegressor(CCRegressor):
                  model_selection: str = "best", start_degree: int | None = 7,
                  engine_options: Mapping | None = None, param_init: Mapping | None = None,
                  gauge: str = "auto", differentiation="auto", smooth_states: bool = True,
-                 random_state=None) -> None:
+                 equation_weights=None, random_state=None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
-                         differentiation=differentiation, smooth_states=smooth_states)
+                         differentiation=differentiation, smooth_states=smooth_states,
+                         equation_weights=equation_weights)
         self.engine = engine
         self.binary_operators = binary_operators
         self.unary_operators = unary_operators
@@ -608,7 +609,7 @@ class SymbolicCCRegressor(CCRegressor):
                   if expression is not None}
         return [sympy.Eq(to_sympy(eq.lhs, self.params_, curves),
                          to_sympy(eq.rhs, self.params_, curves))
-                for eq in self.skeleton_.parsed]
+                for eq in self.skeleton_.residual_equations]
 
     def to_latex(self) -> list[str]:
         """The fitted model as LaTeX, one string per equation."""

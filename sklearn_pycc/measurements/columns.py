@@ -166,14 +166,17 @@ def _check_array_naming(needed: Sequence[str], optional: Collection[str], width:
 
 
 def read_y(y, derivatives: Sequence[str], n_samples: int, *, with_ndim: bool = False):
-    """Validate the measured derivatives; return ``(n_samples, n_states)`` in equation order.
+    """Validate the measured targets; return ``(n_samples, n_targets)`` in their order.
 
-    A DataFrame is matched by column name (``x1_dot``, ...); an array's
-    columns are taken in the order of the equations. With ``with_ndim``,
-    return ``(values, ndim)`` where ``ndim`` is that of the ``y`` given.
+    The targets are the derivatives ``NAME_dot`` (and the outputs of static
+    equations, when ``y`` holds them). A DataFrame is matched by column
+    name; an array's columns are taken in the order of the equations. With
+    ``with_ndim``, return ``(values, ndim)`` where ``ndim`` is that of the
+    ``y`` given.
     """
     ndim = 2
     derivatives = list(derivatives)
+    what = "derivatives" if all(d.endswith("_dot") for d in derivatives) else "targets"
     if isinstance(y, pd.DataFrame):
         names = [str(c) for c in y.columns]
         missing = [d for d in derivatives if d not in names]
@@ -185,7 +188,7 @@ def read_y(y, derivatives: Sequence[str], n_samples: int, *, with_ndim: bool = F
             if extra:
                 parts.append(f"unexpected {extra}")
             raise ValueError(
-                f"y columns do not match the skeleton's derivatives {derivatives}: "
+                f"y columns do not match the skeleton's {what} {derivatives}: "
                 + "; ".join(parts))
         if len(set(names)) != len(names):
             raise ValueError("y has duplicated column names")
@@ -193,11 +196,11 @@ def read_y(y, derivatives: Sequence[str], n_samples: int, *, with_ndim: bool = F
     elif isinstance(y, pd.Series):
         if len(derivatives) != 1:
             raise ValueError(
-                f"y is a single series but the skeleton has {len(derivatives)} derivatives "
+                f"y is a single series but the skeleton has {len(derivatives)} {what} "
                 f"{derivatives}; pass a DataFrame with these columns")
         if y.name is not None and str(y.name) != derivatives[0]:
             raise ValueError(
-                f"y is named {y.name!r} but the skeleton's derivative is {derivatives[0]!r}")
+                f"y is named {y.name!r} but the skeleton's {what[:-1]} is {derivatives[0]!r}")
         values = _numeric(y, "y")[:, None]
         ndim = 1
     else:
@@ -209,7 +212,7 @@ def read_y(y, derivatives: Sequence[str], n_samples: int, *, with_ndim: bool = F
         if values.ndim != 2 or values.shape[1] != len(derivatives):
             raise ValueError(
                 f"y has {values.shape[1] if values.ndim == 2 else values.shape} columns but the "
-                f"skeleton has {len(derivatives)} derivatives {derivatives}")
+                f"skeleton has {len(derivatives)} {what} {derivatives}")
     if len(values) != n_samples:
         raise ValueError(f"X has {n_samples} rows but y has {len(values)}")
     for j, d in enumerate(derivatives):

@@ -21,6 +21,8 @@ from .reconstruct import estimate_states, kinematic_chains
 __all__ = ["Record", "read_record"]
 
 MEASURED = "measured"
+#: the derivative source of a skeleton of static equations only
+STATIC = "none needed (static equations only)"
 
 
 @dataclass
@@ -85,7 +87,7 @@ class Record:
     @property
     def estimated(self) -> bool:
         """Whether the derivatives were estimated from the states."""
-        return self.source != MEASURED
+        return self.source not in (MEASURED, STATIC)
 
     def frame(self, names) -> pd.DataFrame:
         """A DataFrame of some columns (with ``t`` and ``trajectory`` when known)."""
@@ -177,7 +179,10 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
         message names the column, the row or the experiment.
     """
     states = skeleton.states
-    given = y is not None
+    outputs = list(getattr(skeleton, "outputs", []))
+    in_y = _targets_in_y(y, skeleton) if y is not None else []
+    # a skeleton of static equations only has no derivative to measure or estimate
+    given = y is not None or not skeleton.derivatives
     if not given and derivatives_from_X and isinstance(X, pd.DataFrame):
         given = all(d in X.columns for d in skeleton.derivatives)
     # states no right-hand side reads are read when present; without y, so are
@@ -185,7 +190,8 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
     optional = set(states) - set(skeleton.variables)
     if not given:
         optional |= set(kinematic_chains(skeleton))
-    needed = list(dict.fromkeys([*skeleton.variables, *states]))
+    needed = list(dict.fromkeys([*skeleton.variables, *states,
+                                 *(o for o in outputs if o not in in_y)]))
     data = read_X(estimator, X, needed, reset=reset, optional=optional)
     experiments = None
     if TIME not in data and (need_time or not given):
@@ -196,19 +202,24 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
     measured = {s: data[s] for s in states if s in data}
     signals = {name: data[name] for name in skeleton.inputs if name != TIME}
     columns = dict(data.columns)
+    n_derivatives = len(skeleton.derivatives)
     if given:
+        ndim = 2
         if y is not None:
-            derivatives, ndim = read_y(y, skeleton.derivatives, data.n_samples,
-                                       with_ndim=True)
-        else:
+            values, ndim = read_y(y, in_y, data.n_samples, with_ndim=True)
+            columns.update({name: values[:, j] for j, name in enumerate(in_y)})
+            derivatives = values[:, :n_derivatives]
+        elif n_derivatives:
             derivatives = read_y(X[list(skeleton.derivatives)], skeleton.derivatives,
                                  data.n_samples)
-            ndim = 2
-        smoothed, source = dict(measured), MEASURED
+        else:
+            derivatives = np.zeros((data.n_samples, 0))
+        smoothed, source = dict(measured), MEASURED if n_derivatives else STATIC
     else:
+        observed = {name: columns[name] for name in outputs}
         estimate = estimate_states(skeleton, measured, experiments,
                                    resolve_differentiation(differentiation),
-                                   smooth=bool(smooth), inputs=signals)
+                                   smooth=bool(smooth), inputs={**signals, **observed})
         derivatives, ndim = estimate.derivatives, 2
         columns.update(estimate.states)
         columns.update(estimate.inputs)
@@ -220,6 +231,31 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
                     None if given else estimate.trusted,
                     None if given else estimate.snr_db)
     return record.keep() if trim else record
+
+
+def _targets_in_y(y, skeleton) -> list[str]:
+    """The targets ``y`` holds, in order: the derivatives, and static outputs.
+
+    ``y`` holds the derivatives (for a skeleton of static equations only, its
+    outputs). A DataFrame may add static outputs by name; an array or a
+    series as wide as every target holds them all. Outputs ``y`` does not
+    hold are read from ``X``.
+    """
+    derivatives = list(skeleton.derivatives)
+    outputs = list(getattr(skeleton, "outputs", []))
+    expected = derivatives or outputs
+    if isinstance(y, pd.DataFrame):
+        return [*expected, *(o for o in outputs if o in y.columns and o not in expected)]
+    if isinstance(y, pd.Series):
+        if y.name is not None and str(y.name) in outputs and not derivatives:
+            return [str(y.name)]
+        return expected
+    if not (derivatives and outputs):
+        return expected
+    shape = np.shape(np.asarray(y))
+    if len(shape) == 2 and shape[1] == len(derivatives) + len(outputs):
+        return [*derivatives, *outputs]
+    return expected
 
 
 def _no_time_message(skeleton, who: str | None) -> str:

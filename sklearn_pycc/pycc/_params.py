@@ -1,4 +1,4 @@
-"""Reading the paper's ``params`` dicts: known keys, defaults, and no silent typos."""
+"""Reading the paper's ``params`` dicts: known keys, defaults, notes, and no silent typos."""
 
 from __future__ import annotations
 
@@ -12,6 +12,12 @@ __all__ = ["Params"]
 class Params:
     """One ``params`` dict of the functional API, checked against the keys it may hold.
 
+    Every key the published package reads is known: it is either mapped
+    onto an estimator or accepted with a note saying why it has no effect
+    here. Notes are collected and said in one warning per call
+    (:meth:`warn`); a key the published package never read is an error
+    naming the nearest known key.
+
     Parameters
     ----------
     params : dict or None
@@ -23,36 +29,41 @@ class Params:
         The call, for messages (``"train(method='NN')"``).
     ignored : dict, optional
         Keys accepted for compatibility that have no counterpart here ->
-        why; giving one warns once, naming it and the reason.
+        why; giving one adds a note naming it and the reason.
+    name : str, default="params"
+        What the dict is called, for messages (``"params_simul"``).
     """
 
     REQUIRED = object()
 
     def __init__(self, params: Mapping | None, known: Mapping, where: str,
-                 ignored: Mapping[str, str] | None = None) -> None:
+                 ignored: Mapping[str, str] | None = None, name: str = "params") -> None:
         if params is None:
             params = {}
         if not isinstance(params, Mapping):
-            raise TypeError(f"{where}: params must be a dict, got {type(params).__name__}")
+            raise TypeError(f"{where}: {name} must be a dict, got {type(params).__name__}")
         ignored = dict(ignored or {})
         accepted = [*known, *ignored]
         for key in params:
             if key not in accepted:
                 close = difflib.get_close_matches(str(key), accepted, n=1, cutoff=0.6)
                 hint = f"; did you mean {close[0]!r}?" if close else ""
-                raise ValueError(f"{where}: params has the unknown key {key!r}{hint} "
+                raise ValueError(f"{where}: {name} has the unknown key {key!r}{hint} "
                                  f"Known keys: {', '.join(sorted(accepted))}")
         for key, default in known.items():
             if default is self.REQUIRED and key not in params:
-                raise ValueError(f"{where}: params must give {key!r}")
-        unused = [key for key in params if key in ignored]
-        if unused:
-            reasons = "; ".join(f"{key!r}: {ignored[key]}" for key in unused)
-            warnings.warn(f"{where}: params keys without a counterpart here are ignored "
-                          f"({reasons})", UserWarning, stacklevel=3)
+                raise ValueError(f"{where}: {name} must give {key!r}")
+        self.where = where
+        self.notes: list[str] = []
+        by_reason: dict[str, list[str]] = {}
+        for key in params:
+            if key in ignored:
+                by_reason.setdefault(ignored[key], []).append(repr(key))
+        for reason, keys in by_reason.items():
+            verb = "has" if len(keys) == 1 else "have"
+            self.note(f"{', '.join(keys)} {verb} no effect ({reason})")
         self._values = {key: params.get(key, default) for key, default in known.items()}
         self._supplied = set(params)
-        self.where = where
 
     def __getitem__(self, key: str):
         return self._values[key]
@@ -68,3 +79,24 @@ class Params:
     def given(self, key: str) -> bool:
         """Whether ``key`` holds something other than None."""
         return self._values.get(key) is not None
+
+    def note(self, text: str) -> None:
+        """Add ``text`` to what :meth:`warn` will say (said once, however often added)."""
+        if text not in self.notes:
+            self.notes.append(text)
+
+    def warn(self, stacklevel: int = 3) -> None:
+        """Say every note in one ``UserWarning``, then forget them.
+
+        Parameters
+        ----------
+        stacklevel : int, default=3
+            As for :func:`warnings.warn`, counted from this method: 3 names
+            the line that called the public function calling this one.
+        """
+        if not self.notes:
+            return
+        text = "; ".join(self.notes)
+        self.notes = []
+        warnings.warn(f"{self.where}: params that work differently here: {text}",
+                      UserWarning, stacklevel=stacklevel)

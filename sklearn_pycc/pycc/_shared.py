@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import importlib.util
-import warnings
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["Models", "coefficients", "evals_of", "pair_evals", "symbolic_settings"]
+from ..skeleton import Skeleton
+
+__all__ = ["Models", "coefficients", "equation_list", "evals_of", "pair_evals",
+           "symbolic_settings"]
 
 
 class Models(dict):
@@ -24,6 +26,28 @@ class Models(dict):
 
     def __repr__(self) -> str:
         return f"Models({dict.__repr__(self)}, estimator={type(self.estimator).__name__})"
+
+
+def equation_list(equations, where: str):
+    """The skeleton's equations as a list of strings (a :class:`Skeleton` is kept as it is).
+
+    One string is one equation; a string of several lines is one equation
+    per non-empty line.
+    """
+    if isinstance(equations, Skeleton):
+        return equations
+    if isinstance(equations, str):
+        lines = [line.strip() for line in equations.splitlines()]
+        out = [line for line in lines if line]
+        if not out:
+            raise ValueError(f"{where}: equations is an empty string; give one equation "
+                             "per string, e.g. ['x1_dot = x2', 'x2_dot = -f1(x1)']")
+        return out
+    try:
+        return list(equations)
+    except TypeError:
+        raise TypeError(f"{where}: equations must be a list of strings, got "
+                        f"{type(equations).__name__}") from None
 
 
 def coefficients(estimator) -> dict:
@@ -62,14 +86,18 @@ PYSR_QUIET = ("verbosity", "progress", "deterministic", "parallelism", "procs",
               "random_state", "temp_equation_file", "delete_tempfiles")
 
 
-def symbolic_settings(pysr: Mapping | None, where: str) -> dict:
+def symbolic_settings(pysr: Mapping | None, read) -> dict:
     """Hyperparameters of the symbolic backend for the paper's ``pysr`` settings.
 
     PySR runs when it is installed; otherwise (PySR needs Julia) the settings
-    go to the offline engine, with a warning saying so and naming those it
-    cannot use.
+    go to the offline engine, and a note on ``read`` (a :class:`Params`)
+    says so, naming those it cannot use.
     """
+    if pysr is not None and not isinstance(pysr, Mapping):
+        raise TypeError(f"{read.where}: params['pysr'] must be a dict of PySR settings, "
+                        f"got {type(pysr).__name__}")
     pysr = dict(pysr or {})
+    given = bool(pysr)
     out: dict = {}
     if "niterations" in pysr:
         out["generations"] = int(pysr.pop("niterations"))
@@ -88,8 +116,10 @@ def symbolic_settings(pysr: Mapping | None, where: str) -> dict:
         out["engine_options"] = pysr
         return out
     out["engine"] = "operon"
+    if not given:  # nothing asked of PySR: nothing to say
+        return out
     dropped = sorted(key for key in pysr if key not in PYSR_QUIET)
-    note = f"; these have no counterpart there and are not used: {dropped}" if dropped else ""
-    warnings.warn(f"{where}: PySR is not installed, so the PySR settings go to the offline "
-                  f"symbolic engine (pyoperon){note}", UserWarning, stacklevel=3)
+    unused = f" ({dropped} have no counterpart there and are not used)" if dropped else ""
+    read.note(f"'pysr': PySR is not installed, so the PySR settings go to the offline "
+              f"symbolic engine (pyoperon){unused}")
     return out

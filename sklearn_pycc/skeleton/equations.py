@@ -1,4 +1,14 @@
-"""Classification of parsed equations: which derivative each one defines."""
+"""Classification of parsed equations: which derivative each one defines.
+
+Most equations determine a derivative (``x2_dot = ...``, or an equation
+linear in one ``NAME_dot`` no other equation defines). The others are
+*algebraic*: a static equation whose left side is a measured column
+(``F1 = f1(x1)``, ``y = a1 + f1(x)``), an implicit relation among measured
+quantities (``0 = x1^2 + x2^2 - a1``), or a further relation among
+derivatives other equations define (a conserved quantity,
+``0 = x2 x2_dot + f2(x1) x2``). They are fitted with the others and take no
+part in a simulation.
+"""
 
 from __future__ import annotations
 
@@ -39,30 +49,49 @@ class Equation:
         The text as written.
     lhs, rhs : Node
         Parsed sides.
-    derivative : str
-        The derivative it determines, e.g. ``"x2_dot"``.
+    derivative : str or None
+        The derivative it determines, e.g. ``"x2_dot"``; None for an
+        algebraic equation.
     explicit : bool
         True for ``NAME_dot = rhs`` with ``rhs`` free of that derivative;
         False for an equation to be solved for ``derivative`` (e.g. the
-        first-order family ``F_ext = f1(x1) + f2(x1) x1_dot``).
+        first-order family ``F_ext = f1(x1) + f2(x1) x1_dot``) and for
+        algebraic equations.
+    output : str or None
+        For a static equation ``NAME = rhs`` (no derivative anywhere, ``NAME``
+        a measured column the right side does not read): ``NAME``, the
+        quantity the equation predicts. None otherwise.
     """
 
     index: int
     text: str
     lhs: Node
     rhs: Node
-    derivative: str
+    derivative: str | None
     explicit: bool
+    output: str | None = None
 
     @property
-    def state(self) -> str:
-        """The state whose derivative this equation determines."""
-        return state_of(self.derivative)
+    def dynamic(self) -> bool:
+        """True when the equation determines a derivative (it is simulated)."""
+        return self.derivative is not None
+
+    @property
+    def kind(self) -> str:
+        """``"explicit"``, ``"implicit"``, ``"static"`` or ``"algebraic"``."""
+        if self.dynamic:
+            return "explicit" if self.explicit else "implicit"
+        return "static" if self.output is not None else "algebraic"
+
+    @property
+    def state(self) -> str | None:
+        """The state whose derivative this equation determines (None if algebraic)."""
+        return None if self.derivative is None else state_of(self.derivative)
 
     @property
     def expression(self) -> Node:
-        """The right-hand side (explicit) or the residual ``lhs - rhs`` (implicit)."""
-        if self.explicit:
+        """The right-hand side (explicit, static) or the residual ``lhs - rhs``."""
+        if self.explicit or self.output is not None:
             return self.rhs
         return BinOp("-", self.lhs, self.rhs)
 
@@ -71,12 +100,30 @@ class Equation:
         """True when the derivative can be computed: explicit, or entering linearly."""
         from .compiler import degree_in
 
+        if self.derivative is None:
+            return False
         return self.explicit or degree_in(self.residual, self.derivative) == 1
 
     @property
     def residual(self) -> Node:
         """``lhs - rhs``: zero when the equation holds."""
         return BinOp("-", self.lhs, self.rhs)
+
+    @property
+    def fit_residual(self) -> Node:
+        """The residual a fit makes small, with curves taken out of a denominator.
+
+        An equation ``lhs = N / D`` whose denominator ``D`` holds an unknown
+        curve (``x_dot = (F_ext - f1(x)) / f2(x)``) is fitted as ``D lhs - N``
+        (``f2(x) x_dot - (F_ext - f1(x))``): the same equation, with no pole
+        where ``D`` crosses zero during training, and linear in the curves.
+        Otherwise :attr:`residual`.
+        """
+        rhs = self.rhs
+        if (isinstance(rhs, BinOp) and rhs.op == "/"
+                and any(isinstance(n, Unknown) for n in walk(rhs.right))):
+            return BinOp("-", BinOp("*", rhs.right, self.lhs), rhs.left)
+        return self.residual
 
     def symbols(self) -> set[str]:
         """Every data variable named in the equation."""
@@ -117,8 +164,9 @@ def classify(parsed: list[tuple[str, Node, Node]]) -> list[Equation]:
     ------
     SkeletonError
         For duplicate left-hand sides, derivatives no equation defines,
-        equations with nothing or too much to solve for, reserved names, and
-        equations that depend on each other's derivatives in a cycle.
+        equations with more than one derivative to solve for, reserved
+        names, and equations that depend on each other's derivatives in a
+        cycle (raised by :func:`evaluation_order`).
     """
     explicit: dict[str, int] = {}
     for index, (text, lhs, rhs) in enumerate(parsed):
@@ -158,28 +206,31 @@ def classify(parsed: list[tuple[str, Node, Node]]) -> list[Equation]:
             for n in walk(side):
                 if isinstance(n, Symbol) and state_of(n.name) and n.name not in used:
                     used.append(n.name)
-        free = [d for d in used if d not in explicit]
+        # a derivative no explicit equation defines is determined by the first
+        # equation it appears in; later ones are further relations
+        free = [d for d in used if d not in defined]
         if not free:
-            if not used:
+            # no derivative of its own: a static or algebraic equation, or a
+            # further relation among derivatives other equations define
+            curves, params = unknown_names(BinOp("-", lhs, rhs))
+            if not curves and not params:
+                hint = ("write 'NAME_dot = ...' or an equation containing one NAME_dot" if not used
+                        else f"every derivative here ({', '.join(used)}) is already defined "
+                        "by another equation")
                 raise SkeletonError(
-                    "no derivative to solve for: write 'NAME_dot = ...' or an equation "
-                    "containing one NAME_dot", equation=index, position=0, text=text)
-            raise SkeletonError(
-                f"every derivative here ({', '.join(used)}) is already defined by another "
-                "equation, so this equation determines nothing", equation=index, position=0,
-                text=text)
+                    "this equation has no derivative of its own and nothing to fit (no "
+                    f"f_i or a_i): {hint}", equation=index, position=0, text=text)
+            equations.append(Equation(index, text, lhs, rhs, None, False))
+            continue
         if len(free) > 1:
             raise SkeletonError(
                 f"{' and '.join(free)} both appear here and no other equation defines "
                 "them: write one equation per derivative", equation=index,
                 position=_positions(rhs, free[1]) if _positions(rhs, free[1]) >= 0
                 else _positions(lhs, free[1]), text=text)
-        if free[0] in defined:
-            raise SkeletonError(
-                f"{free[0]} is determined twice (also by equations[{defined[free[0]]}])",
-                equation=index, position=0, text=text)
         defined[free[0]] = index
         equations.append(Equation(index, text, lhs, rhs, free[0], False))
+    equations = _mark_outputs(equations, {state_of(d) for d in defined})
 
     for eq in equations:
         for name in eq.derivatives_used():
@@ -191,6 +242,33 @@ def classify(parsed: list[tuple[str, Node, Node]]) -> list[Equation]:
                     f"its own '{name} = ...' equation", equation=eq.index,
                     position=pos if pos >= 0 else 0, text=eq.text)
     return equations
+
+
+def _mark_outputs(equations: list[Equation], states: set[str]) -> list[Equation]:
+    """Name the output of each static equation ``NAME = rhs`` (``NAME`` measured).
+
+    ``NAME`` must be a bare name on the left that is no state, not ``t`` and
+    not read by the right side, in an equation without derivatives; two
+    static equations cannot predict the same quantity.
+    """
+    out: list[Equation] = []
+    seen: dict[str, int] = {}
+    for eq in equations:
+        lhs = eq.lhs
+        if (eq.derivative is None and isinstance(lhs, Symbol) and state_of(lhs.name) is None
+                and lhs.name not in states and lhs.name != TIME
+                and not eq.derivatives_used()
+                and all(not (isinstance(n, Symbol) and n.name == lhs.name)
+                        for n in walk(eq.rhs))):
+            if lhs.name in seen:
+                raise SkeletonError(
+                    f"duplicate left-hand side {lhs.name} (already predicted by "
+                    f"equations[{seen[lhs.name]}]): write the second relation as "
+                    f"'0 = ...'", equation=eq.index, position=lhs.pos, text=eq.text)
+            seen[lhs.name] = eq.index
+            eq = Equation(eq.index, eq.text, eq.lhs, eq.rhs, None, False, lhs.name)
+        out.append(eq)
+    return out
 
 
 def evaluation_order(equations: list[Equation]) -> list[int]:

@@ -181,8 +181,9 @@ class _Probe:
 
     def __init__(self, skeleton, rng, curves: dict, params: dict) -> None:
         self.skeleton = skeleton
-        self.nodes = [eq.residual for eq in skeleton.parsed]
-        names = [*skeleton.states, *skeleton.inputs, TIME, *skeleton.derivatives]
+        self.nodes = [eq.residual for eq in skeleton.residual_equations]
+        names = [*skeleton.states, *skeleton.inputs, TIME, *skeleton.derivatives,
+                 *skeleton.outputs]
         self.slots = {name: i for i, name in enumerate(names)}
         self.rows = np.ones(_N_POINTS, dtype=bool)
         tries = [(-2.0, False), (0.05, False), (0.05, True)]
@@ -215,7 +216,7 @@ def _same(a: np.ndarray, b: np.ndarray) -> bool:
 
 def _where(skeleton, names) -> str:
     idx = []
-    for eq in skeleton.parsed:
+    for eq in skeleton.residual_equations:
         found = {n.name for n in walk(eq.residual) if isinstance(n, (Unknown, Param))}
         if found & set(names):
             idx.append(f"equations[{eq.index}]")
@@ -248,7 +249,7 @@ def analyse(skeleton, seed: int = 0) -> IdentifiabilityReport:
     # 1. scale between a parameter and what it multiplies --------------------------
     for a in reversed(skeleton.params):
         cofactors: set[str] = set()
-        for eq in skeleton.parsed:
+        for eq in skeleton.residual_equations:
             for term in sum_terms(eq.residual):
                 factors = product_factors(term)
                 if any(isinstance(x, Param) and x.name == a for x in factors):
@@ -274,7 +275,7 @@ def analyse(skeleton, seed: int = 0) -> IdentifiabilityReport:
             pin_param(a, 1.0)
 
     # 2. parameters that only scale or shift a curve's argument -------------------------
-    for eq in skeleton.parsed:
+    for eq in skeleton.residual_equations:
         for node in walk(eq.residual):
             if not isinstance(node, Unknown):
                 continue

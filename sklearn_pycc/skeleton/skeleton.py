@@ -41,7 +41,13 @@ class Skeleton:
         One equation per state, e.g. ``["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]``.
         A state is a name with a ``NAME_dot`` equation; ``t`` is time; any
         other name is an input (a measured column). An equation may also be
-        written unsolved, as ``F_ext = f1(x1) + f2(x1) x1_dot``.
+        written unsolved, as ``F_ext = f1(x1) + f2(x1) x1_dot``. Equations
+        without a derivative of their own are fitted too and left out of
+        simulations: static ones, ``F1 = f1(x1)`` (``F1`` is then an output,
+        predicted from the others), implicit relations among measured
+        quantities, ``0 = x1^2 + x2^2 - a1``, and further relations among
+        derivatives the others define, such as a conserved quantity,
+        ``0 = x2 x2_dot + f2(x1) x2``.
     constraints : list of str or dict, optional
         On curves ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, ``"f1 increasing"``,
         ``"f1 decreasing"``; on parameters ``"a2 >= 0"``, ``"a2 <= 5"``,
@@ -56,6 +62,9 @@ class Skeleton:
     states, inputs, derivatives, functions, params : list of str
         Names found in the equations; states and derivatives in the order of
         the equations, curves and parameters by index.
+    outputs : list of str
+        The left sides of static equations (``F1`` of ``F1 = f1(x1)``), in
+        the order of the equations.
 
     Examples
     --------
@@ -85,15 +94,18 @@ class Skeleton:
             lhs, rhs = parse_equation(text, index)
             parsed.append((text, lhs, rhs))
         self.equations: tuple[str, ...] = tuple(texts)
-        self._equations: list[Equation] = classify(parsed)
+        classified = classify(parsed)
+        self._all: list[Equation] = classified
+        self._equations: list[Equation] = [eq for eq in classified if eq.dynamic]
         evaluation_order(self._equations)  # rejects derivatives defined in a cycle
         self.derivatives = [eq.derivative for eq in self._equations]
         self.states = [state_of(d) for d in self.derivatives]
+        self.outputs = [eq.output for eq in classified if eq.output is not None]
         functions: list[str] = []
         params: list[str] = []
         inputs: list[str] = []
         uses_time = False
-        for eq in self._equations:
+        for eq in classified:
             for node in (*walk(eq.lhs), *walk(eq.rhs)):
                 if isinstance(node, Unknown) and node.name not in functions:
                     functions.append(node.name)
@@ -104,7 +116,8 @@ class Skeleton:
                     if name == TIME:
                         uses_time = True
                     elif (state_of(name) is None and name not in self.states
-                          and name not in inputs):
+                          and name not in inputs
+                          and (name not in self.outputs or self._reads(name))):
                         inputs.append(name)
         self.functions = sorted(functions, key=_index_key)
         self.params = sorted(params, key=_index_key)
@@ -114,20 +127,56 @@ class Skeleton:
         check_constraints(self.constraints, self.functions, self.params)
 
     # -- conveniences ---------------------------------------------------------
+    def _reads(self, name: str) -> bool:
+        """Whether an equation reads ``name`` other than as the output it predicts."""
+        for eq in self._all:
+            sides = (eq.rhs,) if eq.output == name else (eq.lhs, eq.rhs)
+            if any(isinstance(n, Symbol) and n.name == name for side in sides
+                   for n in walk(side)):
+                return True
+        return False
+
     @property
     def parsed(self) -> list[Equation]:
-        """The classified equations (parsed trees and the derivative each determines)."""
+        """The differential equations (parsed trees and the derivative each determines)."""
         return list(self._equations)
 
     @property
+    def algebraic(self) -> list[Equation]:
+        """The equations without a derivative of their own, in the order given.
+
+        Static equations ``NAME = rhs`` (their ``output`` is ``NAME``),
+        implicit relations among measured quantities (``0 = ...``) and
+        further relations among derivatives other equations define (a
+        conserved quantity). They are fitted; a simulation leaves them out.
+        """
+        return [eq for eq in self._all if not eq.dynamic]
+
+    @property
+    def residual_equations(self) -> list[Equation]:
+        """Every equation in the order given: what a fit makes hold on the data."""
+        return list(self._all)
+
+    @property
+    def targets(self) -> list[str]:
+        """What ``predict`` returns: the derivatives, then the static outputs."""
+        return [*self.derivatives, *self.outputs]
+
+    @property
     def variables(self) -> list[str]:
-        """Data columns the right-hand sides read: states and inputs (and ``t`` if used)."""
+        """Data columns the equations read: states and inputs (and ``t`` if used).
+
+        A static equation's output is not among them (it is predicted), unless
+        another equation reads it.
+        """
         names = []
-        for eq in self._equations:
+        for eq in self._all:
             for node in (*walk(eq.lhs), *walk(eq.rhs)):
-                if (isinstance(node, Symbol) and state_of(node.name) is None
-                        and node.name not in names):
-                    names.append(node.name)
+                name = getattr(node, "name", None)
+                if (isinstance(node, Symbol) and state_of(name) is None
+                        and name not in names
+                        and (name not in self.outputs or self._reads(name))):
+                    names.append(name)
         return names
 
     def curve_arguments(self, function: str) -> list:
@@ -135,7 +184,7 @@ class Skeleton:
         cache = self.__dict__.setdefault("_arguments_cache", {})
         if function not in cache:
             found = []
-            for eq in self._equations:
+            for eq in self._all:
                 for node in walk(eq.residual):
                     if isinstance(node, Unknown) and node.name == function \
                             and node.arg not in found:
@@ -232,9 +281,9 @@ class Skeleton:
                                  f"there is no equation {equation}")
             return int(equation) % len(self.equations)
         if isinstance(equation, str):
-            for k, (state, derivative) in enumerate(zip(self.states, self.derivatives)):
-                if equation in (state, derivative):
-                    return k
+            for eq in self._equations:
+                if equation in (eq.state, eq.derivative):
+                    return eq.index
             raise ValueError(f"no equation determines {equation!r}; the states are "
                              f"{', '.join(self.states)}")
         raise TypeError(f"equation must be an index or a state name, got {equation!r}")
@@ -317,7 +366,9 @@ class Skeleton:
                 params: Mapping[str, float] | None = None) -> CompiledSystem:
         """Compile the right-hand side with given curves and parameter values."""
         functions, params = self.check_values(functions, params)
-        return CompiledSystem(self._equations, self.states, self.inputs, params, functions)
+        static = [eq for eq in self._all if eq.output is not None]
+        return CompiledSystem(self._equations, self.states, self.inputs, params, functions,
+                              static=static)
 
     def simulate(
         self,

@@ -34,6 +34,9 @@ class CompiledSystem:
         Values of every parameter.
     functions : mapping
         Callables of every curve (vectorised over numpy arrays).
+    static : list of Equation, optional
+        Static equations ``NAME = rhs``, whose outputs
+        :meth:`evaluate_outputs` predicts from the same columns.
     """
 
     def __init__(
@@ -43,6 +46,7 @@ class CompiledSystem:
         inputs: list[str],
         params: Mapping[str, float],
         functions: Mapping[str, Callable],
+        static: list[Equation] = (),
     ) -> None:
         self.states = list(states)
         self.inputs = list(inputs)
@@ -69,14 +73,22 @@ class CompiledSystem:
         self._derivative_slots = list(range(first, first + len(self.derivatives)))
         # the state order of the output follows the equations; map to slots
         self._output_slots = [self.slots[d] for d in self.derivatives]
+        self.outputs = [eq.output for eq in static]
+        self._static = [compile_expression(eq.rhs, self.slots, params, functions, mode="array")
+                        for eq in static]
 
     # -- vectorised evaluation ----------------------------------------------
-    def evaluate(self, data: Mapping[str, np.ndarray], n: int) -> np.ndarray:
-        """Derivatives on data columns (states, inputs, ``t``); shape ``(n, n_states)``."""
+    def _env(self, data: Mapping[str, np.ndarray]) -> list:
+        """The variable environment laid out from data columns (missing slots None)."""
         env: list = [None] * self.n_env
         for name, slot in self.slots.items():
             if name in data:
                 env[slot] = np.asarray(data[name], dtype=float)
+        return env
+
+    def evaluate(self, data: Mapping[str, np.ndarray], n: int) -> np.ndarray:
+        """Derivatives on data columns (states, inputs, ``t``); shape ``(n, n_states)``."""
+        env = self._env(data)
         with np.errstate(all="ignore"):
             for slot, fn, explicit in self._plan_array:
                 if explicit:
@@ -87,7 +99,55 @@ class CompiledSystem:
                     env[slot] = np.ones(n)
                     e1 = np.broadcast_to(np.asarray(fn(env), dtype=float), (n,))
                     env[slot] = -e0 / (e1 - e0)
+        if not self._output_slots:
+            return np.zeros((n, 0))
         return np.column_stack([env[s] for s in self._output_slots])
+
+    def batch_rhs(self, n: int, signals: list[str]) -> Callable:
+        """Return ``rhs(x, values)`` for ``n`` trajectories integrated side by side.
+
+        ``x`` is ``(n, n_states)``; ``values`` holds an ``(n,)`` array for each
+        name of ``signals`` (inputs and ``t``), in that order. The result is
+        ``(n, n_states)``. What :meth:`evaluate` does, without building a
+        mapping or broadcasting per call: the window integrators call it
+        hundreds of thousands of times.
+        """
+        plan = self._plan_array
+        n_env = self.n_env
+        state_slots = list(range(len(self.states)))
+        signal_slots = [self.slots[name] for name in signals]
+        outputs = self._output_slots
+        zeros, ones = np.zeros(n), np.ones(n)
+
+        def rhs(x: np.ndarray, values: list[np.ndarray]) -> np.ndarray:
+            env: list = [None] * n_env
+            for q in state_slots:
+                env[q] = x[:, q]
+            for slot, v in zip(signal_slots, values):
+                env[slot] = v
+            for slot, fn, explicit in plan:
+                if explicit:
+                    env[slot] = fn(env)
+                else:
+                    env[slot] = zeros
+                    e0 = fn(env)
+                    env[slot] = ones
+                    e1 = fn(env)
+                    env[slot] = -e0 / (e1 - e0)
+            out = np.empty((n, len(outputs)))
+            for j, slot in enumerate(outputs):
+                out[:, j] = env[slot]  # a constant right-hand side broadcasts
+            return out
+
+        return rhs
+
+    def evaluate_outputs(self, data: Mapping[str, np.ndarray], n: int) -> np.ndarray:
+        """The static equations' outputs on data columns; shape ``(n, n_outputs)``."""
+        env = self._env(data)
+        with np.errstate(all="ignore"):
+            values = [np.broadcast_to(np.asarray(fn(env), dtype=float), (n,))
+                      for fn in self._static]
+        return np.column_stack(values) if values else np.zeros((n, 0))
 
     # -- scalar right-hand side for ODE solvers ----------------------------
     def make_rhs(self, input_at: Callable[[float], list[float]], *,
