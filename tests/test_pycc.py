@@ -162,7 +162,7 @@ def test_post_processing_and_interp_listing(listing_data, nn_listing):
     _, _, x1_data = listing_data
     eqs, _, evals, obtained_coefs, _ = nn_listing
     pysr_settings = {
-        'niterations': 100,
+        'niterations': 30,  # the paper: 100
         'populations': 20,
         'binary_operators': ['+', '*', '-'],
         'unary_operators': ['tanh', 'sin', 'cos'],

@@ -84,7 +84,8 @@ def test_nonlinear_parameter_and_no_polynomial_start():
     model = SymbolicCCRegressor(
         equations=["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 tanh(a3 x2) - f2(x1)"],
         constraints=["f2 odd"], param_init={"a3": 10.0}, start_degree=None,
-        binary_operators=["+", "-", "*"], unary_operators=[], random_state=0)
+        binary_operators=["+", "-", "*"], unary_operators=[], population_size=200,
+        generations=20, random_state=0)
     model.fit(frame[X_COLUMNS], frame[Y_COLUMNS])
     for name, value in truth.params.items():
         if name in ("a1", "a2", "a3"):
