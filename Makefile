@@ -13,6 +13,7 @@ PIP_INSTALL := $(PIP) install --no-compile
 COMPILE := $(BIN)/python -m compileall -q -j 0
 SITE = $$($(BIN)/python -c "import sysconfig; print(sysconfig.get_paths()['purelib'])")
 STAMP := $(VENV)/.installed
+DIST_STAMP := $(VENV)/.dist-installed
 DOCS_STAMP := $(VENV)/.docs-installed
 NPROC := $(shell nproc 2>/dev/null || echo 2)
 
@@ -23,24 +24,30 @@ $(BIN)/python:
 
 $(STAMP): $(BIN)/python pyproject.toml requirements/constraints.txt
 	$(PIP_INSTALL) "torch==2.13.0"
-	$(PIP_INSTALL) -e ".[dev,differentiation,symbolic,dist]"
+	$(PIP_INSTALL) -e ".[dev,differentiation,symbolic]"
 	@# a file that does not compile (a template, a test fixture) is only left uncached
 	-$(COMPILE) "$(SITE)" > /dev/null
 	touch $(STAMP)
+
+# dask, for the sweeps on a cluster: the slow suite and the gallery use it
+$(DIST_STAMP): $(STAMP)
+	$(PIP_INSTALL) -e ".[dist]"
+	-$(COMPILE) "$(SITE)" > /dev/null
+	touch $(DIST_STAMP)
 
 install: $(STAMP)
 
 test: $(STAMP)
 	OMP_NUM_THREADS=1 MPLBACKEND=Agg $(BIN)/python -m pytest -n $(NPROC) -m "not slow" tests
 
-test-slow: $(STAMP)
+test-slow: $(DIST_STAMP)
 	OMP_NUM_THREADS=1 MPLBACKEND=Agg $(BIN)/python -m pytest -m slow tests
 
 # the hypothesis loop walked through; figures go to demo-output/
 demo: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python examples/hypothesis_loop.py demo-output
 
-$(DOCS_STAMP): $(STAMP)
+$(DOCS_STAMP): $(DIST_STAMP)
 	$(PIP_INSTALL) -e ".[docs]"
 	-$(COMPILE) "$(SITE)" > /dev/null
 	touch $(DOCS_STAMP)
@@ -65,7 +72,7 @@ lint: $(STAMP)
 # current commit); see them again with `cd asv_benchmarks && ../.venv/bin/asv show`.
 BENCH_FLAGS ?=
 bench: $(STAMP)
-	$(PIP) install "asv>=0.6"
+	$(PIP) install -e ".[bench]"
 	$(BIN)/python asv_benchmarks/compare.py $(BENCH_FLAGS)
 	cd asv_benchmarks && $(CURDIR)/$(BIN)/asv machine --yes > /dev/null
 	cd asv_benchmarks && commit=$$(git rev-parse HEAD 2>/dev/null); \
