@@ -121,7 +121,8 @@ def _check_start(df: pd.DataFrame, simul: Params, skeleton: Skeleton, read: Para
                       "effect here: the whole record is refined")
     solver = [key for key in ("method", "atol", "rtol", "check_nan") if simul.given(key)]
     if solver:
-        read.note(f"params_simul's {', '.join(map(repr, solver))} have no effect: "
+        verb = "has" if len(solver) == 1 else "have"
+        read.note(f"params_simul's {', '.join(map(repr, solver))} {verb} no effect: "
                   f"{SIMUL_SOLVER}")
 
 
@@ -130,7 +131,8 @@ def post_fine_tuning(read: Params, df: pd.DataFrame, skeleton: Skeleton):
     given = [key for key in OUTER_KEYS if read.supplied(key)]
     if not read["fitting_forw_sim"]:
         if given:
-            read.note(f"{', '.join(map(repr, given))} have no effect without "
+            verb = "has" if len(given) == 1 else "have"
+            read.note(f"{', '.join(map(repr, given))} {verb} no effect without "
                       "'fitting_forw_sim': True, which enables the post-fine-tuning")
         return {}, df
     settings = {"fit_mode": "simulation"}
