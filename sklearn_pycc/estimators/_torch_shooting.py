@@ -16,6 +16,7 @@ import numpy as np
 import torch
 
 from ..skeleton.equations import TIME
+from ._lbfgs import CompactLBFGS
 from ._shooting import CONTINUITY_WEIGHT, ShootingPlan
 from ._torch_expr import compile_torch
 
@@ -110,7 +111,7 @@ def shoot_module(plan: ShootingPlan, problem, module, iterations: int,
     with torch.no_grad():
         first, states0, _ = loss_parts()
     before = _nrmse(plan, states0)
-    optimizer = torch.optim.LBFGS(variables, lr=1.0, max_iter=int(iterations),
+    optimizer = CompactLBFGS(variables, lr=1.0, max_iter=int(iterations),
                                   max_eval=int(iterations * 5 // 4) + 1, history_size=20,
                                   line_search_fn="strong_wolfe", tolerance_grad=1e-9,
                                   tolerance_change=1e-12)
