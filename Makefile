@@ -68,7 +68,9 @@ lint: $(STAMP)
 # reports, never fails): the main lines by default (under ten minutes on two
 # cores with the asv run), every line with `make bench-full`; then the asv
 # suite, once (--quick), in .venv itself ("existing" environment: nothing is
-# built or downloaded). Results go to asv_benchmarks/results (saved under the
+# built or downloaded), each benchmark forked from a process that imported the
+# suite once (forkserver: spawning a fresh interpreter per benchmark took 12 of
+# its 15 minutes). Results go to asv_benchmarks/results (saved under the
 # current commit); see them again with `cd asv_benchmarks && ../.venv/bin/asv show`.
 BENCH_FLAGS ?=
 bench: $(STAMP)
@@ -77,6 +79,7 @@ bench: $(STAMP)
 	cd asv_benchmarks && $(CURDIR)/$(BIN)/asv machine --yes > /dev/null
 	cd asv_benchmarks && commit=$$(git rev-parse HEAD 2>/dev/null); \
 	  $(CURDIR)/$(BIN)/asv run -E existing:$(CURDIR)/$(BIN)/python --quick --show-stderr \
+	    --launch-method forkserver \
 	    $${commit:+--set-commit-hash $$commit}
 
 bench-full:

@@ -32,6 +32,7 @@ import os
 import time
 import warnings
 from abc import ABC, abstractmethod
+from contextlib import suppress
 
 from sklearn.base import clone
 from threadpoolctl import threadpool_limits
@@ -125,10 +126,25 @@ class Estimator(ABC):
             self._limits = threadpool_limits(limits=self.blas_threads)
         self.data, self.estimator = fitted[params]
         self.unfitted = clone(self.estimator)
-        # not timed: the first prediction after unpickling compiles the model,
-        # and the first fit in a process parses the skeleton (cached after)
+        # not timed: the first prediction after unpickling compiles the model, and
+        # the first fit in a process parses the skeleton and starts torch (cached
+        # after); a fit on a few rows does that at a fraction of a full fit's cost
         self.estimator.predict(self.data.X[:2])
-        self._fit_fresh()
+        self._warm_up()
+
+    #: rows of the warm-up fit in ``setup`` (0: none)
+    warm_up_rows = 200
+
+    def _warm_up(self):
+        """Fit a fresh copy on the first :attr:`warm_up_rows` rows, whatever comes of it."""
+        rows = self.warm_up_rows
+        if not rows:
+            return
+        X, y = self.data.X, self.data.y
+        # too few rows for a skeleton may raise: the caches are warm all the same
+        with warnings.catch_warnings(), suppress(ValueError, ArithmeticError, RuntimeError):
+            warnings.simplefilter("ignore")
+            clone(self.unfitted).fit(X[:rows], None if y is None else y[:rows])
 
     def _fit_fresh(self):
         """Fit a fresh copy of the estimator (warnings such as rank deficiency muted)."""
