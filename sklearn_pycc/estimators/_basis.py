@@ -130,9 +130,13 @@ class PolyBasis:
         values = self.design(self.center + self.half * (2.0 * s - 1.0))
         return np.linalg.solve(bernstein, values)
 
+    def to_power(self) -> np.ndarray:
+        """Matrix mapping coefficients to the power series in ``u``: ``(degree + 1, size)``."""
+        return _to_power(self.kind, self.degree)[:, self.degrees]
+
     def curve(self, coefficients: np.ndarray) -> PolyCurve:
         """The fitted curve for ``coefficients`` (one per basis function)."""
-        series = _to_power(self.kind, self.degree)[:, self.degrees] @ np.asarray(coefficients)
+        series = self.to_power() @ np.asarray(coefficients)
         return PolyCurve(series, self.center, self.half, (self.lo, self.hi))
 
 

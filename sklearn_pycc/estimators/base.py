@@ -30,6 +30,7 @@ from ..skeleton.nodes import Symbol, sum_terms
 from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
+from ._intervals import N_DRAWS, IntervalsMixin, check_level
 from ._setup import GAUGES, FitResult, Problem, build_skeleton, gauge_skeleton
 
 __all__ = ["FIT_MODES", "RANDOM_STATES", "CCRegressor"]
@@ -85,7 +86,7 @@ class _EquationsParameter:
         obj.__dict__["equations"] = value
 
 
-class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
+class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMeta):
     """Abstract base class of the characteristic-curve estimators.
 
     It cannot be fitted itself: use :class:`PolyCCRegressor`,
@@ -483,6 +484,9 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         return_derivatives: bool = False,
         input_hold: str = "bandlimited",
         verbose: bool = False,
+        level: float | None = None,
+        n_draws: int = N_DRAWS,
+        random_state=None,
         **solver_options,
     ) -> pd.DataFrame:
         """Simulate the fitted model.
@@ -508,6 +512,14 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
             Solver tolerances.
         return_derivatives : bool
             Add the inputs and the ``NAME_dot`` columns along the trajectory.
+        level : float, optional
+            Add ``NAME_lower`` and ``NAME_upper`` columns for each state and
+            output: the band holding that share of ``n_draws`` simulations
+            of models drawn from the fit's uncertainty (``covariance_``).
+        n_draws : int, default=100
+            Models simulated for the band.
+        random_state : int, RandomState, Generator or None
+            Seeds the draws of the band.
         **solver_options
             Passed to the SciPy solver, and ``max_steps`` (default 500000):
             the most solver steps before a :class:`SimulationError`.
@@ -577,7 +589,28 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
                 frame[name] = values[:, j]
         if not return_derivatives:
             frame = frame[["t", *skeleton.states, *outputs]]
-        return frame
+        if level is None:
+            return frame
+        level = check_level(level)
+
+        def simulate_draw(functions, params):
+            system = skeleton.compile(functions, params)
+            drawn = simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
+                                    return_derivatives=bool(outputs), input_hold=input_hold,
+                                    **solver_options)
+            if outputs:
+                columns = {name: drawn[name].to_numpy() for name in drawn.columns}
+                values = system.evaluate_outputs(columns, len(drawn))
+                for j, name in enumerate(outputs):
+                    drawn[name] = values[:, j]
+            return drawn
+
+        band = frame[["t", *skeleton.states, *outputs]]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ExtrapolationWarning)
+            band = self._simulation_band(band, simulate_draw, level, n_draws, random_state)
+        added = [c for c in band.columns if c not in frame.columns]
+        return pd.concat([frame, band[added]], axis=1)
 
     def _warn_not_finite(self, columns: Mapping, pred: np.ndarray) -> None:
         """Warn that predictions are NaN or infinite, naming the equation and the term."""
@@ -681,8 +714,21 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
     def _arguments(self, name: str):
         return self.skeleton_.curve_arguments(name)
 
-    def cc_curves(self, n: int = 200) -> dict[str, pd.DataFrame]:
+    def cc_curves(self, n: int = 200, level: float | None = None,
+                  domain=None) -> dict[str, pd.DataFrame]:
         """Each fitted curve on ``n`` points over the range of its argument in training.
+
+        Parameters
+        ----------
+        n : int, default=200
+            Points per curve.
+        level : float, optional
+            Add ``lower`` and ``upper`` columns: the confidence band of each
+            curve at that level (from the fit's ``covariance_``). It widens
+            where the data say less, beyond the measured range above all.
+        domain : (float, float) or dict, optional
+            Evaluate over this range instead of the training range (one pair
+            for every curve, or ``{"f1": (lo, hi)}``).
 
         Returns
         -------
@@ -693,12 +739,17 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
         check_is_fitted(self, "functions_")
         if int(n) < 2:
             raise ValueError(f"n must be at least 2, got {n}")
+        level = None if level is None else check_level(level)
+        spans = _domains(domain, self.curve_ranges_)
         out = {}
         for name, curve in self.functions_.items():
-            lo, hi = self.curve_ranges_[name]
+            lo, hi = spans[name]
             x = np.linspace(lo, hi, int(n))
             values = np.broadcast_to(np.asarray(curve(x), dtype=float), x.shape)
             frame = pd.DataFrame({"x": x, name: np.array(values)})
+            if level is not None:
+                frame["lower"], frame["upper"] = self._curve_band(name, x, np.array(values),
+                                                                  level)
             frame.attrs["argument"] = " or ".join(sorted({to_text(a)
                                                           for a in self._arguments(name)}))
             out[name] = frame
@@ -708,6 +759,32 @@ class CCRegressor(RegressorMixin, BaseEstimator, metaclass=ABCMeta):
     def n_states_(self) -> int:
         """Number of states (differential equations)."""
         return len(self.skeleton_.states)
+
+
+def _domains(domain, trained: Mapping[str, tuple[float, float]]) -> dict:
+    """The range to evaluate each curve over (``cc_curves``' ``domain``)."""
+    if domain is None:
+        return dict(trained)
+    if isinstance(domain, Mapping):
+        unknown = [k for k in domain if k not in trained]
+        if unknown:
+            raise ValueError(f"domain names {unknown[0]!r}, which is not a curve of the model "
+                             f"({', '.join(trained) or 'none'})")
+        return {name: _pair(domain[name]) if name in domain else span
+                for name, span in trained.items()}
+    pair = _pair(domain)
+    return {name: pair for name in trained}
+
+
+def _pair(domain) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in domain)
+    except (TypeError, ValueError):
+        raise ValueError(f"domain must be a pair (low, high) or a dict of pairs, got "
+                         f"{domain!r}") from None
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+        raise ValueError(f"domain must run from a lower to a higher finite value, got {domain!r}")
+    return lo, hi
 
 
 def _check_simulable(skeleton: Skeleton) -> None:

@@ -7,7 +7,8 @@ from collections.abc import Mapping
 from numbers import Integral, Real
 
 import numpy as np
-from scipy.linalg import null_space
+import pandas as pd
+from scipy.linalg import block_diag, null_space
 from scipy.optimize import least_squares
 from sklearn.utils._param_validation import Interval, StrOptions
 
@@ -18,6 +19,7 @@ from ._linear import curve_arguments, linearize, split_parameters
 from ._lstsq import bounded_lstsq, constrained_lstsq
 from ._setup import FitResult, Problem, residual_scale
 from ._shooting import ShootingPlan, fit_shooting
+from ._uncertainty import sandwich_covariance
 from .base import RANDOM_STATES, CCRegressor
 
 __all__ = ["PolyCCRegressor"]
@@ -252,9 +254,11 @@ class PolyCCRegressor(CCRegressor):
         fixed = dict(problem.fixed_params)
         init = problem.starting_values(self.param_init)
 
-        def solve(theta: np.ndarray):
+        def solve(theta: np.ndarray, keep: list | None = None):
             values = {**fixed, **dict(zip(nonlinear, theta))}
             A, b, C, d, layout, bases = design.assemble(values)
+            if keep is not None:  # the system itself, before the solve scales A in place
+                keep += [A.copy(), b, C]
             G, h = design.inequalities(layout, bases)
             if G is None:
                 result = constrained_lstsq(A, b, C, d, self.alpha, overwrite_a=True)
@@ -266,8 +270,11 @@ class PolyCCRegressor(CCRegressor):
         with blas_threads(1):
             theta = (self._search(solve, nonlinear, init, bounds) if nonlinear
                      else np.zeros(0))
-            result, layout, bases, values = solve(theta)
-        self._report_rank(result, layout)
+            system: list = []
+            result, layout, bases, values = solve(theta, keep=system)
+            self._report_rank(result, layout)
+            covariance = _covariance(problem, design, nonlinear, theta, fixed, result.x, layout,
+                                     bases, system)
         params = {a: v for a, v in values.items() if a in nonlinear}
         functions, coefficients = {}, {}
         offset = 0
@@ -285,7 +292,8 @@ class PolyCCRegressor(CCRegressor):
             coefficients[name] = np.zeros(0)
         return FitResult(functions, params, {"coefficients_": coefficients,
                                              "nonlinear_params_": list(nonlinear),
-                                             "cost_": result.cost})
+                                             "cost_": result.cost,
+                                             "covariance_": covariance})
 
     # -- output error ----------------------------------------------------------
     def _fit_simulation(self, problem: Problem, result: FitResult,
@@ -348,8 +356,58 @@ class PolyCCRegressor(CCRegressor):
             functions[name] = basis.curve(coefficients)
             refined[name] = coefficients
         params = {**params, **{a: float(values[a]) for a in free_params}}
-        return FitResult(functions, params, {**result.attributes, "coefficients_": refined,
+        # the covariance was of the equation-error estimate, which this stage moved
+        kept = {k: v for k, v in result.attributes.items() if k != "covariance_"}
+        return FitResult(functions, params, {**kept, "coefficients_": refined,
                                              "shooting_": info})
+
+    # -- uncertainty (the covariance of the equation-error estimate) ------------------------
+    def _curve_block(self, name: str) -> list[str]:
+        curve = self.functions_[name]
+        return [f"{name}[{k}]" for k in range(len(curve.series))] \
+            if isinstance(curve, PolyCurve) else []
+
+    def _curve_sd(self, name: str, x: np.ndarray) -> np.ndarray | None:
+        cov = getattr(self, "covariance_", None)
+        if cov is None:
+            return None
+        curve = self.functions_[name]
+        block = [k for k in self._curve_block(name) if k in cov.index]
+        if not block:  # pinned to zero by the gauge: known exactly
+            return np.zeros_like(np.asarray(x, dtype=float))
+        u = (np.asarray(x, dtype=float) - curve.center) / curve.half
+        V = u[:, None] ** np.arange(len(block))
+        sigma = cov.loc[block, block].to_numpy()
+        return np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", V, sigma, V), 0.0))
+
+    def _draws(self, n: int, rng: np.random.Generator) -> list[tuple[dict, dict]] | None:
+        cov = getattr(self, "covariance_", None)
+        if cov is None:
+            return None
+        names = list(cov.index)
+        mean = np.array([self._estimate_of(name) for name in names])
+        values, vectors = np.linalg.eigh(cov.to_numpy())
+        root = vectors * np.sqrt(np.clip(values, 0.0, None))
+        samples = mean + rng.standard_normal((n, len(names))) @ root.T
+        out = []
+        for sample in samples:
+            drawn = dict(zip(names, sample))
+            params = {a: float(drawn.get(a, v)) for a, v in self.params_.items()}
+            functions = dict(self.functions_)
+            for name, curve in self.functions_.items():
+                block = self._curve_block(name)
+                if block and block[0] in drawn:
+                    functions[name] = PolyCurve(np.array([drawn[k] for k in block]),
+                                                curve.center, curve.half, curve.domain)
+            out.append((functions, params))
+        return out
+
+    def _estimate_of(self, name: str) -> float:
+        """The fitted value of a ``covariance_`` entry (``a1`` or ``f1[k]``)."""
+        if name in self.params_:
+            return float(self.params_[name])
+        curve, k = name[:-1].split("[")
+        return float(self.functions_[curve].series[int(k)])
 
     def _curve_parameters(self, problem: Problem, name: str) -> int:
         # coefficients of the basis, less one per point value they must satisfy
@@ -455,6 +513,65 @@ class PolyCCRegressor(CCRegressor):
         for negative, body in terms[1:]:
             text += f" {'-' if negative else '+'} {body}"
         return text
+
+
+def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: np.ndarray,
+                fixed: Mapping[str, float], x: np.ndarray, layout, bases,
+                system: list) -> pd.DataFrame:
+    """Covariance of the free parameters and of each curve's power-series coefficients.
+
+    The sandwich with Newey-West scores (:func:`sandwich_covariance`) of the
+    weighted equation residuals: the linear unknowns' columns are the
+    design's, the nonlinear parameters' are central differences. Point
+    values, active inequality rows and nonlinear parameters at a bound hold
+    the estimate; it moves only where they let it. ``system`` is ``[A, b, C]``
+    at the estimate. Indexed ``a1, ...`` and
+    ``f1[k]``: the coefficient of ``u^k`` with ``u = (x - center) / half``
+    of the fitted :class:`PolyCurve`.
+    """
+    def at(values_theta):
+        A, b, *_ = design.assemble({**fixed, **dict(zip(nonlinear, values_theta))})
+        return A, b
+
+    A, b, C = system  # the design at the estimate
+    r = A @ x + b
+    columns = []
+    for j, value in enumerate(theta):
+        h = 1e-6 * max(1.0, abs(value))
+        up, down = theta.copy(), theta.copy()
+        up[j] += h
+        down[j] -= h
+        (Au, bu), (Ad, bd) = at(up), at(down)
+        columns.append(((Au @ x + bu) - (Ad @ x + bd)) / (2 * h))
+    m = len(nonlinear)
+    J = np.hstack([np.column_stack(columns), A]) if columns else A
+    rows = [] if C is None else [np.r_[np.zeros(m), c] for c in C]
+    G, h = design.inequalities(layout, bases)
+    if G is not None:
+        active = np.abs(G @ x - h) <= 1e-9 * (1.0 + np.abs(h))
+        rows += [np.r_[np.zeros(m), g] for g in G[active]]
+    bounds = problem.bounds
+    for j, name in enumerate(nonlinear):
+        low, high = bounds.get(name, (-np.inf, np.inf))
+        if np.isclose(theta[j], low) or np.isclose(theta[j], high):
+            rows.append(np.eye(J.shape[1])[j])
+    n = problem.data.n_samples
+    cov, lag = sandwich_covariance(J, r, n, problem.data.trajectory,
+                                   np.array(rows) if rows else None)
+    # from basis coefficients to the fitted curves' power series
+    names, blocks = list(nonlinear), [np.eye(m)]
+    for name, size in layout:
+        if name in bases:
+            basis = bases[name]
+            blocks.append(basis.to_power())
+            names += [f"{name}[{k}]" for k in range(basis.degree + 1)]
+        else:
+            blocks.append(np.eye(size))
+            names.append(name)
+    T = block_diag(*blocks)
+    frame = pd.DataFrame(T @ cov @ T.T, index=names, columns=names)
+    frame.attrs["lag"] = lag
+    return frame
 
 
 def _refine(residual, start: np.ndarray, m: int) -> np.ndarray:
