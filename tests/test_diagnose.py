@@ -214,6 +214,48 @@ def test_report_names_the_effect_in_plain_words(coulomb_report):
     assert "coulomb_friction" in repr(report)
 
 
+def test_a_clear_suggestion_is_stable_and_its_parameters_have_intervals(coulomb_report):
+    report = coulomb_report[-1]
+    stability = report.ranking.set_index("effect")["stability"]
+    assert stability["coulomb_friction"] >= 0.95
+    assert stability.drop("coulomb_friction").sum() <= 0.05
+    low, high = report.best.intervals["a3"]
+    assert low < 0.3 < high and high - low < 0.05
+    assert set(report.best.intervals) == {"a3", "a4"}
+    text = report.summary()
+    assert "coulomb_friction wins in" in text and "of 100 resamples" in text
+    assert "Its parameters, with 95 % intervals: a3 = " in text
+
+
+def stability_case(level):
+    """Coulomb friction of ``level`` on a linear oscillator, noisy accelerations."""
+    frame, truth = datasets.make_oscillator(
+        hidden={"coulomb_friction": {"a1": level, "a2": 20.0}}, noise=30,
+        noise_columns=["x2_dot"], random_state=0, return_truth=True)
+    X, y = frame[["t", "x1", "x2", "F_ext"]], frame[["x1_dot", "x2_dot"]]
+    return PolyCCRegressor(equations=truth.base_equations).fit(X, y), X, y
+
+
+def test_a_suggestion_near_the_threshold_reports_low_stability():
+    # the friction removes about as much of the residual as min_improvement asks
+    model, X, y = stability_case(0.015)
+    report = diagnose(model, X, y, simulate=False, n_refit=3)
+    assert report.best is not None and report.best.error_removed < 0.11
+    chosen = report.ranking.iloc[0]
+    assert chosen.stability < 0.5
+    assert "nothing is missing in" in report.summary()
+    # the same random_state gives the same figure, another a different draw
+    again = diagnose(model, X, y, simulate=False, n_refit=3)
+    assert again.ranking.iloc[0].stability == chosen.stability
+    other = diagnose(model, X, y, simulate=False, n_refit=3, random_state=5)
+    assert abs(other.ranking.iloc[0].stability - chosen.stability) < 0.25
+    none = diagnose(model, X, y, simulate=False, n_refit=3, n_bootstrap=0)
+    assert none.ranking.stability.isna().all()
+    assert "Stability" not in none.summary()
+    with pytest.raises(ValueError, match="n_bootstrap must be"):
+        diagnose(model, X, y, n_bootstrap=-1)
+
+
 def test_diagnose_leaves_the_model_and_data_alone(coulomb_report):
     model, X, y, _ = coulomb_report
     params, state = dict(model.params_), model.get_params()

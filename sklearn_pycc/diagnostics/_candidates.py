@@ -68,6 +68,8 @@ class Candidate:
     simulation_rmse: float = math.nan
     # held-out comparison with the model without the effect (HeldOut), when checked
     held_out: object = None
+    # the refit's squared derivative residual per sample, in each equation it changes
+    after_squares: np.ndarray | None = None
 
     @property
     def equations(self) -> list[int]:
@@ -350,7 +352,8 @@ def refit_candidate(model, candidate: Candidate, data: Measurements, residuals: 
     # what the refit changes in each equation's prediction: the shape the residual should have
     base = data.derivatives - residuals
     candidate.shifts = {k: predicted[:, k] - base[:, k] for k in ks}
-    after = np.array([np.sum((data.derivatives[:, k] - predicted[:, k]) ** 2) for k in ks])
+    candidate.after_squares = (data.derivatives[:, ks] - predicted[:, ks]) ** 2
+    after = candidate.after_squares.sum(axis=0)
     before = rss_before[ks]
     n = data.n_samples
     candidate.delta_bic, candidate.removed = _delta_bic(

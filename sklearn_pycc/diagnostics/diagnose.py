@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 from sklearn.utils.validation import check_is_fitted
 
+from .._random import check_seed_source
 from ..skeleton import Bound, Skeleton
 from ._candidates import (
     Candidate,
@@ -29,6 +30,7 @@ from ._held_out import HeldOut, held_out_check
 from ._metrics import error_table_row, rmse
 from ._physics import Implausibility, implausible_terms
 from ._roles import EquationRoles, equation_roles
+from ._stability import Stability, selection_stability
 from ._trajectories import Divergence, Horizon, horizon_of, simulate_against
 
 __all__ = ["Diagnosis", "Suggestion", "diagnose"]
@@ -36,7 +38,7 @@ __all__ = ["Diagnosis", "Suggestion", "diagnose"]
 _RANKING_COLUMNS = [
     "equation", "variable", "effect", "score", "suggested_term", "curve_term", "n_params",
     "error_removed", "delta_bic", "rmse_before", "rmse_after", "simulation_rmse",
-    "held_out_change", "held_out_wins", "plausible", "refit", "explained", "note",
+    "held_out_change", "held_out_wins", "stability", "plausible", "refit", "explained", "note",
 ]
 #: a candidate whose simulation error is at most this share of the model's is worth a
 #: held-out check even when it removes little of the derivative residual
@@ -89,6 +91,11 @@ class Suggestion:
     bounds : tuple of str
         The bounds the effect's physics puts on the new parameters (in
         ``equations`` too), e.g. ``("a3 >= 0", "a4 >= 0")``.
+    intervals : dict
+        95 % confidence interval of each new parameter, ``{"a3": (low,
+        high)}``, from the diagnosis's refit (empty when its backend has no
+        uncertainty estimate without resampling). The refit saw at most
+        20,000 samples of the record.
     """
 
     effect: str
@@ -106,6 +113,7 @@ class Suggestion:
     simulation_rmse: float
     held_out: HeldOut | None = None
     bounds: tuple[str, ...] = ()
+    intervals: dict = field(default_factory=dict)
 
     def __str__(self) -> str:
         return f"add '- {self.term}' to {self.equation} ({self.effect} through {self.variable})"
@@ -147,7 +155,9 @@ class Diagnosis:
         x input for a first-order equation).
     ranking : DataFrame
         Every effect tried, best first (columns ``equation, variable,
-        effect, score, suggested_term, ...``).
+        effect, score, suggested_term, ...``). ``stability`` is the share of
+        resamples of the record in which the effect wins (see
+        :func:`diagnose`'s ``n_bootstrap``).
     best : Suggestion or None
         What to add; None when nothing is missing.
     simulation_rmse : float
@@ -182,6 +192,7 @@ class Diagnosis:
     _data: Measurements | None = field(default=None, repr=False)
     # values of the explaining variables, by equation and label (for the figures)
     _variables: dict = field(default_factory=dict, repr=False)
+    _stability: Stability | None = field(default=None, repr=False)
 
     def __repr__(self) -> str:
         best = "nothing missing" if self.best is None else str(self.best)
@@ -268,6 +279,7 @@ class Diagnosis:
                     lines.append(f"    Not confirmed: {c.effect.name} in {c.roles.derivative} "
                                  f"fits the record but not the data it did not see: "
                                  f"{c.held_out}.")
+            lines.extend(self._stability_words())
             return lines
         lines = [f"Missing effect: {best.effect} ({best.description}) in {best.equation}, "
                  f"acting through {best.variable or 'nothing'}."]
@@ -281,8 +293,13 @@ class Diagnosis:
                   f"{best.simulation_rmse:.4g}" if np.isfinite(best.simulation_rmse) else "")
         lines.append(f"    Refitted, it removes {100 * best.error_removed:.1f} % of the "
                      f"derivative residual (change of BIC {best.delta_bic:+.1f}){change}.")
+        if best.intervals:
+            lines.append("    Its parameters, with 95 % intervals: " + ", ".join(
+                f"{a} = {best.param_init[a]:.4g} ({low:.4g} to {high:.4g})"
+                for a, (low, high) in best.intervals.items()) + ".")
         if best.held_out is not None:
             lines.append(f"    Decided on data each fit did not see: {best.held_out}.")
+        lines.extend(self._stability_words())
         runners = self.ranking.iloc[1:4]
         if len(runners):
             lines.append("    Runners-up: " + "; ".join(
@@ -295,6 +312,32 @@ class Diagnosis:
             lines.append(f"    Rejected: {r.effect} in {r.equation}: {r.note}.")
         lines.append("    Next: fit report.best.equations and diagnose again.")
         return lines
+
+    def _stability_words(self) -> list[str]:
+        """How often the choice stands on resamples of the record, in words."""
+        stability = self._stability
+        if stability is None or stability.n_resamples == 0:
+            return []
+        total = stability.n_resamples
+        others = [(stability.wins.get(id(c), 0), c) for c in self._candidates]
+        others = sorted(((k, c) for k, c in others if k), key=lambda item: -item[0])
+        parts = [f"{c.effect.name} in {c.roles.derivative} wins {k}" for k, c in others]
+        if stability.nothing:
+            parts.append(f"nothing is missing in {stability.nothing}")
+        if self.best is None:
+            lead = f"nothing is missing in {stability.nothing} of {total} resamples"
+            parts = parts[:-1] if stability.nothing else parts
+        else:
+            won = 0
+            for k, c in others:
+                if c.effect.name == self.best.effect and c.roles.derivative == \
+                        self.best.equation and c.variable == self.best.variable:
+                    won = k
+            lead = f"{self.best.effect} wins in {won} of {total} resamples"
+            parts = [p for p in parts
+                     if not p.startswith(f"{self.best.effect} in {self.best.equation} ")]
+        rest = f"; otherwise {', '.join(parts[:3])}" if parts else ""
+        return [f"    Stability: {lead} of the record{rest} ({stability.method})."]
 
     # -- figures ---------------------------------------------------------------------
     def plot(self):
@@ -318,7 +361,8 @@ def _check_options(n_refit, min_improvement, bic_threshold, max_steps) -> None:
 def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1,
              bic_threshold: float = 10.0, simulate: bool = True,
              max_steps: int | None = None, horizon="auto",
-             held_out: bool = True) -> Diagnosis:
+             held_out: bool = True, n_bootstrap: int = 100,
+             random_state=0) -> Diagnosis:
     """Compare a fitted model with measurements and name the physical effect it lacks.
 
     The diagnosis has three parts:
@@ -398,6 +442,18 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         suggested (each check costs two fits per fold; refits are by output
         error when ``model`` was fitted so). False decides on the in-sample
         criteria alone.
+    n_bootstrap : int, default=100
+        Resamples of the record on which the choice is made again, for the
+        ``stability`` column of the ranking and the summary's "wins in 97 of
+        100 resamples". Each resample draws blocks of consecutive samples
+        within each experiment (whole experiments when there are ten or
+        more), and the diagnosis's rules choose among the same refits from
+        their residuals on the resampled rows: no refits, so it costs
+        little. A suggestion that wins few resamples rests on a margin the
+        noise could undo. 0 leaves the column NaN.
+    random_state : int, RandomState, Generator or None, default=0
+        Seeds the resamples (fixed by default, so that the same record
+        gives the same report).
 
     Returns
     -------
@@ -421,6 +477,10 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     ('cubic_stiffness', 'x2_dot')
     """
     _check_options(n_refit, min_improvement, bic_threshold, max_steps)
+    if isinstance(n_bootstrap, bool) or not isinstance(n_bootstrap, Integral) \
+            or n_bootstrap < 0:
+        raise ValueError(f"n_bootstrap must be a non-negative integer, got {n_bootstrap!r}")
+    check_seed_source(random_state)
     if not isinstance(held_out, bool):
         raise ValueError(f"held_out must be True or False, got {held_out!r}")
     check_is_fitted(model, "skeleton_")
@@ -505,12 +565,34 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     if chosen is not None:
         ordered.remove(chosen)
         ordered.insert(0, chosen)
-    ranking = _ranking(ordered, explained)
+    stability = _stability(ordered, residuals, data, min_improvement, bic_threshold,
+                           simulation_rmse, int(n_bootstrap), random_state)
+    ranking = _ranking(ordered, explained, stability)
     best = None if chosen is None else _suggestion(chosen, skeleton)
     return Diagnosis(model, derivative_table, trajectory_table, simulation_frame,
                      pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
                      maps, ranking, best, simulation_rmse, notes, window, implausible,
-                     candidates, data, variables)
+                     candidates, data, variables, stability)
+
+
+def _stability(ordered: list[Candidate], residuals: np.ndarray, data: Measurements,
+               min_improvement: float, bic_threshold: float, simulation_rmse: float,
+               n_resamples: int, random_state) -> Stability | None:
+    """The choice made again on resamples of the record (None without resamples)."""
+    if n_resamples == 0:
+        return None
+    contenders = [c for c in ordered if _group(c) == 0 and c.after_squares is not None
+                  and (c.held_out is None or c.held_out.confirmed)]
+    better = {id(c) for c in contenders if _simulates_better(c, simulation_rmse)}
+    return selection_stability(contenders, residuals, data.derivatives,
+                               [rows for _, rows in data.groups],
+                               (bic_threshold, min_improvement), TIE, better, n_resamples,
+                               random_state)
+
+
+def _simulates_better(c: Candidate, simulation_rmse: float) -> bool:
+    return (math.isfinite(c.simulation_rmse) and math.isfinite(simulation_rmse)
+            and c.simulation_rmse <= SIMULATION_GAIN * simulation_rmse)
 
 
 def _map_of(roles: EquationRoles, residuals, data: Measurements, inputs) -> ResidualMap | None:
@@ -580,7 +662,8 @@ def _ordered(candidates: list[Candidate]) -> list[Candidate]:
     return out
 
 
-def _ranking(ordered: list[Candidate], explained: pd.DataFrame) -> pd.DataFrame:
+def _ranking(ordered: list[Candidate], explained: pd.DataFrame,
+             stability: Stability | None) -> pd.DataFrame:
     lookup = {(e, v): f for e, v, f in explained[
         ["equation", "variable", "fraction"]].itertuples(index=False)}
     rows = []
@@ -602,6 +685,7 @@ def _ranking(ordered: list[Candidate], explained: pd.DataFrame) -> pd.DataFrame:
             "held_out_change": math.nan if c.held_out is None else c.held_out.change(),
             "held_out_wins": (None if c.held_out is None
                               else f"{c.held_out.wins} of {c.held_out.n_folds}"),
+            "stability": math.nan if stability is None else stability.share(c),
             "plausible": bool(c.plausible) if refit else None,
             "refit": refit,
             "explained": lookup.get((c.roles.derivative, c.variable), math.nan),
@@ -617,9 +701,7 @@ def _eligible(ordered: list[Candidate], min_improvement: float, bic_threshold: f
     for c in ordered:
         if _group(c) != 0 or c.delta_bic > -bic_threshold:
             continue
-        simulates_better = (math.isfinite(c.simulation_rmse) and math.isfinite(simulation_rmse)
-                            and c.simulation_rmse <= SIMULATION_GAIN * simulation_rmse)
-        if c.removed >= min_improvement or simulates_better:
+        if c.removed >= min_improvement or _simulates_better(c, simulation_rmse):
             out.append(c)
     return out
 
@@ -668,6 +750,11 @@ def _suggestion(c: Candidate, base: Skeleton) -> Suggestion:
         curve_constraints = tuple(str(x) for x in new)
     derivative = {eq.index: eq.derivative for eq in skeleton.parsed}
     also = {derivative[k]: text for k, text in c.added if k != c.roles.index}
+    try:  # what the refit's backend knows of its own uncertainty, without resampling
+        found = c.refit.params_interval(0.95)
+        intervals = {a: found[a] for a in c.new_params if a in found}
+    except (ValueError, AttributeError):
+        intervals = {}
     return Suggestion(
         effect=c.effect.name, description=c.effect.description, equation=c.roles.derivative,
         variable=c.variable, term=c.term, equations=skeleton,
@@ -676,4 +763,5 @@ def _suggestion(c: Candidate, base: Skeleton) -> Suggestion:
         error_removed=float(c.removed), delta_bic=float(c.delta_bic),
         simulation_rmse=float(c.simulation_rmse), held_out=c.held_out,
         bounds=tuple(str(x) for x in skeleton.constraints
-                     if isinstance(x, Bound) and x not in base.constraints))
+                     if isinstance(x, Bound) and x not in base.constraints),
+        intervals=intervals)

@@ -1,12 +1,13 @@
 """How sure a fitted model is: standard errors, intervals, curve and simulation bands.
 
-:class:`IntervalsMixin` gives every estimator the same questions to ask;
-a backend answers them through two hooks, :meth:`IntervalsMixin._curve_sd`
-(the standard deviation of a curve at given points) and
-:meth:`IntervalsMixin._draws` (models drawn from the estimate's
-distribution), and through its fitted ``covariance_`` of the parameters. A
-backend without them says so when asked, rather than return numbers that
-mean nothing.
+:class:`IntervalsMixin` gives every estimator the same questions to ask.
+They are answered from refits on resamples when the fit made them
+(``n_bootstrap``: the ``bootstrap_`` members), else by the backend through
+its fitted ``covariance_`` of the parameters and two hooks,
+:meth:`IntervalsMixin._curve_sd` (the standard deviation of a curve at
+given points) and :meth:`IntervalsMixin._draws` (models drawn from the
+estimate's distribution). A fit with neither says so when asked, rather
+than return numbers that mean nothing.
 """
 
 from __future__ import annotations
@@ -56,22 +57,34 @@ class IntervalsMixin:
         return None
 
     def _no_uncertainty(self, what: str) -> ValueError:
-        return ValueError(
-            f"{type(self).__name__} has no estimate of how uncertain its {what} are "
-            "(PolyCCRegressor fitted by equation error gives one from the covariance of its "
-            "least-squares estimate)")
+        hint = ("fit it with n_bootstrap=100 (refits on resamples)"
+                if "n_bootstrap" in self.get_params(deep=False) else
+                "use a backend that takes n_bootstrap, or PolyCCRegressor fitted by equation "
+                "error (the covariance of its least-squares estimate)")
+        return ValueError(f"{type(self).__name__} has no estimate of how uncertain its {what} "
+                          f"are: {hint}")
+
+    def _members(self) -> list | None:
+        """The refits on resamples, when the fit made them."""
+        return getattr(self, "bootstrap_", None) or None
 
     # -- parameters ------------------------------------------------------------------
     @property
     def params_std_(self) -> dict[str, float]:
         """Standard error of each fitted parameter ``{"a1": 0.002, ...}``.
 
-        From the fitted ``covariance_`` (0 for a parameter the gauge pinned;
-        NaN when the backend has no covariance). The covariance accounts for
-        residuals correlated in time (Newey-West), so it holds for coloured
-        noise and smoothed derivatives.
+        The spread of the refits on resamples when the fit made them
+        (``n_bootstrap``), else from the fitted ``covariance_``; 0 for a
+        parameter the gauge pinned, NaN when there is neither. Both account
+        for residuals correlated in time (blocks of samples; Newey-West), so
+        they hold for coloured noise and smoothed derivatives.
         """
         check_is_fitted(self, "params_")
+        members = self._members()
+        if members is not None:
+            table = self.bootstrap_params_
+            return {name: float(table[name].std(ddof=1)) if name in table else 0.0
+                    for name in self.params_}
         cov = getattr(self, "covariance_", None)
         out = {}
         for name in self.params_:
@@ -119,7 +132,14 @@ class IntervalsMixin:
     def _curve_band(self, name: str, x: np.ndarray, values: np.ndarray,
                     level: float) -> tuple[np.ndarray, np.ndarray]:
         """``(lower, upper)`` of the curve ``name`` at ``x`` around ``values``."""
-        sd = self._curve_sd(name, x)
+        members = self._members()
+        if members is not None:
+            with np.errstate(all="ignore"):
+                stack = np.stack([np.broadcast_to(np.asarray(m.functions[name](x), dtype=float),
+                                                  x.shape) for m in members])
+            sd = np.nanstd(stack, axis=0, ddof=1)
+        else:
+            sd = self._curve_sd(name, x)
         if sd is None:
             raise self._no_uncertainty("curves")
         z = _quantile(level)
@@ -136,7 +156,15 @@ class IntervalsMixin:
         if isinstance(n_draws, bool) or not isinstance(n_draws, (int, np.integer)) \
                 or n_draws < 2:
             raise ValueError(f"n_draws must be an integer of at least 2, got {n_draws!r}")
-        draws = self._draws(int(n_draws), np.random.default_rng(next(seeds(random_state))))
+        rng = np.random.default_rng(next(seeds(random_state)))
+        members = self._members()
+        if members is not None:  # the refits themselves
+            picked = (range(len(members)) if n_draws >= len(members)
+                      else np.sort(rng.choice(len(members), int(n_draws), replace=False)))
+            draws = [(members[k].functions, {**self.params_, **members[k].params})
+                     for k in picked]
+        else:
+            draws = self._draws(int(n_draws), rng)
         if draws is None:
             raise self._no_uncertainty("simulations")
         names = [c for c in frame.columns if c != "t"]

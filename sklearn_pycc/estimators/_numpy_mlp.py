@@ -194,6 +194,37 @@ class NumpyCurve(Curve):
             out = out + np.power.outer(u, self.exponents) @ self.coefficients
         return out
 
+    def features(self, x: np.ndarray) -> np.ndarray:
+        """The curve's derivatives by its last layer's weights and bias, at ``x``.
+
+        Shaped ``(len(x), m)``: the last hidden layer's outputs, symmetrised
+        like the curve (an odd curve has no bias column: it cancels), at
+        ``x`` held to the training domain. The curve is linear in these
+        numbers, so they span its changes when only the last layer moves;
+        a point value holds when the change is zero there (see
+        :mod:`._linearized`).
+        """
+        lo, hi = self.domain
+        u = (np.clip(np.asarray(x, dtype=float).reshape(-1), lo, hi) - self.center) / self.scale
+
+        def hidden(v: np.ndarray) -> np.ndarray:
+            if len(self.layers) == 1:
+                return v[None, :]
+            w, b = self._first
+            h = self._act(w * v + b)
+            for w, b in self._hidden:
+                h = self._act(w @ h + b)
+            return h
+
+        h = hidden(u)
+        if self.parity is not None:
+            mirror = hidden(-u)
+            h = 0.5 * (h - mirror) if self.parity == "odd" else 0.5 * (h + mirror)
+        columns = [h.T]
+        if self.parity != "odd":
+            columns.append(np.ones((u.size, 1)))
+        return np.hstack(columns)
+
     def _outside(self, x) -> OutsideTrainingRange:
         lo, hi = self.domain
         return OutsideTrainingRange(

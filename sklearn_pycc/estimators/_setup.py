@@ -126,6 +126,13 @@ class Problem:
     equation_weights : tuple of float or None
         The user's weight of each equation, in the order given (None: 1 for
         each); it multiplies the equation's residual after its own scaling.
+    rows : ndarray of int or None
+        Row of the record (of ``measured``, ``smoothed``, ``signals`` and
+        the experiments' rows) of each row of ``data``; None when they are
+        the same rows.
+    covariance : bool
+        Whether a backend should estimate the covariance of its estimate
+        (not for the refits on resamples).
     """
 
     skeleton: Skeleton
@@ -142,6 +149,8 @@ class Problem:
     signals: dict[str, np.ndarray] = field(default_factory=dict)
     fit_mode: str = "equation"
     equation_weights: tuple | None = None
+    rows: np.ndarray | None = None
+    covariance: bool = True
 
     @property
     def equations(self) -> list[Equation]:

@@ -19,62 +19,17 @@ import numpy as np
 from scipy.linalg import null_space
 from scipy.signal import oaconvolve
 
-__all__ = ["bandwidth", "long_run_covariance", "sandwich_covariance"]
+from .._blocks import bandwidth, segments
 
-#: the AR(1) coefficient of a score column is read as at most this (a random walk has
-#: no finite long-run variance)
-_MAX_RHO = 0.98
+__all__ = ["long_run_covariance", "sandwich_covariance"]
+
 #: up to this lag the weighted autocovariances are summed directly; beyond, by convolution
 _DIRECT_LAGS = 16
 
 
-def _segments(n: int, groups: np.ndarray | None) -> list[slice]:
-    """Runs of consecutive rows with the same group label."""
-    if groups is None or n == 0:
-        return [slice(0, n)]
-    groups = np.asarray(groups)
-    starts = np.flatnonzero(np.r_[True, groups[1:] != groups[:-1]])
-    ends = np.r_[starts[1:], n]
-    return [slice(int(a), int(b)) for a, b in zip(starts, ends)]
-
-
-def bandwidth(scores: np.ndarray, segments: list[slice]) -> int:
-    """Newey-West lag by Andrews' AR(1) plug-in rule for the Bartlett kernel.
-
-    Each score column is read as an AR(1) process within each segment;
-    ``alpha`` weighs the columns' ``rho`` by their innovation variance, and
-    the lag is ``1.1447 (alpha n)^(1/3)``, at most half the longest segment.
-    """
-    n, p = scores.shape
-    # sums over every segment of s_t s_t, s_t s_(t-1) and s_(t-1) s_(t-1), per column
-    now_now, now_before, before_before, count = np.zeros(p), np.zeros(p), np.zeros(p), 0
-    for s in segments:
-        block = scores[s]
-        if len(block) <= 2:
-            continue
-        squares = block * block
-        now_now += squares[1:].sum(axis=0)
-        before_before += squares[:-1].sum(axis=0)
-        now_before += np.einsum("ij,ij->j", block[1:], block[:-1])
-        count += len(block) - 1
-    usable = before_before > 0
-    if not usable.any():
-        return 0
-    rho = np.clip(now_before[usable] / before_before[usable], -_MAX_RHO, _MAX_RHO)
-    # the AR(1) innovations' variance: sum (s_t - rho s_(t-1))^2 / count
-    var = (now_now[usable] - 2 * rho * now_before[usable]
-           + rho**2 * before_before[usable]) / count
-    top = np.sum(4 * rho**2 * var**2 / ((1 - rho) ** 6 * (1 + rho) ** 2))
-    bottom = np.sum(var**2 / (1 - rho) ** 4)
-    if not bottom > 0:
-        return 0
-    lag = 1.1447 * (top / bottom * n) ** (1.0 / 3.0)
-    longest = max(s.stop - s.start for s in segments)
-    return int(min(np.ceil(lag), longest // 2))
-
-
 def long_run_covariance(scores: np.ndarray, groups: np.ndarray | None = None,
-                        lag: int | None = None) -> tuple[np.ndarray, int]:
+                        lag: int | None = None,
+                        prewhiten: bool = True) -> tuple[np.ndarray, int]:
     """Newey-West estimate of ``sum_t sum_s E[g_t g_s^T]`` and the lag it used.
 
     Parameters
@@ -85,17 +40,55 @@ def long_run_covariance(scores: np.ndarray, groups: np.ndarray | None = None,
         Experiment of each sample: no lag crosses from one to the next.
     lag : int, optional
         The truncation lag (by default from :func:`bandwidth`).
+    prewhiten : bool, default=True
+        Take out a first-order vector autoregression of the scores first and
+        put it back after (Andrews and Monahan): the kernel estimate of
+        strongly correlated scores is biased low, that of their innovations
+        is not.
     """
     scores = np.asarray(scores, dtype=float)
     n, p = scores.shape
-    segments = _segments(n, groups)
+    runs = segments(n, groups)
+    if not prewhiten:
+        return _bartlett(scores, runs, lag)
+    A = _autoregression(scores, runs)
+    innovations = scores.copy()
+    for s in runs:
+        block = scores[s]
+        innovations[s][1:] = block[1:] - block[:-1] @ A.T
+    meat, lag = _bartlett(innovations, runs, lag)
+    recolour = np.linalg.inv(np.eye(p) - A)
+    return recolour @ meat @ recolour.T, lag
+
+
+#: singular values of the prewhitening autoregression are held below this (Andrews and
+#: Monahan's bound: a unit root would make the recolouring explode)
+_MAX_AR = 0.97
+
+
+def _autoregression(scores: np.ndarray, runs: list[slice]) -> np.ndarray:
+    """``A`` of ``s_t = A s_(t-1) + e_t`` by least squares within runs, its gain bounded."""
+    p = scores.shape[1]
+    now_before, before_before = np.zeros((p, p)), np.zeros((p, p))
+    for s in runs:
+        block = scores[s]
+        now_before += block[1:].T @ block[:-1]
+        before_before += block[:-1].T @ block[:-1]
+    A = now_before @ np.linalg.pinv(before_before, hermitian=True)
+    U, sigma, Vt = np.linalg.svd(A)
+    return (U * np.minimum(sigma, _MAX_AR)) @ Vt
+
+
+def _bartlett(scores: np.ndarray, runs: list[slice], lag: int | None) -> tuple[np.ndarray, int]:
+    """Bartlett-weighted sum of the autocovariances of ``scores`` within runs."""
+    p = scores.shape[1]
     if lag is None:
-        lag = bandwidth(scores, segments)
+        lag = bandwidth(scores, runs)
     if lag < 1:
         return scores.T @ scores, 0
     meat = np.zeros((p, p))
     if lag <= _DIRECT_LAGS:  # a few lags: their products directly
-        for s in segments:
+        for s in runs:
             block = scores[s]
             meat += block.T @ block
             for lag_l in range(1, min(lag, len(block) - 1) + 1):
@@ -103,7 +96,7 @@ def long_run_covariance(scores: np.ndarray, groups: np.ndarray | None = None,
                 meat += (1.0 - lag_l / (lag + 1.0)) * (product + product.T)
         return meat, int(lag)
     window = 1.0 - np.abs(np.arange(-lag, lag + 1)) / (lag + 1.0)
-    for s in segments:
+    for s in runs:
         block = scores[s]
         smoothed = oaconvolve(block, window[:, None], mode="same", axes=0)
         meat += block.T @ smoothed

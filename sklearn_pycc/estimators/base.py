@@ -15,6 +15,7 @@ from sklearn.metrics import r2_score
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
+from .._random import seeds
 from ..exceptions import DomainWarning, ExtrapolationWarning
 from ..measurements import read_record
 from ..measurements.columns import read_X, read_y
@@ -33,7 +34,7 @@ from ..skeleton.system import CompiledSystem
 from ._intervals import N_DRAWS, IntervalsMixin, check_level
 from ._setup import GAUGES, FitResult, Problem, build_skeleton, gauge_skeleton
 
-__all__ = ["FIT_MODES", "RANDOM_STATES", "CCRegressor"]
+__all__ = ["FIT_MODES", "RANDOM_STATES", "RESAMPLING", "CCRegressor"]
 
 FIT_MODES = ("auto", "equation", "simulation")
 #: below this signal-to-noise ratio of the measured states, ``fit_mode="auto"`` refines the
@@ -45,6 +46,9 @@ _PRIVATE_STATE = ("_compiled", "_y_1d")
 #: what ``random_state`` may be: a Generator is honoured like a RandomState
 RANDOM_STATES = [None, Interval(Integral, 0, 2**32 - 1, closed="both"),
                  np.random.RandomState, np.random.Generator]
+#: the hyperparameters of a backend that refits on resamples (``n_bootstrap``, ``n_jobs``)
+RESAMPLING = {"n_bootstrap": [Interval(Integral, 0, None, closed="left")],
+              "n_jobs": [Integral, None]}
 
 
 class EquationsView(list):
@@ -186,6 +190,9 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
     """
 
     equations = _EquationsParameter()
+    #: where refits on resamples run in parallel: joblib's ``prefer`` (a backend whose
+    #: work releases the GIL saves the processes' start)
+    _resample_in = "processes"
 
     #: checked at the start of ``fit`` (scikit-learn's parameter validation);
     #: each backend extends it with its own hyperparameters
@@ -279,7 +286,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         problem = Problem(skeleton, constraints, fixed, zeroed, trusted.data,
                           trusted.derivatives, gauge, record.experiments, record.measured,
                           record.smoothed, record.signals, fit_mode=mode,
-                          equation_weights=weights)
+                          equation_weights=weights,
+                          rows=None if record.trusted is None else np.flatnonzero(record.trusted))
         return problem, facts
 
     def _resolve_mode(self, skeleton, record) -> tuple[str, str]:
@@ -337,20 +345,61 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         resolve_differentiation(self.differentiation)
         problem, facts = self._problem(X, y)
         problem.check_enough_rows()
+        n_bootstrap = getattr(self, "n_bootstrap", 0)
+        if n_bootstrap == 1:
+            raise ValueError("n_bootstrap must be 0 (no resampling) or at least 2, got 1")
+        result = self._fit_result(problem, self.shooting_window)
+        if n_bootstrap:
+            facts = {**facts, **self._bootstrap(problem, result, n_bootstrap)}
+        self._store(problem, result, facts)
+        return self
+
+    def _fit_result(self, problem: Problem, window: int) -> FitResult:
+        """The backend's fit of ``problem``, refined by output error when its mode says so."""
         plan = None
         if problem.fit_mode == "simulation":
             from ._shooting import ShootingPlan, check_iterations
 
             check_iterations(self.shooting_iterations)
-            plan = ShootingPlan(problem, self.shooting_window)
+            plan = ShootingPlan(problem, window)
         result = self._fit_problem(problem)
         if plan is not None:
             start = problem.skeleton.compile(result.functions,
                                              {**problem.fixed_params, **result.params})
             plan.choose_substeps(start, dict(problem.data.columns))
             result = self._fit_simulation(problem, result, plan)
-        self._store(problem, result, facts)
-        return self
+        return result
+
+    def _bootstrap(self, problem: Problem, result: FitResult, n: int) -> dict:
+        """Refits on ``n`` resamples that respect time: the ``bootstrap_`` attributes."""
+        from ._resampling import Resampler, fit_members
+
+        params = {**problem.fixed_params, **result.params}
+        slots, env = problem.environment()
+        residuals = []
+        for i in problem.active:
+            with np.errstate(all="ignore"):
+                value = compile_expression(problem.equations[i].fit_residual, slots, params,
+                                           result.functions)(env)
+            value = np.broadcast_to(np.asarray(value, dtype=float), (problem.data.n_samples,))
+            residuals.append(np.nan_to_num(value))
+        simulation = problem.fit_mode == "simulation"
+        resampler = Resampler(problem, np.column_stack(residuals),
+                              min_block=2 * self.shooting_window if simulation else 2)
+        seed = next(seeds(getattr(self, "random_state", None)))
+        members, failures = fit_members(self, problem, resampler, n, seed,
+                                        getattr(self, "n_jobs", None), self.shooting_window)
+        if len(members) < 2:
+            raise ValueError(f"{len(failures)} of {n} refits on resamples failed, so the "
+                             f"fit has no bootstrap estimate; the first said: {failures[0]}")
+        if failures:
+            warnings.warn(f"{len(failures)} of {n} refits on resamples failed and are left out "
+                          f"of the bootstrap estimate; the first said: {failures[0]}",
+                          UserWarning, stacklevel=4)
+        free = list(result.params)
+        table = pd.DataFrame([[m.params[a] for a in free] for m in members], columns=free)
+        return {"bootstrap_": members, "bootstrap_params_": table,
+                "bootstrap_method_": resampler.describe()}
 
     def _store(self, problem: Problem, result: FitResult, facts: Mapping) -> None:
         """Store a backend's result: the only way a fit becomes fitted state."""

@@ -12,10 +12,9 @@ from .._random import seeds
 from .._threads import torch_threads
 from ._activations import ACTIVATIONS
 from ._basis import ZeroCurve
-from ._lbfgs import CompactLBFGS
 from ._numpy_mlp import EXTRAPOLATIONS, NumpyCurve
 from ._setup import FitResult, Problem, active_residuals
-from .base import RANDOM_STATES, CCRegressor
+from .base import RANDOM_STATES, RESAMPLING, CCRegressor
 
 __all__ = ["NeuralCCRegressor"]
 
@@ -163,6 +162,17 @@ default="lbfgs"
         noisy: networks trained on them to convergence learn wiggles that
         trajectory matching cannot take out again, so the start is kept
         short and the shooting stage does the fitting.
+    n_bootstrap : int, default=0
+        Refit on this many resamples of the record (blocks of consecutive
+        samples within each experiment, or whole experiments when there are
+        many): ``params_std_``, ``params_interval``, the bands of
+        ``cc_curves`` and ``simulate`` then come from their spread. 0 makes
+        none (a fit without them has no uncertainty estimate); each refit
+        trains its networks from its own seed, so the spread holds that of
+        training too.
+    n_jobs : int or None, default=None
+        Processes for the refits on resamples (joblib; None is one, -1
+        every core). The result does not depend on it.
     random_state : int, RandomState or None
         Seeds the initial weights and the minibatch order (private
         generators; global random state is never touched).
@@ -179,6 +189,10 @@ default="lbfgs"
         Final training loss (mean squared scaled residual).
     device_ : str
         The device the model was trained on.
+    bootstrap_params_ : DataFrame
+        Only with ``n_bootstrap``: the free parameters of each refit on a
+        resample, one row per refit (``bootstrap_`` holds their curves too,
+        and ``bootstrap_method_`` says how the resamples were drawn).
 
     Examples
     --------
@@ -220,6 +234,7 @@ default="lbfgs"
         "callbacks": [list, tuple, None],
         "shooting_start_epochs": [Interval(Integral, 1, None, closed="left"), None],
         "random_state": RANDOM_STATES,
+        **RESAMPLING,
         "verbose": ["verbose"],
     }
 
@@ -235,7 +250,8 @@ default="lbfgs"
                  gauge: str = "auto", differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, shooting_start_epochs: int | None = 10,
-                 equation_weights=None, random_state=None, verbose: int = 0) -> None:
+                 equation_weights=None, random_state=None, n_bootstrap: int = 0,
+                 n_jobs: int | None = None, verbose: int = 0) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
@@ -262,6 +278,8 @@ default="lbfgs"
         self.callbacks = callbacks
         self.shooting_start_epochs = shooting_start_epochs
         self.random_state = random_state
+        self.n_bootstrap = n_bootstrap
+        self.n_jobs = n_jobs
         self.verbose = verbose
 
     # -- hyperparameter checks -----------------------------------------------------
@@ -285,6 +303,8 @@ default="lbfgs"
 
     def _optimizer(self):
         import torch
+
+        from ._lbfgs import CompactLBFGS
 
         if isinstance(self.optimizer, str):
             if self.optimizer not in OPTIMIZERS:
@@ -353,6 +373,12 @@ default="lbfgs"
         with torch_threads(checked["n_threads"]):
             result = self._train(problem, residuals, weights, params0, checked)
         result.functions.update(functions)
+        if problem.covariance and problem.fit_mode == "equation":
+            from ._linearized import linearized_covariance
+
+            features = {f: result.functions[f].features for f in problem.free_functions}
+            result.attributes["covariance_"] = linearized_covariance(
+                problem, result.functions, result.params, features)
         return result
 
     def _train(self, problem, residuals, weights, params0, checked):

@@ -20,7 +20,7 @@ from ._lstsq import bounded_lstsq, constrained_lstsq
 from ._setup import FitResult, Problem, residual_scale
 from ._shooting import ShootingPlan, fit_shooting
 from ._uncertainty import sandwich_covariance
-from .base import RANDOM_STATES, CCRegressor
+from .base import RANDOM_STATES, RESAMPLING, CCRegressor
 
 __all__ = ["PolyCCRegressor"]
 
@@ -174,6 +174,16 @@ class PolyCCRegressor(CCRegressor):
         fitting: see :class:`CCRegressor`.
     equation_weights : list of float, optional
         One weight per equation: see :class:`CCRegressor`.
+    n_bootstrap : int, default=0
+        Refit on this many resamples of the record (blocks of consecutive
+        samples within each experiment, or whole experiments when there are
+        many): ``params_std_``, ``params_interval``, the bands of
+        ``cc_curves`` and ``simulate`` then come from their spread. 0 makes
+        none: the covariance of the least-squares estimate answers then
+        (equation-error fits).
+    n_jobs : int or None, default=None
+        Processes for the refits on resamples (joblib; None is one, -1
+        every core). The result does not depend on it.
     random_state : int, RandomState or None
         Seeds the multi-start search when there are three or more nonlinear
         parameters.
@@ -186,6 +196,10 @@ class PolyCCRegressor(CCRegressor):
         Parameters found by variable projection.
     cost_ : float
         Final weighted sum of squared equation residuals.
+    bootstrap_params_ : DataFrame
+        Only with ``n_bootstrap``: the free parameters of each refit on a
+        resample, one row per refit (``bootstrap_`` holds their curves too,
+        and ``bootstrap_method_`` says how the resamples were drawn).
 
     Examples
     --------
@@ -199,6 +213,9 @@ class PolyCCRegressor(CCRegressor):
     1.0
     """
 
+    #: the refits' least squares run in LAPACK, which releases the GIL
+    _resample_in = "threads"
+
     _parameter_constraints: dict = {
         **CCRegressor._parameter_constraints,
         "degree": [Interval(Integral, 0, None, closed="left"), dict],
@@ -206,6 +223,7 @@ class PolyCCRegressor(CCRegressor):
         "alpha": [Interval(Real, 0, None, closed="left")],
         "param_init": [dict, None],
         "random_state": RANDOM_STATES,
+        **RESAMPLING,
     }
 
     def __init__(self, *, equations=None, constraints=None, degree=7, basis: str = "legendre",
@@ -213,7 +231,8 @@ class PolyCCRegressor(CCRegressor):
                  differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, equation_weights=None,
-                 random_state=None) -> None:
+                 random_state=None, n_bootstrap: int = 0,
+                 n_jobs: int | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
@@ -224,6 +243,8 @@ class PolyCCRegressor(CCRegressor):
         self.alpha = alpha
         self.param_init = param_init
         self.random_state = random_state
+        self.n_bootstrap = n_bootstrap
+        self.n_jobs = n_jobs
 
     def _degrees(self, functions: list[str]) -> dict[str, int]:
         def check(value, name) -> int:
@@ -273,8 +294,9 @@ class PolyCCRegressor(CCRegressor):
             system: list = []
             result, layout, bases, values = solve(theta, keep=system)
             self._report_rank(result, layout)
-            covariance = _covariance(problem, design, nonlinear, theta, fixed, result.x, layout,
-                                     bases, system)
+            covariance = (_covariance(problem, design, nonlinear, theta, fixed, result.x,
+                                      layout, bases, system)
+                          if problem.covariance else None)
         params = {a: v for a, v in values.items() if a in nonlinear}
         functions, coefficients = {}, {}
         offset = 0

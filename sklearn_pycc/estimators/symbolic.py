@@ -27,7 +27,7 @@ from ._symbolic_engines import (
     make_engine,
 )
 from ._sympy_skeleton import to_sympy
-from .base import RANDOM_STATES, CCRegressor
+from .base import RANDOM_STATES, RESAMPLING, CCRegressor
 
 __all__ = ["SymbolicCCRegressor"]
 
@@ -332,6 +332,16 @@ class SymbolicCCRegressor(CCRegressor):
         Starting values of the parameters (1.0 otherwise).
     gauge, differentiation, smooth_states, equation_weights
         See :class:`CCRegressor`.
+    n_bootstrap : int, default=0
+        Refit on this many resamples of the record (blocks of consecutive
+        samples within each experiment, or whole experiments when there are
+        many): ``params_std_``, ``params_interval``, the bands of
+        ``cc_curves`` and ``simulate`` then come from their spread. 0 makes
+        none (a fit without them has no uncertainty estimate); each refit
+        searches its own expressions.
+    n_jobs : int or None, default=None
+        Processes for the refits on resamples (joblib; None is one, -1
+        every core). The result does not depend on it.
     random_state : int, RandomState or None
         Seeds every search.
 
@@ -349,6 +359,10 @@ class SymbolicCCRegressor(CCRegressor):
         Back-fitting rounds run.
     loss_history_ : list of float
         Equation loss after each round.
+    bootstrap_params_ : DataFrame
+        Only with ``n_bootstrap``: the free parameters of each refit on a
+        resample, one row per refit (``bootstrap_`` holds their curves too,
+        and ``bootstrap_method_`` says how the resamples were drawn).
     """
 
     _parameter_constraints: dict = {
@@ -368,6 +382,7 @@ class SymbolicCCRegressor(CCRegressor):
         "engine_options": [dict, None],
         "param_init": [dict, None],
         "random_state": RANDOM_STATES,
+        **RESAMPLING,
     }
 
     def __init__(self, *, equations=None, constraints=None, engine: str = "operon",
@@ -378,7 +393,8 @@ class SymbolicCCRegressor(CCRegressor):
                  model_selection: str = "best", start_degree: int | None = 7,
                  engine_options: Mapping | None = None, param_init: Mapping | None = None,
                  gauge: str = "auto", differentiation="auto", smooth_states: bool = True,
-                 equation_weights=None, random_state=None) -> None:
+                 equation_weights=None, random_state=None, n_bootstrap: int = 0,
+                 n_jobs: int | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          equation_weights=equation_weights)
@@ -396,6 +412,8 @@ class SymbolicCCRegressor(CCRegressor):
         self.engine_options = engine_options
         self.param_init = param_init
         self.random_state = random_state
+        self.n_bootstrap = n_bootstrap
+        self.n_jobs = n_jobs
 
     # -- hyperparameter checks -----------------------------------------------------
     def _check_params(self) -> None:
