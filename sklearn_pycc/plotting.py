@@ -1,4 +1,4 @@
-"""Matplotlib figures of the hypothesis loop: diagnoses and skeleton comparisons.
+"""Matplotlib figures of the hypothesis loop: fitted curves, diagnoses, skeleton comparisons.
 
 matplotlib is imported when a figure is drawn, never on ``import sklearn_pycc``.
 """
@@ -8,13 +8,82 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["plot_comparison", "plot_diagnosis"]
+__all__ = ["plot_comparison", "plot_curves", "plot_diagnosis"]
 
 
 def _pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def plot_curves(model, *, level="auto", truth=None, n: int = 200, domain=None):
+    """The fitted curves of a model, with their confidence bands and the true curves.
+
+    Parameters
+    ----------
+    model : CCRegressor
+        A fitted model.
+    level : float, "auto" or None, default="auto"
+        Draw each curve's confidence band at this level (see
+        :meth:`~sklearn_pycc.estimators.CCRegressor.cc_curves`); ``"auto"``
+        draws the 95 % band when the model has an estimate of it (the
+        polynomial backend's covariance, refits on resamples), None none.
+    truth : dict of str -> callable, optional
+        True curves by name (``truth.functions`` of a dataset), drawn
+        dashed where they are known.
+    n : int, default=200
+        Points per curve.
+    domain : (float, float) or dict, optional
+        Range of each curve's argument (by default the measured range);
+        beyond the measured range the axis is shaded.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel per curve: the fitted curve against its argument, its
+        band, the true curve and the measured range.
+    """
+    plt = _pyplot()
+    if level == "auto":
+        try:
+            curves = model.cc_curves(n=n, level=0.95, domain=domain)
+            level = 0.95
+        except ValueError as error:
+            if "no estimate of how uncertain" not in str(error):
+                raise
+            curves, level = model.cc_curves(n=n, domain=domain), None
+    else:
+        curves = model.cc_curves(n=n, level=level, domain=domain)
+    truth = dict(truth or {})
+    names = list(curves)
+    if not names:
+        raise ValueError("the model has no curves to plot (its skeleton has no f1, f2, ...)")
+    fig, axes = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.4), squeeze=False)
+    for ax, name in zip(axes[0], names):
+        frame = curves[name]
+        x = frame["x"].to_numpy()
+        if level is not None:
+            ax.fill_between(x, frame["lower"], frame["upper"], color="C0", alpha=0.25, lw=0,
+                            label=f"{100 * level:g} % band")
+        ax.plot(x, frame[name], color="C0", lw=1.8, label="fitted")
+        if name in truth:
+            with np.errstate(all="ignore"):
+                values = np.broadcast_to(np.asarray(truth[name](x), dtype=float), x.shape)
+            ax.plot(x, values, color="k", lw=1.2, ls="--", label="true")
+        lo, hi = model.curve_ranges_[name]
+        for start, stop in ((x[0], lo), (hi, x[-1])):
+            if stop > start:
+                ax.axvspan(start, stop, color="0.5", alpha=0.12, lw=0)
+        if x[0] < lo or x[-1] > hi:
+            ax.axvspan(np.nan, np.nan, color="0.5", alpha=0.12, label="beyond the data")
+        argument = frame.attrs.get("argument") or "u"
+        ax.set_xlabel(argument)
+        ax.set_ylabel(f"{name}({argument})")
+        ax.set_title(name)
+        ax.legend(fontsize="small")
+    fig.tight_layout()
+    return fig
 
 
 def plot_diagnosis(report) -> dict:

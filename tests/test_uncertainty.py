@@ -204,3 +204,16 @@ def test_an_ensemble_trained_in_processes_is_the_one_trained_in_one(oscillator):
     x = np.linspace(-1, 1, 7)
     for a, b in zip(one.bootstrap_, two.bootstrap_):
         np.testing.assert_array_equal(a.functions["f1"](x), b.functions["f1"](x))
+
+
+@pytest.mark.slow
+def test_a_network_ensemble_s_curve_bands_hold_the_true_curve(oscillator):
+    rng = np.random.default_rng(2)
+    shares = []
+    for _ in range(15):
+        model = NeuralCCRegressor(equations=HYBRID, constraints=["f1(0)=0"], random_state=0,
+                                  n_bootstrap=10).fit(*noisy(oscillator, 0.6, rng))
+        curve = model.cc_curves(n=50, level=0.95)["f1"]
+        truth = -curve.x + curve.x**3
+        shares.append(np.mean((curve.lower <= truth) & (truth <= curve.upper)))
+    assert np.mean(shares) >= 0.90, shares
