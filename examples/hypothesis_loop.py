@@ -9,7 +9,8 @@ diagnosis tell us, one effect at a time, what is missing:
     fit a skeleton -> compare it with the measurements -> see where it fails
     -> learn which physical effect is missing -> add it -> watch the error fall
 
-Run it with ``make demo`` (figures go to ``demo-output/``) or
+Run it with ``make demo`` (figures go to ``demo-output/``, with the whole loop
+in one self-contained HTML report, ``hypothesis_loop.html``) or
 ``python examples/hypothesis_loop.py [output folder]``.
 """
 
@@ -19,7 +20,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
-from sklearn_pycc import PolyCCRegressor, Skeleton, compare_skeletons, datasets, diagnose
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, compare_skeletons, datasets
 from sklearn_pycc.plotting import plot_comparison
 
 output = Path(sys.argv[1] if len(sys.argv) > 1 else "demo-output")
@@ -47,39 +48,37 @@ y = frame[["x1_dot", "x2_dot"]]
 print(f"Measurements: {len(frame)} samples of t, x1 (position), x2 (velocity), F_ext "
       "(force) and their derivatives, 1 % noise.\n")
 
-# -- round 1: the linear oscillator --------------------------------------------------------
-skeletons = {"linear": Skeleton(truth.base_equations)}
-print("Round 1 skeleton:", "; ".join(skeletons["linear"].equations))
-model = PolyCCRegressor(equations=skeletons["linear"]).fit(X, y)
-report = diagnose(model, X, y)
-print(report.summary())
-save(report.plot(), "round1")
-
-# -- round 2: add what the diagnosis named ---------------------------------------------------
-rounds = 1
-while report.best is not None and rounds < 4:
-    rounds += 1
-    best = report.best
-    skeletons[f"+{best.effect}"] = best.equations
-    print("\n" + "=" * 78)
-    print(f"Round {rounds}: adding {best.effect} ({best.description}) to {best.equation}:")
-    print("   ", "; ".join(best.equations.equations))
-    model = PolyCCRegressor(equations=best.equations).fit(X, y)
-    report = diagnose(model, X, y)
-    print(report.summary())
-    save(report.plot(), f"round{rounds}")
+# -- the loop: fit, diagnose, add what is missing, again ----------------------------------------
+# HypothesisLoop keeps every round: the skeleton, the fitted model, its diagnosis
+# and the decision taken. It stops when the diagnosis finds nothing missing.
+loop = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), X, y)
+while not loop.stopped and len(loop.rounds) < 4:
+    current = loop.step()
+    print("=" * 78)
+    print(f"Round {current.index}: {'; '.join(current.skeleton.equations)}")
+    print(current.diagnosis.summary())
+    save(current.diagnosis.plot(), f"round{current.index + 1}")
+skeletons = {"linear": loop.rounds[0].skeleton}
+skeletons.update({f"+{r.added.effect}": r.added.equations for r in loop.rounds if r.added})
+model = loop.model
 
 # -- watch the error fall ---------------------------------------------------------------------
 print("\n" + "=" * 78)
-print("The error falling, skeleton by skeleton (3-fold cross-validated R2 of the "
-      "derivatives):")
-table = compare_skeletons(skeletons, X, y, estimator=PolyCCRegressor(), cv=3)
+table = compare_skeletons(skeletons, X, y, estimator=PolyCCRegressor())
+print("The error falling, skeleton by skeleton. In sample: RMSE of the derivatives and of "
+      f"the simulation ({table.attrs['horizon']}); held out ({table.attrs['held_out']}): "
+      "NRMSE of each fold's derivatives and simulation, refitted without it, on the whole "
+      "record's scale.")
 with_text = table.drop(columns=["equations"])
 print(with_text.to_string(float_format=lambda v: f"{v:.4g}"))
 fig = plot_comparison(table)
 fig.savefig(output / "error_falling.png", dpi=110)
 plt.close(fig)
 print(f"    saved {output / 'error_falling.png'}")
+
+report = output / "hypothesis_loop.html"
+loop.to_html(report, title="The hypothesis loop on an oscillator with hidden effects")
+print(f"    saved {report} (the whole loop; opens offline)")
 
 first, last = table.simulation_rmse.iloc[0], table.simulation_rmse.iloc[-1]
 print(f"\nSimulation RMSE: {first:.4g} -> {last:.4g} ({first / last:.0f} times lower).")

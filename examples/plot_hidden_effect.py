@@ -40,15 +40,41 @@ print(report.summary())
 
 # %%
 # Every effect of the catalogue that can enter the failing equation was fitted
-# to the residual and ranked by the Bayesian information criterion:
-report.ranking[["equation", "variable", "effect", "score", "suggested_term"]].head()
+# to the residual, the most promising refitted into the model, and ranked.
+# ``score`` is minus the change of the Bayesian information criterion the
+# refit brings (higher is better), but a plausible refit comes first whatever
+# its score (``plausible``: the term plays its physical role), and
+# ``stability`` is the share of resamples of the record in which the effect
+# wins:
+report.ranking[["effect", "variable", "score", "error_removed", "plausible",
+                "stability", "suggested_term"]].head()
+
 
 # %%
-# The figures show where the model fails: measured against simulated
-# trajectories, and the residual of each equation against the variables that
-# explain it (here the position ``x1``: the spring is not linear).
-figures = report.plot()
-list(figures)
+# The figures show where the model fails. First the states, measured and
+# simulated: each window of the horizon restarts from the measured state, and
+# the windows of largest error are shaded.
+def one_figure(report, name):
+    """The diagnosis's figure ``name`` alone (the others are closed)."""
+    figures = report.plot()
+    for other, fig in figures.items():
+        if other != name:
+            plt.close(fig)
+    return figures[name]
+
+
+one_figure(report, "trajectories")
+
+# %%
+# The residual of the acceleration against the variable that explains it best,
+# here the position ``x1``: the spring is not linear. In red, what the refit
+# with the suggested cubic term predicts on top of the linear model.
+one_figure(report, "residual")
+
+# %%
+# The mean residual over position and velocity, on a colour scale centred on
+# zero (white: no error; hatched: no samples there).
+one_figure(report, "map")
 
 # %%
 # Round 2 and on: add what the diagnosis names
@@ -68,8 +94,11 @@ print(report.summary())
 # Watch the error fall
 # --------------------
 # :func:`~sklearn_pycc.compare_skeletons` refits every skeleton and tabulates
-# derivative and simulation errors, the BIC and a cross-validated score.
-table = compare_skeletons(skeletons, X, y, estimator=PolyCCRegressor(), cv=3)
+# derivative and simulation errors, the BIC, and the errors on held-out data:
+# each skeleton refitted without each fold of the record (here
+# ``table.attrs["held_out"]``) and judged on it, on the whole record's scale.
+table = compare_skeletons(skeletons, X, y, estimator=PolyCCRegressor())
+print(table.attrs["held_out"])
 table.drop(columns=["equations"])
 
 # %%

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["plot_comparison", "plot_curves", "plot_diagnosis"]
+__all__ = ["plot_comparison", "plot_curves", "plot_diagnosis", "plot_loop"]
 
 
 def _pyplot():
@@ -108,36 +108,65 @@ def plot_diagnosis(report) -> dict:
     return figures
 
 
+def _model_is_wrong(report) -> bool:
+    """Whether the diagnosis found something to show: a missing effect or a failure."""
+    return report.best is not None or bool(report.divergences) or bool(report.implausible)
+
+
 def _trajectory_figure(plt, report):
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
     frame = report.simulation
     states = report.model.skeleton_.states
-    fig, axes = plt.subplots(len(states), 1, figsize=(9, 2.4 * len(states)), sharex=True,
-                             squeeze=False)
-    groups = (frame.groupby("trajectory", sort=False) if "trajectory" in frame.columns
+    fig, axes = plt.subplots(len(states), 1, figsize=(9, 2.4 * len(states) + 0.8),
+                             sharex=True, squeeze=False)
+    groups = (list(frame.groupby("trajectory", sort=False)) if "trajectory" in frame.columns
               else [(None, frame)])
+    horizon = report.horizon
+    restarts = []  # times at which a window restarts from the measured state
+    if horizon is not None and horizon.samples:
+        for _, part in groups:
+            restarts.extend(part["t"].to_numpy()[::horizon.samples][1:])
+    show_restarts = 0 < len(restarts) <= 80
+    show_windows = _model_is_wrong(report) and not report.windows.empty
     for ax, state in zip(axes[:, 0], states):
-        for k, (_, part) in enumerate(groups):
-            ax.plot(part["t"], part[state], color="0.4", lw=1.0,
-                    label="measured" if k == 0 else None)
-            ax.plot(part["t"], part[f"{state}_sim"], color="C3", lw=1.0, ls="--",
-                    label="simulated" if k == 0 else None)
-        for row in report.windows.itertuples():
-            ax.axvspan(row.start, row.end, color="C1" if row.note == "" else "C3",
-                       alpha=0.12)
+        for _, part in groups:
+            ax.plot(part["t"], part[state], color="0.35", lw=1.0)
+            ax.plot(part["t"], part[f"{state}_sim"], color="C3", lw=1.0, ls="--")
+        if show_restarts:
+            for t in restarts:
+                ax.axvline(t, color="0.6", lw=0.6, ls=":")
+        if show_windows:
+            for row in report.windows.itertuples():
+                ax.axvspan(row.start, row.end, color="C1" if row.note == "" else "C3",
+                           alpha=0.15, lw=0)
         ax.set_ylabel(state)
-    axes[0, 0].legend(loc="upper right", fontsize="small")
+    handles = [Line2D([], [], color="0.35", lw=1.0, label="measured"),
+               Line2D([], [], color="C3", lw=1.0, ls="--", label="simulated")]
+    if show_restarts:
+        handles.append(Line2D([], [], color="0.6", lw=0.6, ls=":",
+                              label=f"restart from the measured state (every {horizon.time:.3g})"))
+    if show_windows:
+        handles.append(Patch(color="C1", alpha=0.3, label="largest errors"))
+        if (report.windows.note != "").any():
+            handles.append(Patch(color="C3", alpha=0.3, label="divergence"))
     axes[-1, 0].set_xlabel("t")
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize="small",
+               frameon=False)
     title = "Measured and simulated states"
+    if horizon is not None and horizon.time is not None:
+        title += f", simulated over windows of {horizon.time:.3g}"
     if report.divergences:
-        title += f" (simulation diverged at t={report.divergences[0].t_reached:.4g})"
+        title += f" (diverged at t={report.divergences[0].t_reached:.4g})"
     fig.suptitle(title)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     return fig
 
 
 def _residual_figure(plt, report):
     equations = list(report.maps) or list(report.residuals.columns)
-    fig, axes = plt.subplots(1, len(equations), figsize=(4.5 * len(equations), 3.6),
+    fig, axes = plt.subplots(1, len(equations), figsize=(max(4.8 * len(equations), 6.4), 4.0),
                              squeeze=False)
     best = report.best
     for ax, name in zip(axes[0], equations):
@@ -153,13 +182,16 @@ def _residual_figure(plt, report):
         ax.plot(values, residual, ".", ms=2, color="0.5", label="residual")
         shift = _effect_shift(report, name)
         if shift is not None:
-            ax.plot(values, shift, ".", ms=1.5, color="C3",
-                    label=f"refit with - {best.term}")
-            ax.legend(fontsize="small", markerscale=4)
+            ax.plot(values, shift, ".", ms=1.5, color="C3", label=f"the refit's - {best.term}")
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.legend(fontsize="small", markerscale=4, loc="best")
         ax.set_xlabel(variable)
         ax.set_ylabel(f"{name}: measured - model")
         ax.set_title(name)
-    fig.suptitle("Residuals and the suggested effect")
+    if best is None:
+        fig.suptitle("Residuals: nothing missing")
+    else:
+        fig.suptitle(f"Residuals and the suggested effect ({best.effect})")
     fig.tight_layout()
     return fig
 
@@ -178,49 +210,140 @@ def _effect_shift(report, equation: str):
 
 
 def _map_figure(plt, report):
+    from matplotlib.colors import TwoSlopeNorm
+    from matplotlib.patches import Patch
+
     maps = list(report.maps.values())
-    fig, axes = plt.subplots(1, len(maps), figsize=(4.8 * len(maps), 3.8), squeeze=False)
+    fig, axes = plt.subplots(1, len(maps), figsize=(5.2 * len(maps), 4.2), squeeze=False)
     for ax, m in zip(axes[0], maps):
-        limit = np.nanmax(np.abs(m.mean)) if np.isfinite(m.mean).any() else 1.0
+        finite = np.isfinite(m.mean)
+        limit = float(np.nanmax(np.abs(m.mean))) if finite.any() else 0.0
+        limit = limit if limit > 0 else 1.0
+        # cells without samples: hatched grey under the map, never a colour of the scale
+        ax.add_patch(_no_data_patch(m))
         mesh = ax.pcolormesh(m.x_edges, m.y_edges, np.ma.masked_invalid(m.mean),
-                             cmap="RdBu_r", vmin=-limit, vmax=limit, shading="flat")
-        fig.colorbar(mesh, ax=ax, label=f"mean residual of {m.equation}")
+                             cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -limit, limit),
+                             shading="flat")
+        fig.colorbar(mesh, ax=ax, label=f"mean residual of {m.equation} (0: white)")
+        ax.set_xlim(m.x_edges[0], m.x_edges[-1])
+        ax.set_ylim(m.y_edges[0], m.y_edges[-1])
         ax.set_xlabel(m.x)
         ax.set_ylabel(m.y)
         ax.set_title(m.equation)
-    fig.suptitle("Where the model fails: residual maps")
+        if not finite.all():
+            ax.legend(handles=[Patch(facecolor="0.85", hatch="///", edgecolor="0.55",
+                                     label="no samples")], loc="upper center",
+                      bbox_to_anchor=(0.5, -0.16), fontsize="small", frameon=False)
+    fig.suptitle("Where the model fails: mean residual over the states")
     fig.tight_layout()
     return fig
 
 
+def _no_data_patch(m):
+    from matplotlib.patches import Rectangle
+
+    return Rectangle((m.x_edges[0], m.y_edges[0]), m.x_edges[-1] - m.x_edges[0],
+                     m.y_edges[-1] - m.y_edges[0], facecolor="0.85", hatch="///",
+                     edgecolor="0.55", lw=0, zorder=0)
+
+
+#: held-out columns of a comparison table, with the words that label them
+HELD_OUT_COLUMNS = {
+    "held_out_nrmse": "derivatives",
+    "held_out_simulation_nrmse": "simulation",
+}
+
+
 def plot_comparison(table: pd.DataFrame):
-    """Bar chart of a :func:`~sklearn_pycc.compare_skeletons` table ("watch the error fall").
+    """The error falling, skeleton by skeleton: a :func:`~sklearn_pycc.compare_skeletons` table.
 
     Returns
     -------
     matplotlib.figure.Figure
-        Derivative and simulation RMSE of each skeleton on a log scale,
-        with the number of fitted parameters on top of each bar.
+        Left: the derivative and simulation RMSE of each skeleton, points
+        joined by lines on a log axis, each marked with how many numbers
+        were fitted. Right (when the table has one): the held-out score
+        of each skeleton, on data its fit did not see.
     """
     plt = _pyplot()
-    measures = [c for c in ("derivative_rmse", "simulation_rmse")
+    measures = [c for c in ("derivative_rmse", "derivative_nrmse", "simulation_rmse")
                 if c in table.columns and np.isfinite(table[c].to_numpy(dtype=float)).any()]
-    fig, axes = plt.subplots(1, len(measures), figsize=(4.5 * len(measures), 3.6),
-                             squeeze=False)
+
+    def present(column):
+        return column in table.columns and np.isfinite(
+            table[column].to_numpy(dtype=float)).any()
+
+    held = [c for c in HELD_OUT_COLUMNS if present(c)]
+    if not held and present("cv_score"):
+        held = ["cv_score"]
+    panels = 1 + bool(held)
+    fig, axes = plt.subplots(1, panels, figsize=(5.4 * panels, 4.2), squeeze=False)
     labels = [str(i) for i in table.index]
     positions = np.arange(len(labels))
-    for ax, column in zip(axes[0], measures):
+    ax = axes[0, 0]
+    markers = {"derivative_rmse": "o", "derivative_nrmse": "o", "simulation_rmse": "s"}
+    for k, column in enumerate(measures):
         values = table[column].to_numpy(dtype=float)
-        shown = np.where(np.isfinite(values), values, np.nan)
-        bars = ax.bar(positions, shown, color="C0")
-        for bar, k, value in zip(bars, table["n_params"], values):
-            text = f"{k} p" if np.isfinite(value) else "diverged"
-            height = bar.get_height() if np.isfinite(value) else np.nanmax(shown)
-            ax.annotate(text, (bar.get_x() + bar.get_width() / 2, height),
-                        ha="center", va="bottom", fontsize="small")
+        shown = np.where(np.isfinite(values) & (values > 0), values, np.nan)
+        ax.plot(positions, shown, marker=markers[column], color=f"C{k}", lw=1.5,
+                label=column.replace("_", " ").replace("nrmse", "NRMSE").replace("rmse", "RMSE"))
+        for x, value in zip(positions, values):
+            if not np.isfinite(value):
+                ax.annotate("diverged", (x, np.nanmax(shown)), ha="center",
+                            va="bottom", fontsize="small", color=f"C{k}")
+    if measures:
         ax.set_yscale("log")
-        ax.set_xticks(positions, labels, rotation=20, ha="right")
-        ax.set_ylabel(column.replace("_", " "))
+    top = table[measures].to_numpy(dtype=float) if measures else np.zeros((len(labels), 0))
+    for x, n_params, values in zip(positions, table["n_params"], top):
+        finite = values[np.isfinite(values) & (values > 0)]
+        if finite.size:
+            ax.annotate(f"{int(n_params)} fitted\nnumbers", (x, finite.max()),
+                        xytext=(0, 8), textcoords="offset points", ha="center",
+                        va="bottom", fontsize="x-small", color="0.3")
+    ax.set_ylabel("error on the whole record (log scale)")
+    ax.set_title("In sample")
+    ax.legend(fontsize="small", loc="lower left")
+    if held:
+        hx = axes[0, 1]
+        for k, column in enumerate(held):
+            values = table[column].to_numpy(dtype=float)
+            hx.plot(positions, values, marker="D^"[k], color=f"C{k + 2}", lw=1.5,
+                    label=HELD_OUT_COLUMNS.get(column, "R² of the derivatives"))
+        if held == ["cv_score"]:
+            hx.set_ylabel("cross-validated R² of the derivatives")
+        else:
+            hx.set_yscale("log")
+            hx.set_ylabel("held-out NRMSE (log scale)")
+        hx.legend(fontsize="small", loc="lower left")
+        split = table.attrs.get("held_out")
+        hx.set_title(f"Held out: {split}" if split else "On data each fit did not see",
+                     fontsize="medium")
+    for a in axes[0]:
+        a.set_xticks(positions, labels, rotation=20, ha="right")
+        a.set_xlim(-0.5, len(labels) - 0.5)
+        a.margins(y=0.25)
     fig.suptitle("Watch the error fall")
     fig.tight_layout()
+    return fig
+
+
+def plot_loop(loop):
+    """The error of each round of a :class:`~sklearn_pycc.HypothesisLoop`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Each round's simulation RMSE and largest derivative NRMSE, points
+        joined by lines on a log axis (see :func:`plot_comparison`).
+    """
+    table = loop.table()
+    frame = pd.DataFrame({
+        "derivative_nrmse": table["derivative_nrmse"].to_numpy(),
+        "simulation_rmse": table["simulation_rmse"].to_numpy(),
+        "n_params": table["n_parameters"].to_numpy()},
+        index=[f"round {r.index}" + ("" if r.index == 0 else
+                                     f": +{loop.rounds[r.index - 1].added.effect}")
+               for r in loop.rounds])
+    fig = plot_comparison(frame)
+    fig.suptitle("Watch the error fall, round by round")
     return fig

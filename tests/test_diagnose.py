@@ -277,7 +277,7 @@ def test_plot_returns_the_three_figures(coulomb_report):
             assert fig.axes
         lines = {line.get_label(): line for line in figures["residual"].axes[0].lines}
         # the suggested refit drawn over the residual it explains
-        shift = lines["refit with - a3*tanh(a4*x2)"].get_ydata()
+        shift = lines["the refit's - a3*tanh(a4*x2)"].get_ydata()
         residual = lines["residual"].get_ydata()
         assert np.std(residual - shift) < 0.2 * np.std(residual)
     finally:

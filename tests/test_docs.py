@@ -108,3 +108,12 @@ def test_every_user_guide_page_is_in_its_table_of_contents():
     assert pages == listed
     assert {"skeletons", "constraints", "identifiability", "backends", "simulation",
             "hypothesis_loop", "measurements", "model_selection"} <= pages
+
+
+def test_the_docs_render_maths_and_show_the_loop_without_a_network():
+    conf = (DOCS / "conf.py").read_text()
+    # MathJax is copied into the built site and loaded from there, not from a CDN
+    assert '"sphinx-mathjax-offline"' in conf and "mathjax_path" not in conf
+    guide = (DOCS / "user_guide" / "hypothesis_loop.rst").read_text()
+    assert guide.count(".. plot::") >= 2  # the loop's figures, drawn while the docs build
+    assert "score" in guide and "stability" in guide and "to_html" in guide

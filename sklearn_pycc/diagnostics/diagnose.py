@@ -339,6 +339,12 @@ class Diagnosis:
         rest = f"; otherwise {', '.join(parts[:3])}" if parts else ""
         return [f"    Stability: {lead} of the record{rest} ({stability.method})."]
 
+    def _repr_html_(self) -> str:
+        """The summary, the ranking and the figures, for a notebook."""
+        from ._report_html import diagnosis_html
+
+        return diagnosis_html(self)
+
     # -- figures ---------------------------------------------------------------------
     def plot(self):
         """Figures of the diagnosis (see :func:`sklearn_pycc.plotting.plot_diagnosis`)."""

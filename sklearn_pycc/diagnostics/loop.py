@@ -200,6 +200,40 @@ class HypothesisLoop:
             })
         return pd.DataFrame(rows).set_index("round")
 
+    def to_html(self, path=None, title: str = "Hypothesis loop") -> str:
+        """The whole loop as one self-contained HTML report.
+
+        Every round's fitted equations (as MathML), decision, diagnosis
+        summary, ranking and figures (embedded PNG), and the error round by
+        round: nothing is fetched from the network to view it.
+
+        Parameters
+        ----------
+        path : str or path-like, optional
+            Write the report there (UTF-8).
+        title : str, default="Hypothesis loop"
+
+        Returns
+        -------
+        str
+            The HTML document.
+        """
+        from ._report_html import loop_page
+
+        document = loop_page(self, title)
+        if path is not None:
+            from pathlib import Path
+
+            Path(path).write_text(document, encoding="utf-8")
+        return document
+
+    def _repr_html_(self) -> str:
+        from .._html import preformatted, table_html
+
+        if not self.rounds:
+            return preformatted(repr(self))
+        return table_html(self.table()) + preformatted(self.summary())
+
     def summary(self) -> str:
         """The loop in plain words: each round's model, errors and decision."""
         if not self.rounds:

@@ -760,6 +760,51 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             lines.append(line)
         return lines
 
+    def to_sympy(self) -> list:
+        """The fitted model as SymPy equations, one per equation of the skeleton.
+
+        Curves with a closed form (polynomial, symbolic) are written out; the
+        others (networks, tables) stay undefined functions ``f1(x2)``.
+        """
+        import sympy
+
+        from ._symbolic_curves import VARIABLE
+        from ._sympy_skeleton import to_sympy
+
+        check_is_fitted(self, "functions_")
+        written = {name: curve.to_sympy(VARIABLE) for name, curve in self.functions_.items()}
+        curves = {name: expression for name, expression in written.items()
+                  if expression is not None}
+        return [sympy.Eq(to_sympy(eq.lhs, self.params_, curves),
+                         to_sympy(eq.rhs, self.params_, curves))
+                for eq in self.skeleton_.residual_equations]
+
+    def to_latex(self) -> list[str]:
+        """The fitted model as LaTeX, one string per equation (see :meth:`to_sympy`)."""
+        import sympy
+
+        names = {}
+        for state in self.skeleton_.states:
+            names[sympy.Symbol(f"{state}_dot")] = rf"\dot{{{sympy.latex(sympy.Symbol(state))}}}"
+        return [sympy.latex(eq.evalf(6), symbol_names=names) for eq in self.to_sympy()]
+
+    # -- notebook display -----------------------------------------------------------
+    def _html_repr(self) -> str:
+        """scikit-learn's estimator display, then the fitted equations as rendered maths."""
+        html = super()._html_repr()
+        if not hasattr(self, "functions_"):
+            return html
+        from .._html import equations_html
+
+        return equations_html(self) + html
+
+    def _repr_latex_(self) -> str | None:
+        """The fitted equations for a notebook (None before ``fit``)."""
+        if not hasattr(self, "functions_"):
+            return None
+        rows = r" \\ ".join(line.replace("=", "&=", 1) for line in self.to_latex())
+        return rf"$$\begin{{aligned}} {rows} \end{{aligned}}$$"
+
     def _arguments(self, name: str):
         return self.skeleton_.curve_arguments(name)
 

@@ -10,7 +10,6 @@ import pandas as pd
 import sympy
 from scipy.optimize import least_squares
 from sklearn.utils._param_validation import Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted
 
 from .._random import seeds
 from ..exceptions import SkeletonError
@@ -26,7 +25,6 @@ from ._symbolic_engines import (
     Candidate,
     make_engine,
 )
-from ._sympy_skeleton import to_sympy
 from .base import RANDOM_STATES, RESAMPLING, CCRegressor
 
 __all__ = ["SymbolicCCRegressor"]
@@ -619,19 +617,3 @@ class SymbolicCCRegressor(CCRegressor):
             expressions[name] = sympy.Integer(0) if expression is None else expression
         return {"expressions_": expressions}
 
-    def to_sympy(self) -> list[sympy.Eq]:
-        """The fitted model as SymPy equations, curves written out."""
-        check_is_fitted(self, "expressions_")
-        written = {name: curve.to_sympy(VARIABLE) for name, curve in self.functions_.items()}
-        curves = {name: expression for name, expression in written.items()
-                  if expression is not None}
-        return [sympy.Eq(to_sympy(eq.lhs, self.params_, curves),
-                         to_sympy(eq.rhs, self.params_, curves))
-                for eq in self.skeleton_.residual_equations]
-
-    def to_latex(self) -> list[str]:
-        """The fitted model as LaTeX, one string per equation."""
-        names = {}
-        for state in self.skeleton_.states:
-            names[sympy.Symbol(f"{state}_dot")] = rf"\dot{{{sympy.latex(sympy.Symbol(state))}}}"
-        return [sympy.latex(eq, symbol_names=names) for eq in self.to_sympy()]

@@ -1,0 +1,84 @@
+"""A diagnosis and a hypothesis loop as HTML: for notebooks and for a self-contained report."""
+
+from __future__ import annotations
+
+import html
+
+import pandas as pd
+
+from .._html import equations_html, figure_html, page, preformatted, table_html
+
+__all__ = ["RANKING_NOTE", "diagnosis_html", "loop_page"]
+
+#: the ranking's columns a reader needs, in reading order
+RANKING_SHOWN = ["effect", "equation", "variable", "score", "error_removed", "delta_bic",
+                 "held_out_change", "stability", "plausible", "suggested_term"]
+#: what the ranking's numbers mean
+RANKING_NOTE = (
+    "score: minus the change of the Bayesian information criterion of the derivative "
+    "residual when the effect is refitted into the model (for an effect only screened, "
+    "of its fit to the residual alone); higher is better, and refitted plausible effects "
+    "come first. error_removed: share of the residual the refit removes. held_out_change: "
+    "relative change of the error on data the fit did not see (negative helps). "
+    "stability: share of resamples of the record in which the effect wins. plausible: "
+    "whether the fitted term plays its physical role.")
+#: captions of a diagnosis's figures
+CAPTIONS = {
+    "trajectories": "Measured and simulated states (each window restarted from the "
+                    "measured state).",
+    "residual": "The derivative residual against the variable that explains it best, "
+                "with the suggested term's fit.",
+    "map": "Mean residual over the states; hatched cells hold no samples.",
+}
+
+
+def _ranking_table(report, rows: int = 8) -> str:
+    ranking = report.ranking
+    shown = [c for c in RANKING_SHOWN if c in ranking.columns]
+    frame = ranking[shown].head(rows).copy()
+    frame.index = pd.RangeIndex(1, len(frame) + 1, name="rank")
+    return table_html(frame)
+
+
+def diagnosis_html(report, heading: int = 3, figures: bool = True) -> str:
+    """A diagnosis as an HTML fragment: its summary, ranking and figures."""
+    h = f"h{heading}"
+    parts = [preformatted(report.summary())]
+    if len(report.ranking):
+        parts.append(f"<{h}>Effects tried, best first</{h}>")
+        parts.append(_ranking_table(report))
+        parts.append(f'<p class="pycc-note">{html.escape(RANKING_NOTE)}</p>')
+    if figures:
+        for name, fig in report.plot().items():
+            parts.append(figure_html(fig, CAPTIONS.get(name, "")))
+    return "\n".join(parts)
+
+
+def loop_page(loop, title: str = "Hypothesis loop") -> str:
+    """The whole record of a hypothesis loop as one self-contained HTML document."""
+    from ..plotting import plot_loop
+
+    X = loop.X
+    experiments = (X["trajectory"].nunique() if "trajectory" in X.columns else 1)
+    columns = ", ".join(str(c) for c in X.columns)
+    derivatives = ("measured (y given)" if loop.y is not None
+                   else "estimated from the states")
+    body = [f"<h1>{html.escape(title)}</h1>",
+            f"<p>{len(X)} samples in {experiments} experiment"
+            f"{'s' if experiments != 1 else ''}; columns {html.escape(columns)}; "
+            f"derivatives {derivatives}. Estimator: "
+            f"<code>{html.escape(repr(loop.estimator))}</code>.</p>"]
+    if not loop.rounds:
+        body.append("<p>The loop has not run yet.</p>")
+        return page(title, "\n".join(body))
+    body.append("<h2>The error, round by round</h2>")
+    body.append(figure_html(plot_loop(loop), "Simulation RMSE and the largest derivative "
+                                             "NRMSE of each round's model."))
+    body.append(table_html(loop.table()))
+    body.append(preformatted(loop.summary()))
+    for r in loop.rounds:
+        body.append(f"<h2>Round {r.index}: {html.escape(r.decision)}</h2>")
+        body.append("<p>The fitted model:</p>")
+        body.append(equations_html(r.model))
+        body.append(diagnosis_html(r.diagnosis))
+    return page(title, "\n".join(body))
