@@ -395,6 +395,7 @@ def test_param_init_sets_starting_values(stick_slip):
 
 
 # -- scikit-learn integration ------------------------------------------------------------------
+@pytest.mark.slow  # networks in worker processes; the fast suite runs Poly's grid search
 def test_grid_search_over_skeletons_in_parallel(small_stick_slip):
     frame, _ = small_stick_slip
     X, y = frame[X_COLUMNS], frame[Y_COLUMNS]

@@ -250,6 +250,7 @@ def test_hybrid_listing(listing_data, method):
     assert isinstance(models.estimator, expected)
 
 
+@pytest.mark.slow  # a symbolic search per curve; post-processing's listing runs fast
 def test_symbr_listing(listing_data):
     df, _, _ = listing_data
     equations = ['x1_dot = x2', 'x2_dot = F_ext - f1(x2) - f2(x1)']
