@@ -63,18 +63,18 @@ def one_figure(report, name):
     return figures[name]
 
 
-one_figure(report, "trajectories")
+fig = one_figure(report, "trajectories")
 
 # %%
 # The residual of the acceleration against the variable that explains it best,
 # here the position ``x1``: the spring is not linear. In red, what the refit
 # with the suggested cubic term predicts on top of the linear model.
-one_figure(report, "residual")
+fig = one_figure(report, "residual")
 
 # %%
 # The mean residual over position and velocity, on a colour scale centred on
 # zero (white: no error; hatched: no samples there).
-one_figure(report, "map")
+fig = one_figure(report, "map")
 
 # %%
 # Round 2 and on: add what the diagnosis names
