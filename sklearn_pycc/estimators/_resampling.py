@@ -22,6 +22,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from joblib import Parallel, delayed
+from sklearn.base import clone
 
 from .._blocks import MIN_EXPERIMENTS, block_length, draw_blocks, segments
 from ..measurements.columns import FitData
@@ -54,7 +55,6 @@ class Resampler:
     """
 
     def __init__(self, problem: Problem, residuals: np.ndarray, min_block: int = 2) -> None:
-        self.problem = problem
         n_full = _n_full(problem)
         self.rows = _data_rows(problem)  # full-record row of each data row
         self.experiments = _full_segments(problem, n_full)
@@ -137,9 +137,9 @@ def resampled_problem(problem: Problem, blocks: list[np.ndarray]) -> Problem:
 def _fit_one(estimator, problem: Problem, blocks: list[np.ndarray], seed: int,
              window: int) -> Member | str:
     """Refit on one resample; the reason in words when it fails."""
-    member = estimator.__class__(**estimator.get_params(deep=False))
+    member = clone(estimator)
     if "random_state" in member.get_params(deep=False):
-        member.random_state = seed
+        member.set_params(random_state=seed)
     sample = resampled_problem(problem, blocks)
     with warnings.catch_warnings():  # the full fit has said what there is to say
         warnings.simplefilter("ignore")
