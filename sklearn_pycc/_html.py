@@ -22,10 +22,12 @@ body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2e
        max-width: 70em; padding: 0 1em; color: #222; line-height: 1.45; }
 h1, h2, h3 { font-weight: 600; }
 h2 { border-bottom: 1px solid #ccc; padding-bottom: .2em; margin-top: 2em; }
-pre { background: #f6f6f6; padding: .8em; overflow-x: auto; font-size: .85em; }
+pre { background: #f6f6f6; padding: .8em; font-size: .85em; white-space: pre-wrap; }
+.pycc-scroll { overflow-x: auto; }
 table.pycc { border-collapse: collapse; font-size: .85em; margin: .6em 0; }
 table.pycc th, table.pycc td { border-bottom: 1px solid #ddd; padding: .25em .6em;
-                               text-align: right; }
+                               text-align: right; white-space: nowrap; }
+table.pycc td:last-child { white-space: normal; min-width: 14em; text-align: left; }
 table.pycc th { background: #f0f0f0; }
 figure { margin: 1em 0; }
 figure img { max-width: 100%; }
@@ -45,8 +47,9 @@ def table_html(frame: pd.DataFrame, precision: int = 4) -> str:
     def number(value: float) -> str:
         return f"{value:.{precision}g}"
 
-    return frame.to_html(classes="pycc", border=0, float_format=number, na_rep="",
-                         escape=True)
+    table = frame.to_html(classes="pycc", border=0, float_format=number, na_rep="",
+                          escape=True)
+    return f'<div class="pycc-scroll">{table}</div>'
 
 
 def figure_html(fig, caption: str = "", dpi: int = 100) -> str:

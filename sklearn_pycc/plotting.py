@@ -30,8 +30,9 @@ def plot_curves(model, *, level="auto", truth=None, n: int = 200, domain=None):
         draws the 95 % band when the model has an estimate of it (the
         polynomial backend's covariance, refits on resamples), None none.
     truth : dict of str -> callable, optional
-        True curves by name (``truth.functions`` of a dataset), drawn
-        dashed where they are known.
+        True curves by name (``truth.functions`` of a dataset whose skeleton
+        names its curves as the model does), drawn dashed; a name that is
+        not a curve of the model is an error.
     n : int, default=200
         Points per curve.
     domain : (float, float) or dict, optional
@@ -56,6 +57,10 @@ def plot_curves(model, *, level="auto", truth=None, n: int = 200, domain=None):
     else:
         curves = model.cc_curves(n=n, level=level, domain=domain)
     truth = dict(truth or {})
+    unknown = [name for name in truth if name not in curves]
+    if unknown:
+        raise ValueError(f"truth names {unknown[0]!r}, which is not a curve of the model "
+                         f"({', '.join(curves) or 'none'})")
     names = list(curves)
     if not names:
         raise ValueError("the model has no curves to plot (its skeleton has no f1, f2, ...)")
@@ -182,7 +187,8 @@ def _residual_figure(plt, report):
         ax.plot(values, residual, ".", ms=2, color="0.5", label="residual")
         shift = _effect_shift(report, name)
         if shift is not None:
-            ax.plot(values, shift, ".", ms=1.5, color="C3", label=f"the refit's - {best.term}")
+            ax.plot(values, shift, ".", ms=1.5, color="C3",
+                    label=f"change of the model refitted with - {best.term}")
         ax.axhline(0.0, color="k", lw=0.6)
         ax.legend(fontsize="small", markerscale=4, loc="best")
         ax.set_xlabel(variable)

@@ -205,3 +205,6 @@ def test_diagnose_names_coulomb_on_position_only_stick_slip():
     report = diagnose(model, X)
     assert report.best is not None and report.best.effect == "coulomb_friction"
     assert "estimated" in report.summary()
+    # an output-error model: its equation-error refit gives a start, not intervals
+    assert model.fit_mode_ == "simulation" and report.best.intervals == {}
+    assert "equation-error refit (a start for the output-error fit" in report.summary()

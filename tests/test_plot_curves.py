@@ -54,6 +54,8 @@ def test_a_model_without_bands_draws_none_unless_asked(duffing):
     plt.close(fig)
     with pytest.raises(ValueError, match="n_bootstrap"):
         plot_curves(model, level=0.9)
+    with pytest.raises(ValueError, match="truth names 'f9', which is not a curve"):
+        plot_curves(model, truth={"f1": np.sin, "f9": np.cos})
     with pytest.raises(ValueError, match="no curves to plot"):
         plot_curves(PolyCCRegressor(equations=["x1_dot = -a1 x1"]).fit(
             X.assign(x1=np.exp(-np.linspace(0, 1, len(X)))),

@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 from joblib import parallel_backend
 from scipy.signal import lfilter
+from scipy.stats import t as student
 from sklearn.utils._param_validation import InvalidParameterError
 
 from sklearn_pycc import (
@@ -74,6 +75,14 @@ def test_the_bootstrap_agrees_with_the_covariance_on_coloured_noise():
     assert int(model.bootstrap_method_.split()[2]) > int(white.bootstrap_method_.split()[2])
 
 
+def test_a_few_refits_give_wide_intervals_not_narrow_ones():
+    X, y = record(n=800)
+    two = PolyCCRegressor(equations=TRUE, n_bootstrap=2, random_state=0).fit(X, y)
+    low, high = two.params_interval(0.95)["a1"]
+    # Student's quantile with one degree of freedom: 12.7 standard deviations
+    assert (high - low) / 2 == pytest.approx(student.ppf(0.975, 1) * two.params_std_["a1"])
+
+
 def test_resamples_are_reproducible_and_do_not_depend_on_n_jobs():
     X, y = record(n=800)
     settings = dict(equations=HYBRID, constraints=["f1(0)=0"], degree=5, n_bootstrap=8)
@@ -127,6 +136,11 @@ def test_a_network_has_parameter_errors_for_free_and_bands_from_its_ensemble():
     truth = -curve.x + curve.x**3
     assert np.mean((curve.lower <= truth) & (truth <= curve.upper)) > 0.6
     assert (curve.upper - curve.lower).min() >= 0
+    # beyond the data every network continues its edge slope: no band there
+    lo, hi = ensemble[0].curve_ranges_["f1"]
+    wide = ensemble[0].cc_curves(n=41, level=0.95, domain=(lo - 1, hi + 1))["f1"]
+    outside = (wide.x < lo) | (wide.x > hi)
+    assert wide.lower[outside].isna().all() and wide.upper[~outside].notna().all()
 
 
 def test_a_symbolic_fit_is_refitted_on_resamples():

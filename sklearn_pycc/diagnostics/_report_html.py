@@ -11,7 +11,7 @@ from .._html import equations_html, figure_html, page, preformatted, table_html
 __all__ = ["RANKING_NOTE", "diagnosis_html", "loop_page"]
 
 #: the ranking's columns a reader needs, in reading order
-RANKING_SHOWN = ["effect", "equation", "variable", "score", "error_removed", "delta_bic",
+RANKING_SHOWN = ["effect", "equation", "variable", "score", "error_removed",
                  "held_out_change", "stability", "plausible", "suggested_term"]
 #: what the ranking's numbers mean
 RANKING_NOTE = (
@@ -21,7 +21,7 @@ RANKING_NOTE = (
     "come first. error_removed: share of the residual the refit removes. held_out_change: "
     "relative change of the error on data the fit did not see (negative helps). "
     "stability: share of resamples of the record in which the effect wins. plausible: "
-    "whether the fitted term plays its physical role.")
+    "whether the fitted term plays its physical role (blank: only screened).")
 #: captions of a diagnosis's figures
 CAPTIONS = {
     "trajectories": "Measured and simulated states (each window restarted from the "
@@ -36,6 +36,7 @@ def _ranking_table(report, rows: int = 8) -> str:
     ranking = report.ranking
     shown = [c for c in RANKING_SHOWN if c in ranking.columns]
     frame = ranking[shown].head(rows).copy()
+    frame["plausible"] = [("" if v is None else "yes" if v else "no") for v in frame.plausible]
     frame.index = pd.RangeIndex(1, len(frame) + 1, name="rank")
     return table_html(frame)
 

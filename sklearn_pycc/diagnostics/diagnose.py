@@ -94,8 +94,9 @@ class Suggestion:
     intervals : dict
         95 % confidence interval of each new parameter, ``{"a3": (low,
         high)}``, from the diagnosis's refit (empty when its backend has no
-        uncertainty estimate without resampling). The refit saw at most
-        20,000 samples of the record.
+        uncertainty estimate without resampling, and when the model was
+        fitted by output error: its equation-error refit would be biased).
+        The refit saw at most 20,000 samples of the record.
     """
 
     effect: str
@@ -297,6 +298,12 @@ class Diagnosis:
             lines.append("    Its parameters, with 95 % intervals: " + ", ".join(
                 f"{a} = {best.param_init[a]:.4g} ({low:.4g} to {high:.4g})"
                 for a, (low, high) in best.intervals.items()) + ".")
+        elif getattr(self.model, "fit_mode_", "equation") == "simulation":
+            added = [a for a in best.param_init if a not in self.model.params_]
+            lines.append("    Its parameters from the diagnosis's equation-error refit (a start "
+                         "for the output-error fit, not its result; fit with n_bootstrap for "
+                         "intervals): " + ", ".join(f"{a} = {best.param_init[a]:.4g}"
+                                                    for a in added) + ".")
         if best.held_out is not None:
             lines.append(f"    Decided on data each fit did not see: {best.held_out}.")
         lines.extend(self._stability_words())
@@ -484,8 +491,9 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     """
     _check_options(n_refit, min_improvement, bic_threshold, max_steps)
     if isinstance(n_bootstrap, bool) or not isinstance(n_bootstrap, Integral) \
-            or n_bootstrap < 0:
-        raise ValueError(f"n_bootstrap must be a non-negative integer, got {n_bootstrap!r}")
+            or n_bootstrap < 0 or n_bootstrap == 1:
+        raise ValueError("n_bootstrap must be 0 (no resamples) or an integer of at least 2, "
+                         f"got {n_bootstrap!r}")
     check_seed_source(random_state)
     if not isinstance(held_out, bool):
         raise ValueError(f"held_out must be True or False, got {held_out!r}")
@@ -574,7 +582,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     stability = _stability(ordered, residuals, data, min_improvement, bic_threshold,
                            simulation_rmse, int(n_bootstrap), random_state)
     ranking = _ranking(ordered, explained, stability)
-    best = None if chosen is None else _suggestion(chosen, skeleton)
+    best = None if chosen is None else _suggestion(chosen, skeleton, model)
     return Diagnosis(model, derivative_table, trajectory_table, simulation_frame,
                      pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
                      maps, ranking, best, simulation_rmse, notes, window, implausible,
@@ -745,7 +753,7 @@ def _decide(eligible: list[Candidate], model, data: Measurements, horizon: Horiz
     return None
 
 
-def _suggestion(c: Candidate, base: Skeleton) -> Suggestion:
+def _suggestion(c: Candidate, base: Skeleton, model) -> Suggestion:
     skeleton = c.extended
     curve_term, curve_constraints = None, ()
     if c.curve_term is not None:
@@ -756,11 +764,16 @@ def _suggestion(c: Candidate, base: Skeleton) -> Suggestion:
         curve_constraints = tuple(str(x) for x in new)
     derivative = {eq.index: eq.derivative for eq in skeleton.parsed}
     also = {derivative[k]: text for k, text in c.added if k != c.roles.index}
-    try:  # what the refit's backend knows of its own uncertainty, without resampling
-        found = c.refit.params_interval(0.95)
-        intervals = {a: found[a] for a in c.new_params if a in found}
-    except (ValueError, AttributeError):
-        intervals = {}
+    intervals = {}
+    # what the refit's backend knows of its own uncertainty, without resampling; only for
+    # a model fitted by equation error, as the refit is (an output-error model's
+    # equation-error refit is biased by the very noise that chose output error)
+    if getattr(model, "fit_mode_", "equation") == "equation":
+        try:
+            found = c.refit.params_interval(0.95)
+            intervals = {a: found[a] for a in c.new_params if a in found}
+        except (ValueError, AttributeError):
+            intervals = {}
     return Suggestion(
         effect=c.effect.name, description=c.effect.description, equation=c.roles.derivative,
         variable=c.variable, term=c.term, equations=skeleton,

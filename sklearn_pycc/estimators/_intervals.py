@@ -19,6 +19,7 @@ from collections.abc import Callable
 import numpy as np
 import pandas as pd
 from scipy.stats import norm
+from scipy.stats import t as student
 from sklearn.utils.validation import check_is_fitted
 
 from .._random import seeds
@@ -39,13 +40,24 @@ def check_level(level) -> float:
     return float(level)
 
 
-def _quantile(level: float) -> float:
-    """The standard normal quantile of a two-sided interval of ``level``."""
-    return float(norm.ppf(0.5 + 0.5 * level))
+def _quantile(level: float, members: int | None = None) -> float:
+    """The quantile of a two-sided interval of ``level``.
+
+    Normal for a covariance; Student's with ``members - 1`` degrees of
+    freedom for a standard deviation read from ``members`` refits, so that a
+    handful of refits does not pass for a precise estimate of the spread.
+    """
+    if members is None:
+        return float(norm.ppf(0.5 + 0.5 * level))
+    return float(student.ppf(0.5 + 0.5 * level, members - 1))
 
 
 class IntervalsMixin:
     """Uncertainty of a fitted characteristic-curve model."""
+
+    #: whether bands from refits hold beyond the measured range: a curve that continues
+    #: the same way in every refit (a network's straight line) says nothing there
+    _members_bound_extrapolation = True
 
     # -- backend hooks -------------------------------------------------------------
     def _curve_sd(self, name: str, x: np.ndarray) -> np.ndarray | None:
@@ -116,7 +128,8 @@ class IntervalsMixin:
         ValueError
             When the backend has no uncertainty estimate.
         """
-        z = _quantile(check_level(level))
+        members = self._members()
+        z = _quantile(check_level(level), None if members is None else len(members))
         std = self.params_std_
         if any(math.isnan(v) for v in std.values()):
             raise self._no_uncertainty("parameters")
@@ -138,11 +151,15 @@ class IntervalsMixin:
                 stack = np.stack([np.broadcast_to(np.asarray(m.functions[name](x), dtype=float),
                                                   x.shape) for m in members])
             sd = np.nanstd(stack, axis=0, ddof=1)
+            if not self._members_bound_extrapolation:
+                lo, hi = self.curve_ranges_[name]
+                sd = np.where((x < lo) | (x > hi), np.nan, sd)
+            z = _quantile(level, len(members))
         else:
             sd = self._curve_sd(name, x)
+            z = _quantile(level)
         if sd is None:
             raise self._no_uncertainty("curves")
-        z = _quantile(level)
         return values - z * sd, values + z * sd
 
     # -- simulations ------------------------------------------------------------------------

@@ -712,8 +712,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                 outside = (values < lo - margin) | (values > hi + margin)
                 if outside.any():
                     k = int(np.flatnonzero(outside)[0])
-                    found.append(f"{name}({to_text(arg)}) reaches {values[k]:.4g} at "
-                                 f"t={t[k]:.4g}, outside [{lo:.4g}, {hi:.4g}] "
+                    found.append(f"the argument {to_text(arg)} of {name} reaches "
+                                 f"{values[k]:.4g} at t={t[k]:.4g}, outside [{lo:.4g}, {hi:.4g}] "
                                  f"(extrapolation={curve.extrapolation!r})")
                     break
         if found:
@@ -818,8 +818,11 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             Points per curve.
         level : float, optional
             Add ``lower`` and ``upper`` columns: the confidence band of each
-            curve at that level (from the fit's ``covariance_``). It widens
-            where the data say less, beyond the measured range above all.
+            curve at that level (from the fit's ``covariance_`` or its refits
+            on resamples). It widens where the data say less, beyond the
+            measured range above all; a network ensemble's band is NaN
+            beyond the measured range, where every network only continues
+            its edge slope and their agreement proves nothing.
         domain : (float, float) or dict, optional
             Evaluate over this range instead of the training range (one pair
             for every curve, or ``{"f1": (lo, hi)}``).

@@ -206,6 +206,9 @@ default="lbfgs"
     True
     """
 
+    #: every network continues its edge slope beyond the data, so their spread there
+    #: says nothing: the ensemble's band stops at the measured range
+    _members_bound_extrapolation = False
     #: quasi-Newton iterations per epoch with optimizer="lbfgs" (torch's default)
     _lbfgs_iterations = 20
     #: curvature pairs L-BFGS keeps (torch's default)
