@@ -49,9 +49,8 @@ def bandwidth(scores: np.ndarray, runs: list[slice]) -> int:
         block = scores[s]
         if len(block) <= 2:
             continue
-        squares = block * block
-        now_now += squares[1:].sum(axis=0)
-        before_before += squares[:-1].sum(axis=0)
+        now_now += np.einsum("ij,ij->j", block[1:], block[1:])
+        before_before += np.einsum("ij,ij->j", block[:-1], block[:-1])
         now_before += np.einsum("ij,ij->j", block[1:], block[:-1])
         count += len(block) - 1
     usable = before_before > 0

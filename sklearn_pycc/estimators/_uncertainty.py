@@ -52,10 +52,12 @@ def long_run_covariance(scores: np.ndarray, groups: np.ndarray | None = None,
     if not prewhiten:
         return _bartlett(scores, runs, lag)
     A = _autoregression(scores, runs)
-    innovations = scores.copy()
+    innovations = np.empty_like(scores)
     for s in runs:
-        block = scores[s]
-        innovations[s][1:] = block[1:] - block[:-1] @ A.T
+        block, out = scores[s], innovations[s]
+        out[:1] = block[:1]
+        np.matmul(block[:-1], A.T, out=out[1:])
+        np.subtract(block[1:], out[1:], out=out[1:])
     meat, lag = _bartlett(innovations, runs, lag)
     recolour = np.linalg.inv(np.eye(p) - A)
     return recolour @ meat @ recolour.T, lag
@@ -87,17 +89,17 @@ def _bartlett(scores: np.ndarray, runs: list[slice], lag: int | None) -> tuple[n
     if lag < 1:
         return scores.T @ scores, 0
     meat = np.zeros((p, p))
-    if lag <= _DIRECT_LAGS:  # a few lags: their products directly
-        for s in runs:
-            block = scores[s]
-            meat += block.T @ block
-            for lag_l in range(1, min(lag, len(block) - 1) + 1):
-                product = block[lag_l:].T @ block[:-lag_l]
-                meat += (1.0 - lag_l / (lag + 1.0)) * (product + product.T)
-        return meat, int(lag)
-    window = 1.0 - np.abs(np.arange(-lag, lag + 1)) / (lag + 1.0)
+    weights = 1.0 - np.arange(lag + 1) / (lag + 1.0)
     for s in runs:
         block = scores[s]
+        if lag <= _DIRECT_LAGS:  # a few lags: their weighted products directly
+            meat += block.T @ block
+            for step in range(1, min(lag, len(block) - 1) + 1):
+                product = block[step:].T @ block[:-step]
+                meat += weights[step] * (product + product.T)
+            continue
+        # many: one convolution with the Bartlett window
+        window = np.r_[weights[:0:-1], weights]
         smoothed = oaconvolve(block, window[:, None], mode="same", axes=0)
         meat += block.T @ smoothed
     return 0.5 * (meat + meat.T), int(lag)
@@ -132,13 +134,17 @@ def sandwich_covariance(J: np.ndarray, r: np.ndarray, n_samples: int,
     r = np.asarray(r, dtype=float)
     p = J.shape[1]
     k = J.shape[0] // n_samples
-    N = np.eye(p) if constraints is None or not len(constraints) else null_space(constraints)
+    unconstrained = constraints is None or not len(constraints)
+    N = np.eye(p) if unconstrained else null_space(constraints)
     if N.shape[1] == 0:
         return np.zeros((p, p)), 0
-    Jn = J @ N
-    scores = (Jn * r[:, None]).reshape(k, n_samples, N.shape[1]).sum(axis=0)
+    # per-sample scores, summed over equations, in the free directions
+    weighted = J * r[:, None]
+    if k > 1:
+        weighted = weighted.reshape(k, n_samples, p).sum(axis=0)
+    scores = weighted if unconstrained else weighted @ N
     meat, lag = long_run_covariance(scores, groups)
-    bread = np.linalg.pinv(Jn.T @ Jn, rcond=1e-12, hermitian=True)
+    bread = np.linalg.pinv(N.T @ (J.T @ J) @ N, rcond=1e-12, hermitian=True)
     dof = n_samples / max(n_samples - N.shape[1], 1)
     cov_free = dof * bread @ meat @ bread
     cov = N @ cov_free @ N.T
