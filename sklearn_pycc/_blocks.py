@@ -14,7 +14,8 @@ import math
 
 import numpy as np
 
-__all__ = ["MIN_EXPERIMENTS", "bandwidth", "block_length", "draw_blocks", "segments"]
+__all__ = ["MIN_EXPERIMENTS", "bandwidth", "block_length", "draw_blocks", "plug_in_lag",
+           "segments"]
 
 #: whole experiments are drawn, rather than blocks within each, when a record has at
 #: least this many
@@ -53,8 +54,20 @@ def bandwidth(scores: np.ndarray, runs: list[slice]) -> int:
         before_before += np.einsum("ij,ij->j", block[:-1], block[:-1])
         now_before += np.einsum("ij,ij->j", block[1:], block[:-1])
         count += len(block) - 1
+    longest = max(s.stop - s.start for s in runs)
+    return plug_in_lag(now_now, now_before, before_before, count, n, longest)
+
+
+def plug_in_lag(now_now: np.ndarray, now_before: np.ndarray, before_before: np.ndarray,
+                count: int, n: int, longest: int) -> int:
+    """Andrews' AR(1) plug-in lag from sums over ``count`` pairs of samples.
+
+    ``now_now``, ``now_before`` and ``before_before`` hold each column's sums of
+    ``s_t s_t``, ``s_t s_(t-1)`` and ``s_(t-1) s_(t-1)``; ``n`` is the number of
+    samples and ``longest`` the longest run (the lag is at most half of it).
+    """
     usable = before_before > 0
-    if not usable.any():
+    if not usable.any() or count == 0:
         return 0
     rho = np.clip(now_before[usable] / before_before[usable], -_MAX_RHO, _MAX_RHO)
     # the AR(1) innovations' variance: sum (s_t - rho s_(t-1))^2 / count
@@ -65,7 +78,6 @@ def bandwidth(scores: np.ndarray, runs: list[slice]) -> int:
     if not bottom > 0:
         return 0
     lag = 1.1447 * (top / bottom * n) ** (1.0 / 3.0)
-    longest = max(s.stop - s.start for s in runs)
     return int(min(np.ceil(lag), longest // 2))
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from scipy.linalg import null_space
 from scipy.signal import oaconvolve
 
-from .._blocks import bandwidth, segments
+from .._blocks import bandwidth, plug_in_lag, segments
 
 __all__ = ["long_run_covariance", "sandwich_covariance"]
 
@@ -51,34 +51,64 @@ def long_run_covariance(scores: np.ndarray, groups: np.ndarray | None = None,
     runs = segments(n, groups)
     if not prewhiten:
         return _bartlett(scores, runs, lag)
-    A = _autoregression(scores, runs)
-    innovations = np.empty_like(scores)
-    for s in runs:
-        block, out = scores[s], innovations[s]
-        out[:1] = block[:1]
-        np.matmul(block[:-1], A.T, out=out[1:])
-        np.subtract(block[1:], out[1:], out=out[1:])
-    meat, lag = _bartlett(innovations, runs, lag)
+    # the scores' autocovariances, Gamma_l = sum_t s_t s_(t-l)^T within runs; those of the
+    # innovations e_t = s_t - A s_(t-1) follow from them (up to a few samples at the
+    # start of each run), so the scores are read once per lag and never copied
+    gammas = _autocovariances(scores, runs, 2)
+    A = _bounded(gammas[1] @ np.linalg.pinv(gammas[0], hermitian=True))
+
+    def innovation(step: int) -> np.ndarray:
+        before = gammas[1].T if step == 0 else gammas[step - 1]
+        return (gammas[step] - gammas[step + 1] @ A.T - A @ before
+                + A @ gammas[step] @ A.T)
+
+    if lag is None:
+        e0, e1 = np.diag(innovation(0)), np.diag(innovation(1))
+        pairs = sum(s.stop - s.start - 1 for s in runs)
+        lag = plug_in_lag(e0, e1, e0, pairs, n, max(s.stop - s.start for s in runs))
+    if lag > _DIRECT_LAGS:  # many lags: the innovations themselves, convolved
+        innovations = np.empty_like(scores)
+        for s in runs:
+            block, out = scores[s], innovations[s]
+            out[:1] = block[:1]
+            np.matmul(block[:-1], A.T, out=out[1:])
+            np.subtract(block[1:], out[1:], out=out[1:])
+        meat, lag = _bartlett(innovations, runs, lag)
+    else:
+        gammas = _autocovariances(scores, runs, lag + 1, gammas)
+        meat = innovation(0)
+        for step in range(1, lag + 1):
+            part = innovation(step)
+            meat = meat + (1.0 - step / (lag + 1.0)) * (part + part.T)
+        meat = 0.5 * (meat + meat.T)
     recolour = np.linalg.inv(np.eye(p) - A)
-    return recolour @ meat @ recolour.T, lag
+    return recolour @ meat @ recolour.T, int(lag)
+
+
+def _autocovariances(scores: np.ndarray, runs: list[slice], top: int,
+                     known: list | None = None) -> list[np.ndarray]:
+    """``Gamma_l`` for ``l = 0 .. top`` (those in ``known`` kept), summed over runs."""
+    p = scores.shape[1]
+    out = list(known or [])
+    for step in range(len(out), top + 1):
+        gamma = np.zeros((p, p))
+        for s in runs:
+            block = scores[s]
+            if len(block) > step:
+                gamma += block[step:].T @ block[:len(block) - step]
+        out.append(gamma)
+    return out
+
+
+def _bounded(A: np.ndarray) -> np.ndarray:
+    """``A`` with its singular values held below :data:`_MAX_AR`."""
+    U, sigma, Vt = np.linalg.svd(A)
+    return (U * np.minimum(sigma, _MAX_AR)) @ Vt
 
 
 #: singular values of the prewhitening autoregression are held below this (Andrews and
 #: Monahan's bound: a unit root would make the recolouring explode)
 _MAX_AR = 0.97
-
-
-def _autoregression(scores: np.ndarray, runs: list[slice]) -> np.ndarray:
-    """``A`` of ``s_t = A s_(t-1) + e_t`` by least squares within runs, its gain bounded."""
-    p = scores.shape[1]
-    now_before, before_before = np.zeros((p, p)), np.zeros((p, p))
-    for s in runs:
-        block = scores[s]
-        now_before += block[1:].T @ block[:-1]
-        before_before += block[:-1].T @ block[:-1]
-    A = now_before @ np.linalg.pinv(before_before, hermitian=True)
-    U, sigma, Vt = np.linalg.svd(A)
-    return (U * np.minimum(sigma, _MAX_AR)) @ Vt
 
 
 def _bartlett(scores: np.ndarray, runs: list[slice], lag: int | None) -> tuple[np.ndarray, int]:
