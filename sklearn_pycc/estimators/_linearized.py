@@ -20,7 +20,6 @@ from collections.abc import Callable, Mapping
 import numpy as np
 import pandas as pd
 
-from ..skeleton.compiler import compile_expression
 from ._setup import Problem, active_residuals
 from ._uncertainty import sandwich_covariance
 
@@ -52,18 +51,13 @@ def linearized_covariance(problem: Problem, functions: Mapping, params: Mapping[
     free = list(problem.free_params)
     if not free:
         return None
-    residuals, weights = active_residuals(problem)
-    slots, env = problem.environment()
+    _, weights = active_residuals(problem)
+    weights = np.asarray(weights)
     n = problem.data.n_samples
 
     def evaluate(values: Mapping, curves: Mapping) -> np.ndarray:
-        all_values = {**problem.fixed_params, **values}
-        out = []
-        for residual, weight in zip(residuals, weights):
-            with np.errstate(all="ignore"):
-                value = compile_expression(residual, slots, all_values, curves)(env)
-            out.append(weight * np.broadcast_to(np.asarray(value, dtype=float), (n,)))
-        return np.concatenate(out)
+        # weighted residuals, stacked by equation
+        return (problem.residual_values(values, curves) * weights).ravel(order="F")
 
     r = evaluate(params, functions)
     columns = []

@@ -215,6 +215,23 @@ class Problem:
         names = list(self.data.columns)
         return {name: i for i, name in enumerate(names)}, [self.data[n] for n in names]
 
+    def residual_values(self, params, functions) -> np.ndarray:
+        """The fitted residual of each equation with something to fit, on the data.
+
+        ``(n_samples, len(active))``, unweighted; ``params`` are the free
+        parameters (the pinned ones are added).
+        """
+        slots, env = self.environment()
+        values = {**self.fixed_params, **params}
+        n = self.data.n_samples
+        columns = []
+        for i in self.active:
+            with np.errstate(all="ignore"):
+                value = compile_expression(self.equations[i].fit_residual, slots, values,
+                                           functions)(env)
+            columns.append(np.broadcast_to(np.asarray(value, dtype=float), (n,)))
+        return np.column_stack(columns) if columns else np.zeros((n, 0))
+
     def argument_values(self, function: str, params, functions=None) -> np.ndarray:
         """Finite values of every argument of ``function`` on the data.
 

@@ -374,17 +374,9 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         """Refits on ``n`` resamples that respect time: the ``bootstrap_`` attributes."""
         from ._resampling import Resampler, fit_members
 
-        params = {**problem.fixed_params, **result.params}
-        slots, env = problem.environment()
-        residuals = []
-        for i in problem.active:
-            with np.errstate(all="ignore"):
-                value = compile_expression(problem.equations[i].fit_residual, slots, params,
-                                           result.functions)(env)
-            value = np.broadcast_to(np.asarray(value, dtype=float), (problem.data.n_samples,))
-            residuals.append(np.nan_to_num(value))
+        residuals = np.nan_to_num(problem.residual_values(result.params, result.functions))
         simulation = problem.fit_mode == "simulation"
-        resampler = Resampler(problem, np.column_stack(residuals),
+        resampler = Resampler(problem, residuals,
                               min_block=2 * self.shooting_window if simulation else 2)
         seed = next(seeds(getattr(self, "random_state", None)))
         members, failures = fit_members(self, problem, resampler, n, seed,
