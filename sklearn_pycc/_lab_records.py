@@ -61,6 +61,19 @@ def _sweep_reference(t: np.ndarray, stroke: float, rng: np.random.Generator) -> 
     return stroke * values / np.max(np.abs(values))
 
 
+def _viscous_pair(viscous) -> tuple[float, float]:
+    """``viscous`` as (forward, backward) coefficients."""
+    try:
+        values = np.atleast_1d(np.asarray(viscous, dtype=float))
+    except (TypeError, ValueError):
+        values = np.array([np.nan])
+    if isinstance(viscous, (str, bool)) or values.shape not in ((1,), (2,)) \
+            or not np.isfinite(values).all():
+        raise ValueError("viscous must be a number or a pair of numbers (forward, "
+                         f"backward), got {viscous!r}")
+    return float(values[0]), float(values[-1])
+
+
 def _reference(t: np.ndarray, stroke: float, rng: np.random.Generator) -> np.ndarray:
     """Point-to-point moves: smooth fifth-order profiles between random targets, with dwells."""
     ref = np.zeros_like(t)
@@ -130,7 +143,8 @@ def make_positioning_axis(
     y0 : tuple of float, default=(0, 0)
         Initial position and velocity.
     mass, viscous, coulomb, offset : float
-        The plant (kg, N s/m, N, N).
+        The plant (kg, N s/m, N, N). ``viscous`` may be a pair: the
+        coefficients when moving forward and backward (a worn guide).
     gain : float, default=20.0
         Motor force per volt.
     saturation : float, default=10.0
@@ -173,7 +187,10 @@ def make_positioning_axis(
     noise = _check_noise(noise)
     noisy = _check_noise_columns(noise_columns, ["t", "x1", "F"], ["x1"])
     m = _positive("mass", mass)
-    c, fc, f0 = float(viscous), float(coulomb), float(offset)
+    forward, backward = _viscous_pair(viscous)
+    # viscous friction c v + d |v|: forward + backward over 2, and half their difference
+    c, d = (forward + backward) / 2, (forward - backward) / 2
+    fc, f0 = float(coulomb), float(offset)
     k_motor = _positive("gain", gain)
     v_max = _positive("saturation", saturation)
     eps = _positive("coulomb_velocity", coulomb_velocity)
@@ -192,7 +209,7 @@ def make_positioning_axis(
     tanh = math.tanh
 
     def accel(v, force):
-        return (force - c * v - fc * tanh(v / eps) - f0) / m
+        return (force - c * v - d * abs(v) - fc * tanh(v / eps) - f0) / m
 
     substeps = 8
     dt = h / substeps
@@ -225,10 +242,15 @@ def make_positioning_axis(
         return frame
     equations = ["x1_dot = x2", "x2_dot = a1 F - a2 x2 - a3 tanh(a4 x2) - a5"]
     params = {"a1": 1 / m, "a2": c / m, "a3": fc / m, "a4": 1 / eps, "a5": f0 / m}
-    truth = Bunch(equations=equations, params=params,
-                  physical={"mass": m, "viscous": c, "coulomb": fc, "offset": f0},
-                  base_equations=["x1_dot = x2", "x2_dot = a1 F - a2 x2"],
-                  hidden=["coulomb_friction", "offset"],
+    hidden = ["coulomb_friction", "offset"]
+    physical = {"mass": m, "viscous": c, "coulomb": fc, "offset": f0}
+    if d:
+        equations[1] += " - a6 abs(x2)"
+        params["a6"] = d / m
+        hidden.append("asymmetric_viscous_damping")
+        physical.update(viscous=(forward, backward))
+    truth = Bunch(equations=equations, params=params, physical=physical,
+                  base_equations=["x1_dot = x2", "x2_dot = a1 F - a2 x2"], hidden=hidden,
                   velocity=vs, acceleration=accels, reference=r)
     return frame, truth
 

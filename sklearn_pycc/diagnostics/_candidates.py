@@ -23,30 +23,51 @@ from ..skeleton.nodes import (
     Symbol,
     Unknown,
     product_factors,
+    rename,
+    signed_terms,
     sum_terms,
     walk,
 )
 from ..skeleton.parser import parse_expression
+from ..skeleton.printer import to_text
 from . import effects as catalogue
 from ._data import TIME, Measurements, thin
 from ._physics import implausible_terms
 from ._roles import EquationRoles
 
-__all__ = ["Candidate", "enumerate_candidates", "refit_candidate", "screen_candidates"]
+__all__ = ["MOVES", "Candidate", "enumerate_candidates", "enumerate_moves", "refit_candidate",
+           "screen_candidates"]
 
 #: a term whose contribution is this many times the derivative it explains is absurd
 ABSURD_RATIO = 10.0
 
 
+#: what a candidate does to the skeleton
+MOVES = ("add", "replace", "remove")
+
+
 @dataclass
 class Candidate:
-    """One effect tried in one equation (or a coupled pair of equations)."""
+    """One move tried in one equation (or a coupled pair of equations).
+
+    ``move`` is ``"add"`` (the effect's term joins the equation),
+    ``"replace"`` (it takes the place of the terms in ``removals``, which
+    play the same role) or ``"remove"`` (the terms in ``removals`` go and
+    nothing comes in; ``effect`` is then the catalogue effect the removed
+    term is an instance of, or an unnamed one).
+    """
 
     effect: catalogue.Effect
     roles: EquationRoles
     variable: str
     additions: list[tuple[int, str]]
     curve_term: str | None
+    move: str = "add"
+    # (equation, term as written in the diagnosed skeleton) taken out by the move
+    removals: list[tuple[int, str]] = field(default_factory=list)
+    removed_params: list[str] = field(default_factory=list)
+    # the removed terms with their signs, to evaluate them under the diagnosed model
+    removed_nodes: list[tuple[int, float, Node]] = field(default_factory=list, repr=False)
     # the extended skeleton, the renumbered terms and the parameters they bring
     extended: Skeleton | None = None
     added: list[tuple[int, str]] = field(default_factory=list)
@@ -74,15 +95,27 @@ class Candidate:
     @property
     def equations(self) -> list[int]:
         """Indices of the equations the candidate changes."""
-        return [k for k, _ in self.additions]
+        return sorted({k for k, _ in (*self.additions, *self.removals)})
+
+    @property
+    def n_change(self) -> int:
+        """Fitted numbers the move brings in less those it takes out."""
+        return len(self.new_params) - len(self.removed_params)
 
     @property
     def term(self) -> str:
-        """The renumbered term added to the primary equation."""
+        """The renumbered term added to the primary equation (the removed one for a removal)."""
+        if self.move == "remove":
+            return self.removals[0][1]
         for k, text in self.added:
             if k == self.roles.index:
                 return text
         return self.additions[0][1]
+
+    @property
+    def replaces(self) -> tuple[str, ...]:
+        """The terms the move takes out of the skeleton, as written there."""
+        return tuple(text for _, text in self.removals)
 
 
 # -- enumeration ------------------------------------------------------------------
@@ -131,7 +164,11 @@ def enumerate_candidates(skeleton: Skeleton, roles: list[EquationRoles],
     """Every catalogue effect in every equation and through every variable it can use."""
     out, seen = [], set()
     for r in roles:
+        present = {_effect_of(node, r, has_time)[0].name
+                   for _, node in signed_terms(_equation(skeleton, r.index).rhs)}
         for effect in catalogue.catalogue():
+            if effect.requires and not present & set(effect.requires):
+                continue
             for variable, additions in _assignments(effect, r, has_time):
                 # a coupling is proposed from both of its masses: keep it once
                 equations = frozenset(k for k, _ in additions)
@@ -143,6 +180,79 @@ def enumerate_candidates(skeleton: Skeleton, roles: list[EquationRoles],
                                       _curve_term(effect, r, variable))
                 if not _absorbed(skeleton, candidate):
                     out.append(candidate)
+    return out
+
+
+def _equation(skeleton: Skeleton, index: int):
+    return next(eq for eq in skeleton.parsed if eq.index == index)
+
+
+def _fitted_terms(skeleton: Skeleton, roles: EquationRoles, inputs: set[str]):
+    """``(sign, node)`` of an equation's terms with fitted numbers and no input.
+
+    Terms with a free curve are left alone: a curve already takes any shape.
+    """
+    for sign, node in signed_terms(_equation(skeleton, roles.index).rhs):
+        items = list(walk(node))
+        if any(isinstance(n, Unknown) for n in items) or \
+                not any(isinstance(n, Param) for n in items):
+            continue
+        if _symbols(node) & inputs:
+            continue  # a gain: the skeleton's own input, not a physical effect to swap
+        yield sign, node
+
+
+def _shape_key(node: Node) -> Counter:
+    """The term's factors other than coefficients, with every parameter named alike."""
+    same = {n.name: "a" for n in walk(node) if isinstance(n, Param)}
+    return Counter(to_text(rename(f, same)) for f in _shape(product_factors(node)))
+
+
+#: the effect a removed term is reported as when it is no catalogue effect
+UNNAMED = catalogue.Effect("skeleton_term", "a term of the skeleton that is no catalogue "
+                           "effect", "none", "a1")
+
+
+def _effect_of(node: Node, roles: EquationRoles, has_time: bool) -> tuple[catalogue.Effect, str]:
+    """The catalogue effect ``node`` is an instance of, and its variable."""
+    key = _shape_key(node)
+    for effect in catalogue.catalogue():
+        for variable, additions in _assignments(effect, roles, has_time):
+            if len(additions) == 1 and _shape_key(
+                    parse_expression(additions[0][1], kind="term")) == key:
+                return effect, variable
+    return UNNAMED, ", ".join(sorted(_symbols(node)))
+
+
+def enumerate_moves(skeleton: Skeleton, roles: list[EquationRoles],
+                    has_time: bool) -> list[Candidate]:
+    """Replacements and removals of the skeleton's own terms.
+
+    A term that is an instance of a catalogue effect may be replaced by
+    every effect that names it in :attr:`~sklearn_pycc.effects.Effect.replaces`
+    (a linear spring by a pendulum's sine, viscous damping by quadratic
+    drag); any term with fitted numbers and no input may be removed.
+    """
+    inputs = set(skeleton.inputs)
+    out = []
+    for r in roles:
+        for sign, node in _fitted_terms(skeleton, r, inputs):
+            text = to_text(node)
+            reduced = skeleton.remove_term(r.index, text)
+            gone = [a for a in skeleton.params if a not in reduced.params]
+            removed = dict(removals=[(r.index, text)], removed_params=gone,
+                           removed_nodes=[(r.index, sign, node)])
+            old, variable = _effect_of(node, r, has_time)
+            out.append(Candidate(old, r, variable, [], None, move="remove", **removed))
+            for effect in catalogue.catalogue():
+                if old.name not in effect.replaces:
+                    continue
+                for variable, additions in _assignments(effect, r, has_time):
+                    candidate = Candidate(effect, r, variable, additions,
+                                          _curve_term(effect, r, variable), move="replace",
+                                          **removed)
+                    if not _absorbed(reduced, candidate):
+                        out.append(candidate)
     return out
 
 
@@ -235,21 +345,43 @@ def _screen_skeleton(candidate: Candidate, states: list[str]) -> tuple[Skeleton,
 
 
 def extend(skeleton: Skeleton, candidate: Candidate) -> None:
-    """Build the extended skeleton, its renumbered terms and its new parameters."""
+    """Build the changed skeleton, its renumbered terms and its new parameters.
+
+    Terms are added before any is removed, so a replacement's parameters get
+    fresh names rather than those of the term it replaces.
+    """
     extended = skeleton
     added = []
     for k, term in candidate.additions:
         before = extended.equations[k]
         extended = extended.add_term(k, term, constraints=list(candidate.effect.bounds))
         added.append((k, extended.equations[k][len(before) + 3:]))
+    for k, term in candidate.removals:
+        extended = extended.remove_term(k, term)
     candidate.extended = extended
     candidate.added = added
     candidate.new_params = [a for a in extended.params if a not in skeleton.params]
 
 
+def removed_contribution(model, candidate: Candidate, data: Measurements) -> np.ndarray:
+    """What the removed terms add to each equation's prediction, under ``model``'s fit."""
+    out = np.zeros_like(data.derivatives)
+    slots, env = _environment(data)
+    for k, sign, node in candidate.removed_nodes:
+        with np.errstate(all="ignore"):
+            values = compile_expression(node, slots, model.params_, model.functions_)(env)
+        out[:, k] += sign * np.broadcast_to(np.asarray(values, dtype=float), (data.n_samples,))
+    return out
+
+
 def screen_candidates(candidates: list[Candidate], data: Measurements, residuals: np.ndarray,
-                      states: list[str], max_rows: int = 2000) -> None:
-    """Fit each candidate's term(s) to the residual of its equation(s) alone."""
+                      states: list[str], max_rows: int = 2000, model=None) -> None:
+    """Fit each candidate's term(s) to the residual of its equation(s) alone.
+
+    A move that takes terms out (``model`` then gives their fitted values)
+    is screened on the residual of the model without them: a removal by
+    that residual itself, a replacement by fitting its term to it.
+    """
     from ..estimators import PolyCCRegressor
 
     n = data.n_samples
@@ -257,11 +389,22 @@ def screen_candidates(candidates: list[Candidate], data: Measurements, residuals
     rows = np.arange(n) if n <= max_rows else np.linspace(0, n - 1, max_rows).astype(int)
     frame = pd.DataFrame({name: values[rows] for name, values in data.columns.items()
                           if not name.endswith("_dot")})
+    scale = len(rows) / n
     for candidate in candidates:
+        target = residuals
+        if candidate.removed_nodes:
+            target = residuals + removed_contribution(model, candidate, data)
+        if candidate.move == "remove":
+            ks = candidate.equations
+            before = np.sum(residuals[:, ks] ** 2, axis=0)
+            after = np.sum(target[:, ks] ** 2, axis=0)
+            candidate.screen_bic, candidate.screen_removed = _delta_bic(
+                before, after, floors[ks], candidate.n_change, n)
+            continue
         skeleton, names = _screen_skeleton(candidate, states)
         # the residual (measured minus model) of a missing subtracted term is -term,
         # which is what the screening equation ``z_dot = 0 - term`` predicts
-        targets = pd.DataFrame({f"{name}_dot": residuals[rows, k]
+        targets = pd.DataFrame({f"{name}_dot": target[rows, k]
                                 for name, (k, _) in zip(names, candidate.additions)})
         try:
             with warnings.catch_warnings():
@@ -271,12 +414,11 @@ def screen_candidates(candidates: list[Candidate], data: Measurements, residuals
         except (SkeletonError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             candidate.note = f"could not be fitted to the residual: {exc}"
             continue
-        scale = len(rows) / n
-        before = np.sum(targets.to_numpy() ** 2, axis=0) / scale
+        ks = [k for k, _ in candidate.additions]
+        before = np.sum(residuals[rows][:, ks] ** 2, axis=0) / scale
         after = np.sum((targets.to_numpy() - predicted) ** 2, axis=0) / scale
-        floor = floors[[k for k, _ in candidate.additions]]
         candidate.screen_bic, candidate.screen_removed = _delta_bic(
-            before, after, floor, len(skeleton.params), n)
+            before, after, floors[ks], len(skeleton.params) - len(candidate.removed_params), n)
         order = skeleton.params
         candidate.screen_params = {a: float(fitted.params_[a]) for a in order}
 
@@ -357,7 +499,7 @@ def refit_candidate(model, candidate: Candidate, data: Measurements, residuals: 
     before = rss_before[ks]
     n = data.n_samples
     candidate.delta_bic, candidate.removed = _delta_bic(
-        before, after, rss_floor(data.derivatives)[ks], len(candidate.new_params), n)
+        before, after, rss_floor(data.derivatives)[ks], candidate.n_change, n)
     candidate.rmse_before = float(np.sqrt(before.sum() / (n * len(ks))))
     candidate.rmse_after = float(np.sqrt(after.sum() / (n * len(ks))))
     _judge(candidate, estimator, data, baseline)

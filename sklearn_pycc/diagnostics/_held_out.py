@@ -184,7 +184,7 @@ def _errors(model, test: Measurements, spreads, horizon: Horizon | None,
 
 def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
                    equations: list[int], *, max_steps: int, output_error: bool = False,
-                   cache: dict | None = None) -> HeldOut:
+                   cache: dict | None = None, rule: str = "gain") -> HeldOut:
     """Fit ``base`` and ``extended`` without each fold and compare them on it.
 
     Parameters
@@ -204,6 +204,10 @@ def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
     cache : dict, optional
         Held-out errors of ``base`` by fold, filled and reused across
         candidates.
+    rule : {"gain", "no_loss"}, default="gain"
+        What confirms ``extended``: a clear fall of the held-out error (an
+        effect worth adding), or no rise of it, in most folds and pooled (a
+        term worth removing: ``extended`` is then the smaller model).
     """
     description, folds = make_folds(data)
     criterion = "simulation" if horizon is not None else "derivatives"
@@ -248,6 +252,10 @@ def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
     result.after = {k: math.sqrt(v / n) for k, v in totals["after"].items()}
     others = [result.change(name) for name in result.before if name != criterion]
     gain = result.before[criterion] - result.after[criterion]
+    if rule == "no_loss":
+        result.confirmed = bool(result.change() <= 0.0 and 2 * result.wins > result.n_folds
+                                and all(change < HELD_OUT_GAIN for change in others))
+        return result
     result.confirmed = bool(result.change() <= -HELD_OUT_GAIN and gain >= HELD_OUT_FLOOR
                             and 2 * result.wins > result.n_folds
                             and all(change < HELD_OUT_GAIN for change in others))

@@ -83,6 +83,8 @@ class _Term:
     sign: float
     node: Node
     values: np.ndarray
+    # even in the velocity (``a abs(v)``): an asymmetry of the friction, no dissipation itself
+    even: bool = False
 
     def text(self, params) -> str:
         """The term as written, with the fitted values of its parameters."""
@@ -164,6 +166,15 @@ def implausible_terms(model, data: Measurements,
         n = data.n_samples
         terms = [_Term(sign, node, sign * _evaluate(node, slots, env, params, functions, n)
                        / scale) for sign, node in signed_terms(eq.rhs)]
+        if roles.second_order:
+            mirrored = list(env)
+            mirrored[slots[roles.velocity]] = -data.columns[roles.velocity]
+            for term in terms:
+                if _symbols(term.node) == {roles.velocity}:
+                    back = term.sign * _evaluate(term.node, slots, mirrored, params, functions,
+                                                 n) / scale
+                    term.even = bool(np.any(term.values)) and np.allclose(
+                        back, term.values, rtol=1e-9, atol=1e-12 * _rms(term.values))
         size = _rms(data.derivatives[:, roles.index])
         skipped = {node for k, node in skip if k == roles.index}
         out.extend(_check_equation(roles, eq.derivative, terms, skipped, size, data, inputs,
@@ -176,11 +187,13 @@ def _check_equation(roles: EquationRoles, derivative: str, terms: list[_Term], s
                     slots) -> list[Implausibility]:
     out = []
     significant = SIGNIFICANT * size
-    friction, springs = [], []
+    friction, springs, excitation = [], [], []
     for term in terms:
         symbols = _symbols(term.node)
         if roles.second_order and symbols == {roles.velocity}:
             friction.append(term)
+        elif roles.second_order and symbols == {roles.position, roles.velocity}:
+            excitation.append(term)
         elif roles.second_order and symbols == {roles.position}:
             springs.append(term)
         elif symbols and symbols <= inputs and term.node not in skipped:
@@ -189,7 +202,8 @@ def _check_equation(roles: EquationRoles, derivative: str, terms: list[_Term], s
                 out.append(Implausibility(derivative, "gain", why))
     if friction:
         out.extend(_dissipation(derivative, friction, skipped, data.columns[roles.velocity],
-                                significant, params))
+                                significant, params, excitation,
+                                data.columns[roles.position]))
     if springs:
         why = _stiffness(springs, data.columns[roles.position], significant, roles.position)
         if why:
@@ -209,13 +223,30 @@ def _gain(term: _Term, params, slots, data: Measurements) -> str:
             "with: a gain must keep it")
 
 
+#: share of the samples, by distance from the middle of the position's range, on which a
+#: self-excited oscillator's damping must remove energy
+LARGE_AMPLITUDE = 0.25
+
+
 def _dissipation(derivative: str, friction: list[_Term], skipped, velocity: np.ndarray,
-                 significant: float, params) -> list[Implausibility]:
+                 significant: float, params, excitation: list[_Term] = (),
+                 position: np.ndarray | None = None) -> list[Implausibility]:
+    """Friction terms that feed energy in.
+
+    Beside a damping that depends on the position too (``x^2 v``, van der
+    Pol's), friction of the velocity alone may feed energy in at small
+    amplitude: that is a self-excited oscillator, whose amplitude the
+    state explains. The damping as a whole must then remove energy at
+    large amplitude and not feed it in over the record.
+    """
+    if excitation and position is not None:
+        return _self_excited(derivative, [*friction, *excitation], velocity, position,
+                             significant)
     out = []
     powers = [float(np.mean(term.values * velocity)) for term in friction]
     exchanged = sum(abs(p) for p in powers)
     for term, power in zip(friction, powers):
-        if term.node in skipped or power <= INJECTION_TOLERANCE * exchanged:
+        if term.node in skipped or term.even or power <= INJECTION_TOLERANCE * exchanged:
             continue
         if _rms(term.values) > significant:
             out.append(Implausibility(derivative, "dissipation", (
@@ -227,6 +258,23 @@ def _dissipation(derivative: str, friction: list[_Term], skipped, velocity: np.n
             "the forces of the velocity together feed energy in: the friction of the "
             "model accelerates the motion")))
     return out
+
+
+def _self_excited(derivative: str, damping: list[_Term], velocity: np.ndarray,
+                  position: np.ndarray, significant: float) -> list[Implausibility]:
+    total = np.sum([term.values for term in damping], axis=0)
+    if _rms(total) <= significant:
+        return []
+    power = total * velocity
+    exchanged = sum(abs(float(np.mean(term.values * velocity))) for term in damping)
+    distance = np.abs(position - np.median(position))
+    large = distance >= np.quantile(distance, 1.0 - LARGE_AMPLITUDE)
+    if float(np.mean(power[large])) < 0 and \
+            float(np.mean(power)) <= INJECTION_TOLERANCE * exchanged:
+        return []
+    return [Implausibility(derivative, "dissipation", (
+        "the damping forces together feed energy in at large amplitude or over the record: "
+        "a self-excited oscillation must be limited by its damping"))]
 
 
 def _stiffness(springs: list[_Term], position: np.ndarray, significant: float,

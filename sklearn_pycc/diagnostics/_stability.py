@@ -115,7 +115,7 @@ def selection_stability(contenders: list[Candidate], residuals: np.ndarray,
             running = after[id(c)]
             before = np.maximum(rss_base[ks], floor[ks])
             now = np.maximum((running[stops] - running[starts]).sum(axis=0), floor[ks])
-            delta = float(m * np.sum(np.log(now / before)) + len(c.new_params) * math.log(m))
+            delta = float(m * np.sum(np.log(now / before)) + c.n_change * math.log(m))
             removed = 1.0 - now.sum() / before.sum()
             if delta <= -bic_threshold and (removed >= min_improvement
                                             or id(c) in simulates_better):
@@ -145,4 +145,4 @@ def _leader(scored: list[tuple[Candidate, float]], tie: tuple[float, float]) -> 
     lead_score = max(score for _, score in scored)
     margin = max(tie[0] * abs(lead_score), tie[1])
     close = [(c, score) for c, score in scored if lead_score - score <= margin]
-    return min(close, key=lambda item: (len(item[0].new_params), -item[1]))[0]
+    return min(close, key=lambda item: (item[0].n_change, -item[1]))[0]

@@ -15,6 +15,7 @@ from ..skeleton import Bound, Skeleton
 from ._candidates import (
     Candidate,
     enumerate_candidates,
+    enumerate_moves,
     extend,
     refit_candidate,
     screen_candidates,
@@ -36,7 +37,7 @@ from ._trajectories import Divergence, Horizon, horizon_of, simulate_against
 __all__ = ["Diagnosis", "Suggestion", "diagnose"]
 
 _RANKING_COLUMNS = [
-    "equation", "variable", "effect", "score", "suggested_term", "curve_term", "n_params",
+    "equation", "move", "variable", "effect", "score", "suggested_term", "curve_term", "n_params",
     "error_removed", "delta_bic", "rmse_before", "rmse_after", "simulation_rmse",
     "held_out_change", "held_out_wins", "stability", "plausible", "refit", "explained", "note",
 ]
@@ -48,6 +49,12 @@ N_HELD_OUT = 2
 #: a simpler effect whose held-out error is within this share of a confirmed leader's
 #: (same equation and variable) is named instead
 PARSIMONY = 0.05
+#: least fall of the BIC that removes a term when nothing is held out
+REMOVAL_BIC = 2.0
+#: removals refitted, the least costly first, and the most a removal may raise the residual
+#: before the refit (a term the model needs raises it far more)
+N_REMOVE = 2
+REMOVAL_SCREEN = 0.5
 
 
 @dataclass(frozen=True)
@@ -91,6 +98,14 @@ class Suggestion:
     bounds : tuple of str
         The bounds the effect's physics puts on the new parameters (in
         ``equations`` too), e.g. ``("a3 >= 0", "a4 >= 0")``.
+    move : {"add", "replace", "remove"}
+        What the suggestion does to the skeleton: add the effect's term,
+        put it in place of the terms in ``replaces`` (a pendulum's sine for
+        a linear spring), or take the terms in ``replaces`` out (``term``
+        is then the removed term and ``effect`` what it stood for).
+    replaces : tuple of str
+        The terms of the diagnosed skeleton the move takes out, as written
+        there (empty for an addition).
     intervals : dict
         95 % confidence interval of each new parameter, ``{"a3": (low,
         high)}``, from the diagnosis's refit (empty when its backend has no
@@ -115,9 +130,20 @@ class Suggestion:
     held_out: HeldOut | None = None
     bounds: tuple[str, ...] = ()
     intervals: dict = field(default_factory=dict)
+    move: str = "add"
+    replaces: tuple[str, ...] = ()
 
     def __str__(self) -> str:
-        return f"add '- {self.term}' to {self.equation} ({self.effect} through {self.variable})"
+        return f"{self.action()} ({self.effect} through {self.variable or 'nothing'})"
+
+    def action(self) -> str:
+        """What to do to the skeleton, in words: ``"replace 'a2*x1' in x2_dot by ..."``."""
+        if self.move == "remove":
+            return f"remove '{self.term}' from {self.equation}"
+        if self.move == "replace":
+            old = "' and '".join(self.replaces)
+            return f"replace '{old}' in {self.equation} by '- {self.term}'"
+        return f"add '- {self.term}' to {self.equation}"
 
 
 @dataclass
@@ -282,9 +308,17 @@ class Diagnosis:
                                  f"{c.held_out}.")
             lines.extend(self._stability_words())
             return lines
-        lines = [f"Missing effect: {best.effect} ({best.description}) in {best.equation}, "
-                 f"acting through {best.variable or 'nothing'}."]
-        lines.append(f"    Add '- {best.term}' to {best.equation}"
+        if best.move == "remove":
+            lines = [f"Superfluous term: '{best.term}' in {best.equation} ({best.effect}); "
+                     "the model without it does as well on data its fit did not see."]
+        elif best.move == "replace":
+            lines = [f"Better physics: {best.effect} ({best.description}) in "
+                     f"{best.equation}, acting through {best.variable or 'nothing'}, in place "
+                     f"of '{' + '.join(best.replaces)}'."]
+        else:
+            lines = [f"Missing effect: {best.effect} ({best.description}) in "
+                     f"{best.equation}, acting through {best.variable or 'nothing'}."]
+        lines.append(f"    {best.action()[0].upper()}{best.action()[1:]}"
                      + "".join(f" and '- {t}' to {eq}" for eq, t in best.also.items())
                      + (f" (within {', '.join(best.bounds)})" if best.bounds else "")
                      + (f"; or a free curve '- {best.curve_term}' "
@@ -292,8 +326,10 @@ class Diagnosis:
                      + ".")
         change = (f" and the simulation RMSE from {self.simulation_rmse:.4g} to "
                   f"{best.simulation_rmse:.4g}" if np.isfinite(best.simulation_rmse) else "")
-        lines.append(f"    Refitted, it removes {100 * best.error_removed:.1f} % of the "
-                     f"derivative residual (change of BIC {best.delta_bic:+.1f}){change}.")
+        share = (f"removes {100 * best.error_removed:.1f} % of" if best.error_removed >= 0
+                 else f"adds {-100 * best.error_removed:.2f} % to")
+        lines.append(f"    Refitted, it {share} the derivative residual (change of BIC "
+                     f"{best.delta_bic:+.1f}){change}.")
         if best.intervals:
             lines.append("    Its parameters, with 95 % intervals: " + ", ".join(
                 f"{a} = {best.param_init[a]:.4g} ({low:.4g} to {high:.4g})"
@@ -559,23 +595,35 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
 
     # -- which effect is missing -------------------------------------------------------
     candidates = enumerate_candidates(skeleton, roles, data.has_time)
+    candidates += enumerate_moves(skeleton, roles, data.has_time)
     for candidate in candidates:
         extend(skeleton, candidate)
-    screen_candidates(candidates, data, residuals, states)
+    screen_candidates(candidates, data, residuals, states, model=model)
     rss_before = np.sum(residuals**2, axis=0)
-    screened = sorted((c for c in candidates if math.isfinite(c.screen_bic)),
+    screened = sorted((c for c in candidates if math.isfinite(c.screen_bic)
+                       and c.move != "remove"), key=lambda c: c.screen_bic)
+    removals = sorted((c for c in candidates if c.move == "remove"),
                       key=lambda c: c.screen_bic)
     implausible = implausible_terms(model, data)
     baseline = frozenset((item.equation, item.role) for item in implausible)
-    for candidate in screened[:n_refit]:
+    leaders = _leaders(screened, n_refit)
+    for candidate in leaders:
         refit_candidate(model, candidate, data, residuals, rss_before, baseline)
-    refitted = [c for c in screened[:n_refit] if c.refit is not None]
+    refitted = [c for c in leaders if c.refit is not None]
     if run_simulation:
         _simulate_leaders(refitted, data, measured_states, window, steps, divergences)
-    ordered = _ordered(candidates)
+    ordered = _ordered([c for c in candidates if c.move != "remove"])
     eligible = _eligible(ordered, min_improvement, bic_threshold, simulation_rmse)
-    chosen = _decide(eligible, model, data, window if run_simulation else None, failing,
-                     steps) if held_out else (eligible[0] if eligible else None)
+    judge = window if run_simulation else None
+    chosen = _decide(eligible, model, data, judge, failing, steps) if held_out else (
+        eligible[0] if eligible else None)
+    if chosen is None:
+        # nothing to add or swap in: is a term of the skeleton superfluous?
+        for candidate in [c for c in removals if c.screen_removed > -REMOVAL_SCREEN][
+                :N_REMOVE]:
+            refit_candidate(model, candidate, data, residuals, rss_before, baseline)
+        chosen = _decide_removal(removals, model, data, judge, steps, held_out)
+    ordered += _ordered(removals)
     if chosen is not None:
         ordered.remove(chosen)
         ordered.insert(0, chosen)
@@ -589,6 +637,28 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
                      candidates, data, variables, stability)
 
 
+#: replacements refitted beside the ``n_refit`` additions
+N_REPLACE = 2
+
+
+def _leaders(screened: list[Candidate], n_refit: int) -> list[Candidate]:
+    """The candidates worth a refit, best screened first.
+
+    ``n_refit`` additions and :data:`N_REPLACE` replacements, each of a
+    different effect in its equation (a coupling or a drift reached through
+    several variables takes one slot).
+    """
+    out, seen = [], set()
+    quota = {"add": n_refit, "replace": min(N_REPLACE, n_refit)}
+    for c in screened:
+        key = (c.move, c.effect.name, c.roles.index)
+        if quota[c.move] and key not in seen:
+            out.append(c)
+            seen.add(key)
+            quota[c.move] -= 1
+    return out
+
+
 def _stability(ordered: list[Candidate], residuals: np.ndarray, data: Measurements,
                min_improvement: float, bic_threshold: float, simulation_rmse: float,
                n_resamples: int, random_state) -> Stability | None:
@@ -596,6 +666,7 @@ def _stability(ordered: list[Candidate], residuals: np.ndarray, data: Measuremen
     if n_resamples == 0:
         return None
     contenders = [c for c in ordered if _group(c) == 0 and c.after_squares is not None
+                  and c.move != "remove"
                   and (c.held_out is None or c.held_out.confirmed)]
     better = {id(c) for c in contenders if _simulates_better(c, simulation_rmse)}
     return selection_stability(contenders, residuals, data.derivatives,
@@ -670,7 +741,7 @@ def _ordered(candidates: list[Candidate]) -> list[Candidate]:
         margin = max(TIE[0] * abs(_score(lead)), TIE[1])
         close = [c for c in remaining
                  if _group(c) == _group(lead) and _score(lead) - _score(c) <= margin]
-        pick = min(close, key=lambda c: (len(c.new_params), -_score(c)))
+        pick = min(close, key=lambda c: (c.n_change, -_score(c)))
         out.append(pick)
         remaining.remove(pick)
     return out
@@ -685,12 +756,13 @@ def _ranking(ordered: list[Candidate], explained: pd.DataFrame,
         refit = c.refit is not None
         rows.append({
             "equation": c.roles.derivative,
+            "move": c.move,
             "variable": c.variable,
             "effect": c.effect.name,
             "score": _score(c),
             "suggested_term": c.term,
             "curve_term": c.curve_term,
-            "n_params": len(c.new_params),
+            "n_params": c.n_change,
             "error_removed": c.removed if refit else c.screen_removed,
             "delta_bic": c.delta_bic if refit else c.screen_bic,
             "rmse_before": c.rmse_before,
@@ -740,7 +812,7 @@ def _decide(eligible: list[Candidate], model, data: Measurements, horizon: Horiz
         # is preferred: a flexible term (Stribeck for Coulomb) also soaks up some of
         # another missing effect
         simpler = [o for o in eligible if o is not c and o.held_out is None
-                   and len(o.new_params) < len(c.new_params)
+                   and o.n_change < c.n_change
                    and (o.roles.index, o.variable) == (c.roles.index, c.variable)]
         if simpler and check(simpler[0]):
             crit = c.held_out.criterion
@@ -753,14 +825,40 @@ def _decide(eligible: list[Candidate], model, data: Measurements, horizon: Horiz
     return None
 
 
+def _decide_removal(removals: list[Candidate], model, data: Measurements,
+                    horizon: Horizon | None, steps: int, held_out: bool) -> Candidate | None:
+    """The first superfluous term: its removal lowers the BIC and no held-out error.
+
+    A removal is never decided on the derivatives alone when the record can
+    be held out: a small real term (a light damping) costs the residual
+    little, and only data its fit did not see tell it from a spurious one.
+    """
+    output_error = getattr(model, "fit_mode_", "equation") == "simulation"
+    for c in sorted((c for c in removals if _group(c) == 0 and c.delta_bic < 0),
+                    key=lambda c: c.delta_bic):
+        if not held_out:
+            return c if c.delta_bic <= -REMOVAL_BIC else None
+        c.held_out = held_out_check(model, c.refit, data, horizon, c.equations,
+                                    max_steps=steps, output_error=output_error,
+                                    rule="no_loss")
+        if c.held_out.confirmed:
+            return c
+        c.note = "; ".join(filter(None, [c.note, str(c.held_out)]))
+        return None  # the least costly removal failed: the others cost more
+    return None
+
+
 def _suggestion(c: Candidate, base: Skeleton, model) -> Suggestion:
     skeleton = c.extended
     curve_term, curve_constraints = None, ()
     if c.curve_term is not None:
         k = c.roles.index
-        curved = base.add_term(k, c.curve_term, constraints=list(c.effect.curve_constraints))
-        curve_term = curved.equations[k][len(base.equations[k]) + 3:]
-        new = [x for x in curved.constraints if x not in base.constraints]
+        start = base
+        for j, text in c.removals:
+            start = start.remove_term(j, text)
+        curved = start.add_term(k, c.curve_term, constraints=list(c.effect.curve_constraints))
+        curve_term = curved.equations[k][len(start.equations[k]) + 3:]
+        new = [x for x in curved.constraints if x not in start.constraints]
         curve_constraints = tuple(str(x) for x in new)
     derivative = {eq.index: eq.derivative for eq in skeleton.parsed}
     also = {derivative[k]: text for k, text in c.added if k != c.roles.index}
@@ -776,7 +874,8 @@ def _suggestion(c: Candidate, base: Skeleton, model) -> Suggestion:
             intervals = {}
     return Suggestion(
         effect=c.effect.name, description=c.effect.description, equation=c.roles.derivative,
-        variable=c.variable, term=c.term, equations=skeleton,
+        variable=c.variable, term=c.term, equations=skeleton, move=c.move,
+        replaces=c.replaces,
         param_init={a: float(v) for a, v in c.refit.params_.items()},
         curve_term=curve_term, curve_constraints=curve_constraints, also=also,
         error_removed=float(c.removed), delta_bic=float(c.delta_bic),

@@ -93,6 +93,15 @@ class Effect:
         Bounds of the term's parameters that its physics implies, written
         with the term's own names (``("a1 >= 0",)``: a Coulomb level is not
         negative); a diagnosis fits the term within them.
+    requires : tuple of str
+        Catalogue effects of which the equation must already hold one for
+        this effect to be tried (an asymmetry of the viscous friction needs
+        the viscous friction); empty when it can enter any equation.
+    replaces : tuple of str
+        Catalogue effects whose term this one may take the place of, in the
+        same role (a pendulum's sine for a linear spring, Stribeck's law for
+        Coulomb friction): a diagnosis then tries the swap as well as the
+        addition.
     """
 
     name: str
@@ -103,6 +112,8 @@ class Effect:
     curve_constraints: tuple[str, ...] = ()
     plausibility: str = "any"
     bounds: tuple[str, ...] = ()
+    requires: tuple[str, ...] = ()
+    replaces: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():
@@ -251,21 +262,25 @@ for _effect in (
            ("f1 odd",), "dissipative", ("a1 >= 0", "a2 >= 0")),
     Effect("stribeck_friction", "dry friction that is higher at breakaway and falls with "
            "speed", "velocity", "(a1 + a2 exp(-({v}/a3)^2)) tanh(a4 {v})", "f1({v})",
-           ("f1 odd",), "dissipative", ("a1 >= 0", "a2 >= 0", "a4 >= 0")),
+           ("f1 odd",), "dissipative", ("a1 >= 0", "a2 >= 0", "a4 >= 0"),
+           replaces=("coulomb_friction",)),
     Effect("quadratic_drag", "drag growing with the square of speed (turbulent flow)",
-           "velocity", "a1 {v} abs({v})", "f1({v})", ("f1 odd",), "dissipative", _POSITIVE),
+           "velocity", "a1 {v} abs({v})", "f1({v})", ("f1 odd",), "dissipative", _POSITIVE,
+           replaces=("viscous_damping",)),
     Effect("linear_stiffness", "spring force proportional to displacement", "position",
            "a1 {x}", "f1({x})", ("f1(0)=0",)),
     Effect("cubic_stiffness", "hardening or softening spring (Duffing term)", "position",
            "a1 {x}^3", "f1({x})", ("f1 odd",)),
     Effect("saturation", "restoring force that levels off at large displacement", "position",
            "a1 tanh(a2 {x})", "f1({x})", ("f1 odd", "f1 increasing"), "restoring",
-           ("a1 >= 0", "a2 >= 0")),
+           ("a1 >= 0", "a2 >= 0"), replaces=("linear_stiffness",)),
     Effect("dead_zone", "no force within a clearance, linear beyond it (backlash)",
            "position", "a1 ({x} - a2 sign({x})) (1 + sign(abs({x}) - a2))/2", "f1({x})",
-           ("f1 odd", "f1 increasing"), "restoring", ("a1 >= 0", "a2 >= 0")),
+           ("f1 odd", "f1 increasing"), "restoring", ("a1 >= 0", "a2 >= 0"),
+           replaces=("linear_stiffness",)),
     Effect("pendulum", "gravity torque on a swinging arm, sine of the angle", "position",
-           "a1 sin({x})", "f1({x})", ("f1 odd",), "restoring", _POSITIVE),
+           "a1 sin({x})", "f1({x})", ("f1 odd",), "restoring", _POSITIVE,
+           replaces=("linear_stiffness",)),
     Effect("position_dependent_damping", "damping that grows with displacement "
            "(van der Pol, Lienard)", "position_velocity", "a1 {x}^2 {v}", None, (),
            "dissipative", _POSITIVE),
@@ -273,6 +288,19 @@ for _effect in (
            "f1({u})", ("f1(0)=0",)),
     Effect("coupling", "nonlinear (cubic) spring between two masses", "difference",
            "a1 {u}^3", "f1({u})", ("f1 odd",)),
+    Effect("asymmetric_viscous_damping", "viscous friction of a different coefficient in "
+           "each direction of motion (a worn guide, a seal); added beside viscous damping",
+           "velocity", "a1 abs({v})", "f1({v})", requires=("viscous_damping",)),
+    Effect("asymmetric_coulomb_friction", "dry friction of a different level in each "
+           "direction of motion; added beside Coulomb friction", "velocity",
+           "a1 tanh(a2 {v})^2", "f1({v})", bounds=("a2 >= 0",),
+           requires=("coulomb_friction", "stribeck_friction")),
+    Effect("asymmetric_stiffness", "a spring stiffer on one side than on the other (an "
+           "even term x|x|); added beside a linear spring", "position", "a1 {x} abs({x})",
+           "f1({x})", requires=("linear_stiffness",)),
+    Effect("falling_damping", "damping concentrated near the equilibrium that falls away "
+           "with displacement (an eddy-current brake at the centre)", "position_velocity",
+           "a1 exp(-a2 {x}^2) {v}", None, (), "dissipative", ("a1 >= 0", "a2 >= 0")),
     Effect("offset", "constant force or bias (gravity on a slope, sensor offset)", "none",
            "a1"),
     Effect("periodic_forcing", "unmeasured harmonic excitation", "time",

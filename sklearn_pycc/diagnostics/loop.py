@@ -10,6 +10,8 @@ import pandas as pd
 from sklearn.base import clone
 
 from ..skeleton import Skeleton
+from ..skeleton.nodes import Param, rename, signed_terms, walk
+from ..skeleton.printer import to_text
 from .diagnose import Diagnosis, Suggestion, diagnose
 
 __all__ = ["HypothesisLoop", "Round"]
@@ -45,6 +47,16 @@ class Round:
 
     def __repr__(self) -> str:
         return f"<Round {self.index}: {self.decision}>"
+
+
+def _structure(skeleton: Skeleton) -> tuple:
+    """The skeleton's terms per equation, whatever their parameters are called."""
+    out = []
+    for eq in skeleton.parsed:
+        same = {n.name: "a" for n in walk(eq.rhs) if isinstance(n, Param)}
+        out.append((eq.derivative, tuple(sorted(
+            (sign, to_text(rename(node, same))) for sign, node in signed_terms(eq.rhs)))))
+    return tuple(out)
 
 
 class HypothesisLoop:
@@ -130,7 +142,9 @@ class HypothesisLoop:
         if "param_init" in previous.get_params():
             init = dict(previous.get_params()["param_init"] or {})
             init.update(added.param_init)
-            settings["param_init"] = init
+            # a replaced or removed term takes its parameters with it
+            settings["param_init"] = {a: v for a, v in init.items()
+                                      if a in added.equations.params}
         return clone(previous).set_params(**settings)
 
     def _options(self) -> dict:
@@ -152,12 +166,20 @@ class HypothesisLoop:
         model = self._next_model().fit(self.X, self.y)
         report = diagnose(model, self.X, self.y, **self._options())
         best = report.best
-        if best is None:
+        seen = None if best is None else next(
+            (r.index for r in self.rounds
+             if _structure(r.skeleton) == _structure(best.equations)), None)
+        if seen is not None:
+            report.notes.append(f"the suggestion ({best.action()}) returns to the skeleton of "
+                                f"round {seen}: the loop stops rather than go round")
+            decision = f"stop: the suggestion returns to round {seen}'s skeleton"
+            best = None
+        elif best is None:
             decision = "stop: nothing is missing"
             if report.implausible:
                 decision += f" (but the model is implausible: {report.implausible[0]})"
         else:
-            decision = f"add {best.effect} to {best.equation}: '- {best.term}'"
+            decision = f"{best.move} {best.effect}: {best.action()}"
         current = Round(len(self.rounds), model.skeleton_, model, report, decision, best)
         self.rounds.append(current)
         return current

@@ -20,12 +20,46 @@ from ..simulation import (
 )
 from .constraints import Bound, Constraint, check_constraints, merged_bounds, parse_constraints
 from .equations import TIME, Equation, classify, evaluation_order, state_of
-from .nodes import BinOp, Param, Symbol, Unknown, rename, walk
+from .nodes import (
+    BinOp,
+    Neg,
+    Param,
+    Symbol,
+    Unknown,
+    product_factors,
+    rename,
+    signed_terms,
+    walk,
+)
 from .parser import parse_equation, parse_expression
 from .printer import to_text
 from .system import CompiledSystem
 
 __all__ = ["Skeleton"]
+
+
+def _unsigned(node):
+    """``node`` with the minus signs of its product chain removed."""
+    if isinstance(node, Neg):
+        return _unsigned(node.operand)
+    if isinstance(node, BinOp) and node.op == "*":
+        return replace(node, left=_unsigned(node.left), right=_unsigned(node.right))
+    return node
+
+
+def _term_key(node) -> tuple[float, tuple[str, ...]]:
+    """A product's sign and its factors as text, in order: equal for equal terms."""
+    sign = 1.0
+    stack = [node]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, Neg):
+            sign = -sign
+            stack.append(item.operand)
+        elif isinstance(item, BinOp) and item.op == "*":
+            stack.extend((item.left, item.right))
+    factors = product_factors(_unsigned(node))
+    return sign, tuple(sorted(to_text(f) for f in factors))
 
 
 def _index_key(name: str) -> int:
@@ -273,6 +307,65 @@ class Skeleton:
         equations = list(self.equations)
         equations[index] = f"{equations[index]} {sign} {text}"
         return Skeleton(equations, [*self.constraints, *extra])
+
+    def remove_term(self, equation: int | str, term: str) -> Skeleton:
+        """A new skeleton without one term of an equation's right-hand side.
+
+        Constraints of the curves and parameters that no equation uses any
+        more are dropped with the term; the others keep their names (the
+        skeleton's numbering may then have gaps, which is allowed).
+
+        Parameters
+        ----------
+        equation : int or str
+            Index of the equation, its state or its derivative.
+        term : str
+            The term as it stands in the sum, without its sign
+            (``"a2 x1"``); matched by its structure, not its spacing.
+
+        Returns
+        -------
+        Skeleton
+            The reduced skeleton; this one is unchanged.
+
+        Raises
+        ------
+        ValueError
+            If the equation has no such term.
+
+        Examples
+        --------
+        >>> sk = Skeleton(["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"])
+        >>> sk.remove_term("x2", "a2 x1").equations[1]
+        'x2_dot = F_ext - a1*x2'
+        """
+        index = self._equation_index(equation)
+        eq = next(e for e in self._all if e.index == index)
+        wanted = _term_key(parse_expression(term, kind="term"))[1]
+        terms = [(sign * inner, key, node) for sign, node in signed_terms(eq.rhs)
+                 for inner, key in [_term_key(node)]]
+        if all(key != wanted for _, key, _ in terms):
+            raise ValueError(f"equation {index} ({self.equations[index]!r}) has no term "
+                             f"{term!r}; its terms are "
+                             f"{', '.join(repr(to_text(node)) for _, _, node in terms)}")
+        kept = [(sign, to_text(_unsigned(node))) for sign, key, node in terms if key != wanted]
+        if not kept:
+            body = "0"
+        else:
+            body = " ".join(f"{'-' if sign < 0 else '+'} {text}" for sign, text in kept)
+            body = body[2:] if body.startswith("+ ") else f"-{body[2:]}"
+        equations = list(self.equations)
+        equations[index] = f"{to_text(eq.lhs)} = {body}"
+        # constraints of names the reduced skeleton no longer has are dropped with the term
+        used = set()
+        for text in equations:
+            lhs, rhs = parse_equation(text, 0)
+            used |= {n.name for side in (lhs, rhs) for n in walk(side)
+                     if isinstance(n, (Param, Unknown))}
+        constraints = [c for c in self.constraints
+                       if getattr(c, "param", None) in used or getattr(c, "function", None)
+                       in used]
+        return Skeleton(equations, constraints)
 
     def _equation_index(self, equation: int | str) -> int:
         if isinstance(equation, (int, np.integer)) and not isinstance(equation, bool):

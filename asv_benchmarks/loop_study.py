@@ -1,0 +1,137 @@
+"""The hypothesis loop over generated hidden-effect cases: right, complete, false alarms.
+
+Each case hides effects in a forced oscillator measured through its position
+alone (``t, x1, F_ext``, Gaussian noise on ``x1``); the loop starts from the
+linear skeleton with default settings. Per case and noise level it reports
+
+right
+    the first effect the loop names is a hidden one (for the pendulum
+    without a linear spring, by replacing that spring);
+complete
+    the loop's final model simulates a fresh record (another release and
+    forcing frequency) within twice the error of the true skeleton fitted
+    the same way on the same data;
+false alarm
+    on a control (nothing hidden), the loop names anything.
+
+Not timed for speed claims (the median loop time is printed beside)::
+
+    python asv_benchmarks/loop_study.py [--seeds 0 1] [--snr 40 30] [--cases pendulum ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+import warnings
+
+import numpy as np
+
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, SimulationError, datasets
+
+BASE = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
+#: case -> (hidden effects with their strengths, true skeleton when not make_oscillator's)
+CASES: dict[str, tuple[dict, list[str] | None]] = {
+    "coulomb_friction": ({"coulomb_friction": None}, None),
+    "quadratic_drag": ({"quadratic_drag": None}, None),
+    "cubic_stiffness": ({"cubic_stiffness": None}, None),
+    "saturation": ({"saturation": None}, None),
+    "dead_zone": ({"dead_zone": {"a1": 2.0, "a2": 0.8}}, None),
+    "pendulum": ({"pendulum": None}, None),
+    "position_dependent_damping": ({"position_dependent_damping": None}, None),
+    "offset": ({"offset": None}, None),
+    "asymmetric_viscous_damping": ({"asymmetric_viscous_damping": None}, None),
+    "asymmetric_stiffness": ({"asymmetric_stiffness": None}, None),
+    "falling_damping": ({"falling_damping": None}, None),
+    # a pendulum with no linear spring: named by replacing the skeleton's spring
+    "pendulum_replace": ({"pendulum": {"a1": 2.0}}, ["x1_dot = x2",
+                                                      "x2_dot = F_ext - a1 x2 - a3 sin(x1)"]),
+    "coulomb+cubic": ({"coulomb_friction": None, "cubic_stiffness": None}, None),
+    "quadratic_drag+offset": ({"quadratic_drag": None, "offset": None}, None),
+    "control_linear": ({}, None),
+    "control_cubic": ({"cubic_stiffness": None}, "truth"),
+}
+
+
+def _record(hidden: dict, *, snr, seed: int, fresh: bool, no_spring: bool):
+    options = dict(stiffness=0.0 if no_spring else 1.0, n_samples=3000, t_span=(0.0, 60.0))
+    if fresh:
+        options.update(y0=(2.0, 0.0), omega=1.3, amplitude=0.5)
+    frame, truth = datasets.make_oscillator(
+        hidden={k: v for k, v in hidden.items()}, noise=snr, noise_columns=["x1"],
+        random_state=seed + (1000 if fresh else 0), return_truth=True, **options)
+    return frame, truth
+
+
+def _simulation_error(model, frame, truth) -> float:
+    t = frame["t"].to_numpy()
+    try:
+        simulated = model.simulate(t, list(truth.y0), inputs={"F_ext": frame["F_ext"].to_numpy()})
+    except (SimulationError, ValueError):
+        return float("inf")
+    error = simulated["x1"].to_numpy() - frame["x1"].to_numpy()
+    return float(np.sqrt(np.mean(error**2))) if np.isfinite(error).all() else float("inf")
+
+
+def run_case(name: str, snr, seed: int) -> dict:
+    hidden, true_equations = CASES[name]
+    control = name.startswith("control")
+    no_spring = name == "pendulum_replace"
+    frame, truth = _record(hidden, snr=snr, seed=seed, fresh=False, no_spring=no_spring)
+    fresh, fresh_truth = _record(hidden, snr=snr, seed=seed, fresh=True, no_spring=no_spring)
+    X = frame[["t", "x1", "F_ext"]]
+    start_equations = BASE
+    if true_equations == "truth":
+        start_equations, true_equations = truth.parametric_equations, None
+    if true_equations is None:
+        true_equations = truth.parametric_equations
+    start = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = HypothesisLoop(PolyCCRegressor(equations=start_equations), X).run(max_rounds=5)
+        elapsed = time.perf_counter() - start
+        reference = PolyCCRegressor(equations=true_equations).fit(X)
+    named = [r.added.effect for r in loop.rounds if r.added is not None]
+    ours = _simulation_error(loop.model, fresh, fresh_truth)
+    best = _simulation_error(reference, fresh, fresh_truth)
+    return {
+        "case": name, "snr": snr, "seed": seed, "named": named, "control": control,
+        "right": (not named) if control else bool(named) and named[0] in hidden,
+        "complete": ours <= 2 * best, "ratio": ours / best if best > 0 else float("inf"),
+        "seconds": elapsed,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
+    parser.add_argument("--snr", type=float, nargs="+", default=[40.0, 30.0])
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    args = parser.parse_args()
+    rows = []
+    print(f"{'case':<28} {'SNR':>4} {'seed':>4} {'right':>5} {'complete':>8} {'ratio':>7} "
+          f"{'s':>6}  named")
+    for name in args.cases:
+        for snr in args.snr:
+            for seed in args.seeds:
+                row = run_case(name, snr, seed)
+                rows.append(row)
+                print(f"{name:<28} {snr:>4.0f} {seed:>4} {row['right']!s:>5} "
+                      f"{row['complete']!s:>8} {row['ratio']:>7.2f} {row['seconds']:>6.1f}"
+                      f"  {', '.join(row['named']) or '-'}", flush=True)
+    cases = [r for r in rows if not r["control"]]
+    controls = [r for r in rows if r["control"]]
+    if cases:
+        right = sum(r["right"] for r in cases) / len(cases)
+        complete = sum(r["complete"] for r in cases) / len(cases)
+        print(f"right {100 * right:.0f} % and complete {100 * complete:.0f} % of "
+              f"{len(cases)} hidden-effect runs")
+    if controls:
+        alarms = sum(not r["right"] for r in controls)
+        print(f"false alarms {alarms} of {len(controls)} control runs")
+    print(f"median loop time {statistics.median(r['seconds'] for r in rows):.1f} s")
+
+
+if __name__ == "__main__":
+    main()
