@@ -666,6 +666,10 @@ HIDDEN_DEFAULTS: dict[str, dict[str, float]] = {
     "pendulum": {"a1": 1.0},
     "position_dependent_damping": {"a1": 0.5},
     "offset": {"a1": 0.3},
+    "asymmetric_viscous_damping": {"a1": 0.05},
+    "asymmetric_coulomb_friction": {"a1": 0.1, "a2": 20.0},
+    "asymmetric_stiffness": {"a1": 0.3},
+    "falling_damping": {"a1": 0.3, "a2": 1.0},
 }
 
 
