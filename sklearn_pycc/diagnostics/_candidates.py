@@ -333,15 +333,58 @@ def _absorbed(skeleton: Skeleton, candidate: Candidate) -> bool:
 
 
 # -- screening: fit the term to the residual alone ------------------------------------
-def _screen_skeleton(candidate: Candidate, states: list[str]) -> tuple[Skeleton, list[str]]:
-    prefix = "zscreen"
-    while any(s.startswith(prefix) for s in states):
-        prefix += "z"
-    names = [f"{prefix}{i}" for i in range(len(candidate.additions))]
+def _screen_skeleton(candidate: Candidate, states: list[str],
+                     basis: list[list[str]]) -> tuple[Skeleton, list[str], list[str]]:
+    """``z_i_dot = - term_i + c1 b1 + c2 b2 ...`` per equation the candidate enters.
+
+    ``basis[i]`` names columns holding the fitted values of the equation's
+    own terms: the screen may rescale them, as the refit will. Returns the
+    skeleton, its state names and the parameters of the candidate's terms.
+    """
+    names = [f"{_prefix(states)}{i}" for i in range(len(candidate.additions))]
     skeleton = Skeleton([f"{name}_dot = 0" for name in names])
     for i, (_, term) in enumerate(candidate.additions):
         skeleton = skeleton.add_term(i, term, constraints=list(candidate.effect.bounds))
-    return skeleton, names
+    own = list(skeleton.params)
+    for i, columns in enumerate(basis):
+        for column in columns:
+            skeleton = skeleton.add_term(i, f"a1 {column}", sign="+")
+    return skeleton, names, own
+
+
+def _prefix(states) -> str:
+    prefix = "zscreen"
+    while any(s.startswith(prefix) for s in states):
+        prefix += "z"
+    return prefix
+
+
+def _term_values(model, data: Measurements, equations) -> dict[int, list]:
+    """Per equation, ``(term text, fitted values)`` of its terms with fitted numbers."""
+    slots, env = _environment(data)
+    out = {}
+    for k in equations:
+        items = []
+        for sign, node in signed_terms(_equation(model.skeleton_, k).rhs):
+            if not any(isinstance(n, (Param, Unknown)) for n in walk(node)):
+                continue
+            with np.errstate(all="ignore"):
+                values = compile_expression(node, slots, model.params_, model.functions_)(env)
+            values = sign * np.broadcast_to(np.asarray(values, dtype=float), (data.n_samples,))
+            if np.isfinite(values).all() and np.any(values):
+                items.append((to_text(node), values))
+        out[k] = items
+    return out
+
+
+def _projected_rss(target: np.ndarray, columns: list[np.ndarray]) -> float:
+    """Residual sum of squares of ``target`` once the best combination of ``columns`` is off."""
+    if not columns:
+        return float(target @ target)
+    design = np.column_stack(columns)
+    coef = np.linalg.lstsq(design, target, rcond=None)[0]
+    rest = target - design @ coef
+    return float(rest @ rest)
 
 
 def extend(skeleton: Skeleton, candidate: Candidate) -> None:
@@ -390,20 +433,34 @@ def screen_candidates(candidates: list[Candidate], data: Measurements, residuals
     frame = pd.DataFrame({name: values[rows] for name, values in data.columns.items()
                           if not name.endswith("_dot")})
     scale = len(rows) / n
+    own_terms = {} if model is None else _term_values(
+        model, data, sorted({k for c in candidates for k in c.equations}))
+    basis_names = {}
+    prefix = _prefix([*states, *frame.columns]) + "basis"
+    for k, items in own_terms.items():
+        for j, (text, values) in enumerate(items):
+            basis_names[(k, text)] = f"{prefix}{k}k{j}"
+            frame[f"{prefix}{k}k{j}"] = values[rows]
     for candidate in candidates:
         target = residuals
         if candidate.removed_nodes:
             target = residuals + removed_contribution(model, candidate, data)
+        kept = {k: [(text, values) for text, values in own_terms.get(k, [])
+                    if (k, text) not in candidate.removals] for k in candidate.equations}
         if candidate.move == "remove":
+            # the other terms of the equation may take up what the removed one did
             ks = candidate.equations
             before = np.sum(residuals[:, ks] ** 2, axis=0)
-            after = np.sum(target[:, ks] ** 2, axis=0)
+            after = np.array([_projected_rss(target[:, k], [v for _, v in kept[k]])
+                              for k in ks])
             candidate.screen_bic, candidate.screen_removed = _delta_bic(
                 before, after, floors[ks], candidate.n_change, n)
             continue
-        skeleton, names = _screen_skeleton(candidate, states)
+        basis = [[basis_names[(k, text)] for text, _ in kept[k]] for k, _ in candidate.additions]
+        skeleton, names, own = _screen_skeleton(candidate, states, basis)
         # the residual (measured minus model) of a missing subtracted term is -term,
-        # which is what the screening equation ``z_dot = 0 - term`` predicts
+        # which is what the screening equation ``z_dot = 0 - term`` predicts; the
+        # equation's own terms may change their scale, as they will when refitted
         targets = pd.DataFrame({f"{name}_dot": target[rows, k]
                                 for name, (k, _) in zip(names, candidate.additions)})
         try:
@@ -418,9 +475,8 @@ def screen_candidates(candidates: list[Candidate], data: Measurements, residuals
         before = np.sum(residuals[rows][:, ks] ** 2, axis=0) / scale
         after = np.sum((targets.to_numpy() - predicted) ** 2, axis=0) / scale
         candidate.screen_bic, candidate.screen_removed = _delta_bic(
-            before, after, floors[ks], len(skeleton.params) - len(candidate.removed_params), n)
-        order = skeleton.params
-        candidate.screen_params = {a: float(fitted.params_[a]) for a in order}
+            before, after, floors[ks], len(own) - len(candidate.removed_params), n)
+        candidate.screen_params = {a: float(fitted.params_[a]) for a in own}
 
 
 #: residuals below this fraction of the derivative's RMS are rounding, not signal
