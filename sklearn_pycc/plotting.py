@@ -146,7 +146,8 @@ def _trajectory_figure(plt, report):
             for row in report.windows.itertuples():
                 ax.axvspan(row.start, row.end, color="C1" if row.note == "" else "C3",
                            alpha=0.15, lw=0)
-        ax.set_ylabel(state)
+        unit = getattr(report, "units", {}).get(state)
+        ax.set_ylabel(f"{state} [{unit}]" if unit else state)
     handles = [Line2D([], [], color="0.35", lw=1.0, label="measured"),
                Line2D([], [], color="C3", lw=1.0, ls="--", label="simulated")]
     if show_restarts:
@@ -156,7 +157,8 @@ def _trajectory_figure(plt, report):
         handles.append(Patch(color="C1", alpha=0.3, label="largest errors"))
         if (report.windows.note != "").any():
             handles.append(Patch(color="C3", alpha=0.3, label="divergence"))
-    axes[-1, 0].set_xlabel("t")
+    time_unit = getattr(report, "units", {}).get("t")
+    axes[-1, 0].set_xlabel(f"t [{time_unit}]" if time_unit else "t")
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize="small",
                frameon=False)
     title = "Measured and simulated states"

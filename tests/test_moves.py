@@ -188,3 +188,58 @@ def test_the_positioning_axis_takes_a_viscous_coefficient_per_direction():
     assert truth.hidden[-1] == "asymmetric_viscous_damping"
     with pytest.raises(ValueError, match="viscous must be a number or a pair"):
         datasets.make_positioning_axis(viscous=(1.0, 2.0, 3.0))
+
+
+# -- candidates are independent fits: n_jobs changes nothing but the time ----------------
+def test_diagnose_and_compare_skeletons_give_the_same_answer_for_any_n_jobs():
+    from sklearn_pycc import compare_skeletons
+
+    frame, truth = datasets.make_oscillator(hidden=["cubic_stiffness"], noise=40.0,
+                                            noise_columns=["x1"], random_state=0,
+                                            return_truth=True)
+    X = frame[["t", "x1", "F_ext"]]
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X)
+    one = diagnose(model, X, n_bootstrap=0)
+    two = diagnose(model, X, n_bootstrap=0, n_jobs=2)
+    assert str(one.best) == str(two.best) and one.best.move == "add"
+    pd.testing.assert_frame_equal(one.ranking, two.ranking)
+    assert one.best.held_out.after == two.best.held_out.after
+    skeletons = {"linear": truth.base_equations, "true": truth.parametric_equations,
+                 "pendulum": ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 sin(x1)"]}
+    tables = [compare_skeletons(skeletons, X, n_jobs=n).drop(columns="fit_time")
+              for n in (None, 2)]
+    pd.testing.assert_frame_equal(*tables)
+    assert tables[0].attrs == tables[1].attrs
+    with pytest.raises(ValueError, match="n_jobs must be None or a non-zero integer"):
+        diagnose(model, X, n_jobs=0)
+
+
+# -- errors per measured state, with units --------------------------------------------------
+def test_errors_are_reported_per_measured_state_with_their_units():
+    from sklearn_pycc import compare_skeletons
+
+    frame, truth = datasets.make_oscillator(hidden=["cubic_stiffness"], noise=40.0,
+                                            noise_columns=["x1"], random_state=0,
+                                            return_truth=True)
+    X = frame[["t", "x1", "F_ext"]].copy()
+    X.attrs["units"] = {"x1": "m", "F_ext": "N"}
+    loop = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), X,
+                          units={"t": "s"}, n_bootstrap=0).run(max_rounds=3)
+    table = loop.table()
+    assert table.attrs["units"] == {"x1": "m", "F_ext": "N", "t": "s"}
+    assert {"x1_rmse", "x1_nrmse"} <= set(table.columns) and "x2_rmse" not in table.columns
+    assert table["x1_rmse"].iloc[-1] < table["x1_rmse"].iloc[0] / 10
+    report = loop.rounds[0].diagnosis
+    assert report.measured == ["x1"] and report.trajectories.loc["x1", "unit"] == "m"
+    words = report.summary()
+    assert "m (NRMSE" in words and "x2: fit" in words and "not measured" in words
+    assert "x1 RMSE" in loop.summary() and " m (NRMSE" in loop.summary()
+    fig = report.plot()["trajectories"]
+    labels = {ax.get_ylabel() for ax in fig.axes} | {ax.get_xlabel() for ax in fig.axes}
+    assert "x1 [m]" in labels and "t [s]" in labels
+    table = compare_skeletons({"linear": truth.base_equations}, X, held_out=False)
+    assert table.attrs["units"]["x1"] == "m" and "x1_simulation_rmse" in table.columns
+    with pytest.raises(ValueError, match="names 'x9', which is neither a column"):
+        diagnose(loop.model, X, units={"x9": "m"})
+    with pytest.raises(TypeError, match=r"units\['x1'\] must be a string"):
+        diagnose(loop.model, X, units={"x1": 3})

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -10,7 +11,7 @@ import pandas as pd
 from ..measurements import read_record
 from ..measurements.experiments import TIME
 
-__all__ = ["Measurements", "read_measurements", "thin"]
+__all__ = ["Measurements", "check_units", "read_measurements", "thin"]
 
 #: equation-error refits inside a diagnosis read at most this many rows, evenly spread:
 #: neighbouring samples of a long record carry nearly the same information
@@ -74,6 +75,27 @@ class Measurements:
         """
         predicted = np.asarray(model.predict(self.X), dtype=float).reshape(self.n_samples, -1)
         return predicted[:, :self.derivatives.shape[1]]
+
+
+def check_units(units, X, skeleton) -> dict[str, str]:
+    """``units`` merged over ``X.attrs["units"]``, each naming a column or state, checked."""
+    merged = {}
+    for source, given in (("X.attrs['units']", getattr(X, "attrs", {}).get("units")),
+                          ("units", units)):
+        if given is None:
+            continue
+        if not isinstance(given, Mapping):
+            raise TypeError(f"{source} must be a dict of name -> unit, got "
+                            f"{type(given).__name__}")
+        known = {*map(str, getattr(X, "columns", ())), *skeleton.states, TIME}
+        for name, unit in given.items():
+            if not isinstance(name, str) or name not in known:
+                raise ValueError(f"{source} names {name!r}, which is neither a column of X "
+                                 f"nor a state of the skeleton")
+            if not isinstance(unit, str):
+                raise TypeError(f"{source}[{name!r}] must be a string, got {unit!r}")
+            merged[name] = unit
+    return merged
 
 
 def read_measurements(skeleton, X, y, differentiation="auto",

@@ -16,6 +16,7 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+from joblib import Parallel, delayed
 from sklearn.base import clone
 
 from ._data import Measurements, thin
@@ -182,9 +183,32 @@ def _errors(model, test: Measurements, spreads, horizon: Horizon | None,
     return out
 
 
+def _fold_errors(base, extended, data: Measurements, held: np.ndarray, spreads,
+                 horizon: Horizon | None, max_steps: int, equations, output_error: bool):
+    """Held-out errors on one fold of ``base`` and ``extended``, each refitted without it.
+
+    Either is None when it was not asked for (``base`` None) or failed.
+    """
+    train = np.setdiff1d(np.arange(data.n_samples), held)
+    labels = _labels(data, held)
+    test = subset(data, held)
+    out = []
+    for model in (base, extended):
+        if model is None:
+            out.append(None)
+            continue
+        try:
+            out.append(_errors(_fit(model, data, train, labels, output_error), test, spreads,
+                               horizon, max_steps, equations))
+        except Exception:  # a fold a model cannot be fitted on is a finding, not a crash
+            out.append(None)
+    return tuple(out)
+
+
 def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
                    equations: list[int], *, max_steps: int, output_error: bool = False,
-                   cache: dict | None = None, rule: str = "gain") -> HeldOut:
+                   cache: dict | None = None, rule: str = "gain",
+                   n_jobs: int | None = None) -> HeldOut:
     """Fit ``base`` and ``extended`` without each fold and compare them on it.
 
     Parameters
@@ -208,6 +232,8 @@ def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
         What confirms ``extended``: a clear fall of the held-out error (an
         effect worth adding), or no rise of it, in most folds and pooled (a
         term worth removing: ``extended`` is then the smaller model).
+    n_jobs : int or None, default=None
+        Fit the folds in parallel with joblib.
     """
     description, folds = make_folds(data)
     criterion = "simulation" if horizon is not None else "derivatives"
@@ -219,24 +245,18 @@ def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
     result = HeldOut(description, criterion)
     totals = {"before": {}, "after": {}}
     cache = {} if cache is None else cache
-    everything = np.arange(data.n_samples)
-    for i, held in enumerate(folds):
-        train = np.setdiff1d(everything, held)
-        labels = _labels(data, held)
-        test = subset(data, held)
-        key = (i, tuple(equations))
+    keys = [(i, tuple(equations)) for i in range(len(folds))]
+    jobs = [delayed(_fold_errors)(base if key not in cache else None, extended, data, held,
+                                  spreads, horizon, max_steps, equations, output_error)
+            for key, held in zip(keys, folds)]
+    outcomes = jobs and (Parallel(n_jobs=n_jobs)(jobs) if n_jobs not in (None, 1)
+                         else [job[0](*job[1], **job[2]) for job in jobs])
+    for held, key, (before, after) in zip(folds, keys, outcomes):
         if key not in cache:
-            try:
-                cache[key] = _errors(_fit(base, data, train, labels, output_error), test,
-                                     spreads, horizon, max_steps, equations)
-            except Exception:  # a fold the model itself cannot be fitted on is left out
-                cache[key] = None
+            cache[key] = before
         if cache[key] is None:
             continue
-        try:
-            after = _errors(_fit(extended, data, train, labels, output_error), test, spreads,
-                            horizon, max_steps, equations)
-        except Exception:  # a fold the effect cannot be fitted on counts against it
+        if after is None:  # a fold the effect cannot be fitted on counts against it
             after = {name: math.inf for name in cache[key]}
         before = cache[key]
         weight = len(held)

@@ -5,19 +5,21 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
+from numbers import Integral
 
 import numpy as np
 import pandas as pd
+from joblib import Parallel, delayed
 from sklearn.base import clone
 from sklearn.model_selection import cross_val_score
 
 from ..skeleton import Skeleton
 from ._candidates import rss_floor
-from ._data import read_measurements
+from ._data import check_units, read_measurements
 from ._held_out import _errors, _fit, _labels, make_folds, subset
 from ._metrics import rmse
 from ._roles import equation_roles
-from ._trajectories import horizon_of, simulate_against
+from ._trajectories import Horizon, horizon_of, simulate_against
 
 __all__ = ["compare_skeletons"]
 
@@ -40,7 +42,8 @@ def _named(skeletons) -> dict[str, object]:
 
 def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
                       simulate: bool = True, horizon="auto",
-                      held_out: bool = True) -> pd.DataFrame:
+                      held_out: bool = True, n_jobs: int | None = None,
+                      units=None) -> pd.DataFrame:
     """Fit each skeleton with a clone of ``estimator`` and tabulate its errors.
 
     This is the "watch the error fall" table of the hypothesis loop; draw it
@@ -78,6 +81,12 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
         of the non-kinematic equations) and ``held_out_simulation_nrmse``
         (the horizon-limited simulation, when simulated), each normalised by
         the whole record's spread, so that every fold is on one scale.
+    units : dict of str -> str, optional
+        Units of the columns, merged over ``X.attrs["units"]``; kept in
+        ``table.attrs["units"]`` beside each state's ``NAME_simulation_rmse``.
+    n_jobs : int or None, default=None
+        Fit and judge the skeletons after the first in parallel with joblib
+        (the first chooses the horizon). The table does not depend on it.
 
     Returns
     -------
@@ -95,65 +104,88 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
     from ..estimators import PolyCCRegressor
 
     named = _named(skeletons)
+    if n_jobs is not None and (isinstance(n_jobs, bool) or not isinstance(n_jobs, Integral)
+                               or n_jobs == 0):
+        raise ValueError(f"n_jobs must be None or a non-zero integer, got {n_jobs!r}")
     base = PolyCCRegressor() if estimator is None else estimator
-    rows = []
-    window = None
-    held_out_text = None
-    for skeleton in named.values():
-        model = clone(base)
-        settings = {"equations": skeleton}
-        if isinstance(skeleton, Skeleton):
-            settings["constraints"] = None
-        model.set_params(**settings)
-        spec = (skeleton if isinstance(skeleton, Skeleton)
-                else Skeleton(skeleton, model.get_params().get("constraints")))
-        params = model.get_params()
-        data = read_measurements(spec, X, y, params.get("differentiation", "auto"),
-                                 bool(params.get("smooth_states", True)))
-        target = data.derivatives
-        start = time.perf_counter()
-        if data.estimated:  # the model estimates them as read_measurements did
-            model.fit(X)
-        else:
-            model.fit(data.X, target)
-        fit_time = time.perf_counter() - start
-        residual = data.derivatives - data.predict(model)
-        active = [r.index for r in equation_roles(model.skeleton_)] or list(
-            range(residual.shape[1]))
-        n = data.n_samples
-        rss = np.maximum(np.sum(residual[:, active] ** 2, axis=0),
-                         rss_floor(data.derivatives)[active])
-        bic = float(np.sum(n * np.log(rss / n)) + model.n_parameters_ * math.log(n))
-        row = {"equations": "; ".join(model.skeleton_.equations),
-               "derivative_rmse": rmse(np.zeros_like(residual[:, active]), residual[:, active]),
-               "simulation_rmse": math.nan, "n_params": int(model.n_parameters_),
-               "bic": bic}
-        if simulate and data.has_time:
-            if window is None:
-                window = horizon_of(model, data, horizon)
-            simulated, divergences, _ = simulate_against(model, data, window,
-                                                         max_steps=50 * n + 10_000)
-            states = np.column_stack([data.columns[s] for s in model.skeleton_.states])
-            row["simulation_rmse"] = math.inf if divergences else rmse(states, simulated)
-        if held_out:
-            description, errors = _held_out_errors(model, data, active,
-                                                   window if simulate else None,
-                                                   50 * n + 10_000)
-            held_out_text = description
-            row.update(errors)
-        if cv is not None:
-            groups = X["trajectory"] if "trajectory" in X.columns else None
-            scores = cross_val_score(clone(model), X, target, cv=cv, groups=groups,
-                                     error_score="raise")
-            row["cv_score"] = float(np.mean(scores))
-        row["fit_time"] = fit_time
-        rows.append(row)
+    options = dict(X=X, y=y, cv=cv, simulate=simulate, held_out=held_out)
+    items = list(named.values())
+    unit_map = check_units(units, X, items[0] if isinstance(items[0], Skeleton)
+                           else Skeleton(items[0]))
+    # the first skeleton's model chooses the horizon every row is judged over
+    first, window, held_out_text = _row(items[0], base, horizon=horizon, **options)
+    rest = [delayed(_row)(skeleton, base, horizon=window, **options) for skeleton in items[1:]]
+    if n_jobs in (None, 1):
+        done = [job[0](*job[1], **job[2]) for job in rest]
+    else:
+        done = Parallel(n_jobs=n_jobs)(rest)
+    rows = [first, *(row for row, _, _ in done)]
     table = pd.DataFrame(rows, index=pd.Index(list(named), name="skeleton"))
+    table.attrs["units"] = unit_map
     if window is not None:
         table.attrs["horizon"] = str(window)
     if held_out_text is not None:
         table.attrs["held_out"] = held_out_text
     return table
+
+
+def _row(skeleton, base, *, X, y, cv, simulate: bool, horizon, held_out: bool):
+    """One skeleton fitted and judged: its row, the horizon and the held-out split in words.
+
+    ``horizon`` is a :class:`Horizon` already chosen, or what
+    :func:`horizon_of` chooses from (``"auto"``, a time, None).
+    """
+    model = clone(base)
+    settings = {"equations": skeleton}
+    if isinstance(skeleton, Skeleton):
+        settings["constraints"] = None
+    model.set_params(**settings)
+    spec = (skeleton if isinstance(skeleton, Skeleton)
+            else Skeleton(skeleton, model.get_params().get("constraints")))
+    params = model.get_params()
+    data = read_measurements(spec, X, y, params.get("differentiation", "auto"),
+                             bool(params.get("smooth_states", True)))
+    target = data.derivatives
+    start = time.perf_counter()
+    if data.estimated:  # the model estimates them as read_measurements did
+        model.fit(X)
+    else:
+        model.fit(data.X, target)
+    fit_time = time.perf_counter() - start
+    residual = data.derivatives - data.predict(model)
+    active = [r.index for r in equation_roles(model.skeleton_)] or list(
+        range(residual.shape[1]))
+    n = data.n_samples
+    rss = np.maximum(np.sum(residual[:, active] ** 2, axis=0),
+                     rss_floor(data.derivatives)[active])
+    bic = float(np.sum(n * np.log(rss / n)) + model.n_parameters_ * math.log(n))
+    row = {"equations": "; ".join(model.skeleton_.equations),
+           "derivative_rmse": rmse(np.zeros_like(residual[:, active]), residual[:, active]),
+           "simulation_rmse": math.nan, "n_params": int(model.n_parameters_),
+           "bic": bic}
+    window, held_out_text = None, None
+    if simulate and data.has_time:
+        window = horizon if isinstance(horizon, Horizon) else horizon_of(model, data, horizon)
+        simulated, divergences, _ = simulate_against(model, data, window,
+                                                     max_steps=50 * n + 10_000)
+        states = np.column_stack([data.columns[s] for s in model.skeleton_.states])
+        row["simulation_rmse"] = math.inf if divergences else rmse(states, simulated)
+        for j, state in enumerate(model.skeleton_.states):  # each measured state alone
+            if state in X.columns:
+                row[f"{state}_simulation_rmse"] = math.inf if divergences else rmse(
+                    states[:, j], simulated[:, j])
+    if held_out:
+        held_out_text, errors = _held_out_errors(model, data, active,
+                                                 window if simulate else None,
+                                                 50 * n + 10_000)
+        row.update(errors)
+    if cv is not None:
+        groups = X["trajectory"] if "trajectory" in X.columns else None
+        scores = cross_val_score(clone(model), X, target, cv=cv, groups=groups,
+                                 error_score="raise")
+        row["cv_score"] = float(np.mean(scores))
+    row["fit_time"] = fit_time
+    return row, window, held_out_text
 
 
 def _held_out_errors(model, data, equations: list[int], horizon, max_steps: int):

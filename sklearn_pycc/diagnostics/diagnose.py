@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from numbers import Integral, Real
 
 import numpy as np
@@ -20,7 +20,7 @@ from ._candidates import (
     refit_candidate,
     screen_candidates,
 )
-from ._data import TIME, Measurements, read_measurements
+from ._data import TIME, Measurements, check_units, read_measurements
 from ._failures import (
     ResidualMap,
     explaining_variables,
@@ -198,6 +198,13 @@ class Diagnosis:
         Terms of the diagnosed model that contradict their physical role
         (friction feeding energy in, a net spring pushing away, a gain of
         the wrong sign); empty when every term plays its role.
+    units : dict
+        Unit of each column that has one (``{"x1": "m", "F": "N"}``), from
+        ``units=`` and ``X.attrs["units"]``; the tables' ``unit`` column
+        and the figures' axes read it.
+    measured : list of str
+        The states with a column of their own in ``X`` (the others were
+        reconstructed): the errors that matter are theirs.
     """
 
     model: object
@@ -215,6 +222,8 @@ class Diagnosis:
     notes: list[str] = field(default_factory=list)
     horizon: Horizon | None = None
     implausible: list[Implausibility] = field(default_factory=list)
+    units: dict[str, str] = field(default_factory=dict)
+    measured: list[str] = field(default_factory=list)
     _candidates: list[Candidate] = field(default_factory=list, repr=False)
     _data: Measurements | None = field(default=None, repr=False)
     # values of the explaining variables, by equation and label (for the figures)
@@ -252,8 +261,11 @@ class Diagnosis:
                 lines.append(f"Simulation over {self.horizon}, each restarted from the "
                              "measured state, with the measured inputs:")
             for name, row in self.trajectories.iterrows():
-                lines.append(f"    {name}: fit {row.fit_percent:.1f} %, RMSE {row.rmse:.4g} "
-                             f"(NRMSE {row.nrmse:.3g})")
+                unit = f" {self.units[name]}" if self.units.get(name) else ""
+                note = "" if name in self.measured or not self.measured else \
+                    " (not measured: against its reconstruction)"
+                lines.append(f"    {name}: fit {row.fit_percent:.1f} %, RMSE {row.rmse:.4g}"
+                             f"{unit} (NRMSE {row.nrmse:.3g}){note}")
         for d in self.divergences:
             lines.append(f"    FAILURE: {d}")
         lines.append("")
@@ -411,7 +423,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
              bic_threshold: float = 10.0, simulate: bool = True,
              max_steps: int | None = None, horizon="auto",
              held_out: bool = True, n_bootstrap: int = 100,
-             random_state=0) -> Diagnosis:
+             random_state=0, n_jobs: int | None = None, units=None) -> Diagnosis:
     """Compare a fitted model with measurements and name the physical effect it lacks.
 
     The diagnosis has three parts:
@@ -503,6 +515,14 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     random_state : int, RandomState, Generator or None, default=0
         Seeds the resamples (fixed by default, so that the same record
         gives the same report).
+    units : dict of str -> str, optional
+        Units of the columns (``{"x1": "m", "F": "N"}``), merged over
+        ``X.attrs["units"]``; they label the tables, the summary and the
+        figures.
+    n_jobs : int or None, default=None
+        Refit the candidates in parallel with joblib (None: one at a time;
+        -1: every core; a ``joblib.parallel_backend("dask")`` context sends
+        them to a cluster). The report does not depend on it.
 
     Returns
     -------
@@ -531,10 +551,14 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         raise ValueError("n_bootstrap must be 0 (no resamples) or an integer of at least 2, "
                          f"got {n_bootstrap!r}")
     check_seed_source(random_state)
+    if n_jobs is not None and (isinstance(n_jobs, bool) or not isinstance(n_jobs, Integral)
+                               or n_jobs == 0):
+        raise ValueError(f"n_jobs must be None or a non-zero integer, got {n_jobs!r}")
     if not isinstance(held_out, bool):
         raise ValueError(f"held_out must be True or False, got {held_out!r}")
     check_is_fitted(model, "skeleton_")
     skeleton = model.skeleton_
+    units = check_units(units, X, skeleton)
     settings = model.get_params()
     data = read_measurements(skeleton, X, y, settings.get("differentiation", "auto"),
                              bool(settings.get("smooth_states", True)))
@@ -568,6 +592,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         trajectory_table = pd.DataFrame(
             [error_table_row(measured_states[:, j], simulated[:, j])
              for j in range(len(states))], index=pd.Index(states, name="state"))
+        trajectory_table["unit"] = [units.get(s, "") for s in states]
         simulation_rmse = rmse(measured_states, simulated)
         columns = {TIME: data.columns[TIME]}
         if "trajectory" in data.X.columns:
@@ -607,22 +632,20 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     implausible = implausible_terms(model, data)
     baseline = frozenset((item.equation, item.role) for item in implausible)
     leaders = _leaders(screened, n_refit)
-    for candidate in leaders:
-        refit_candidate(model, candidate, data, residuals, rss_before, baseline)
+    _refit_all(leaders, model, data, residuals, rss_before, baseline, n_jobs)
     refitted = [c for c in leaders if c.refit is not None]
     if run_simulation:
         _simulate_leaders(refitted, data, measured_states, window, steps, divergences)
     ordered = _ordered([c for c in candidates if c.move != "remove"])
     eligible = _eligible(ordered, min_improvement, bic_threshold, simulation_rmse)
     judge = window if run_simulation else None
-    chosen = _decide(eligible, model, data, judge, failing, steps) if held_out else (
+    chosen = _decide(eligible, model, data, judge, failing, steps, n_jobs) if held_out else (
         eligible[0] if eligible else None)
     if chosen is None:
         # nothing to add or swap in: is a term of the skeleton superfluous?
-        for candidate in [c for c in removals if c.screen_removed > -REMOVAL_SCREEN][
-                :N_REMOVE]:
-            refit_candidate(model, candidate, data, residuals, rss_before, baseline)
-        chosen = _decide_removal(removals, model, data, judge, steps, held_out)
+        _refit_all([c for c in removals if c.screen_removed > -REMOVAL_SCREEN][:N_REMOVE],
+                   model, data, residuals, rss_before, baseline, n_jobs)
+        chosen = _decide_removal(removals, model, data, judge, steps, held_out, n_jobs)
     ordered += _ordered(removals)
     if chosen is not None:
         ordered.remove(chosen)
@@ -634,7 +657,36 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     return Diagnosis(model, derivative_table, trajectory_table, simulation_frame,
                      pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
                      maps, ranking, best, simulation_rmse, notes, window, implausible,
-                     candidates, data, variables, stability)
+                     units, [s for s in states if s in X.columns], candidates, data,
+                     variables, stability)
+
+
+def _refitted(model, candidate: Candidate, data: Measurements, residuals: np.ndarray,
+              rss_before: np.ndarray, baseline: frozenset) -> Candidate:
+    refit_candidate(model, candidate, data, residuals, rss_before, baseline)
+    return candidate
+
+
+def _refit_all(candidates: list[Candidate], model, data: Measurements, residuals: np.ndarray,
+               rss_before: np.ndarray, baseline: frozenset, n_jobs: int | None) -> None:
+    """Refit ``candidates`` in place, in parallel when ``n_jobs`` asks for it.
+
+    A worker process refits a copy; its findings are written back onto the
+    candidate the diagnosis holds.
+    """
+    if n_jobs is None or n_jobs == 1 or len(candidates) < 2:
+        for candidate in candidates:
+            refit_candidate(model, candidate, data, residuals, rss_before, baseline)
+        return
+    from joblib import Parallel, delayed
+
+    done = Parallel(n_jobs=n_jobs)(
+        delayed(_refitted)(model, c, data, residuals, rss_before, baseline)
+        for c in candidates)
+    for candidate, result in zip(candidates, done):
+        if result is not candidate:
+            for item in fields(Candidate):
+                setattr(candidate, item.name, getattr(result, item.name))
 
 
 #: replacements refitted beside the ``n_refit`` additions
@@ -793,14 +845,15 @@ def _eligible(ordered: list[Candidate], min_improvement: float, bic_threshold: f
 
 
 def _decide(eligible: list[Candidate], model, data: Measurements, horizon: Horizon | None,
-            equations: list[int], steps: int) -> Candidate | None:
+            equations: list[int], steps: int, n_jobs: int | None = None) -> Candidate | None:
     """The first eligible candidate that held-out data confirm, or None."""
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
     cache: dict = {}
 
     def check(c: Candidate) -> bool:
         c.held_out = held_out_check(model, c.refit, data, horizon, equations,
-                                    max_steps=steps, output_error=output_error, cache=cache)
+                                    max_steps=steps, output_error=output_error, cache=cache,
+                                    n_jobs=n_jobs)
         if not c.held_out.confirmed:
             c.note = "; ".join(filter(None, [c.note, str(c.held_out)]))
         return c.held_out.confirmed
@@ -826,7 +879,8 @@ def _decide(eligible: list[Candidate], model, data: Measurements, horizon: Horiz
 
 
 def _decide_removal(removals: list[Candidate], model, data: Measurements,
-                    horizon: Horizon | None, steps: int, held_out: bool) -> Candidate | None:
+                    horizon: Horizon | None, steps: int, held_out: bool,
+                    n_jobs: int | None = None) -> Candidate | None:
     """The first superfluous term: its removal lowers the BIC and no held-out error.
 
     A removal is never decided on the derivatives alone when the record can
@@ -840,7 +894,7 @@ def _decide_removal(removals: list[Candidate], model, data: Measurements,
             return c if c.delta_bic <= -REMOVAL_BIC else None
         c.held_out = held_out_check(model, c.refit, data, horizon, c.equations,
                                     max_steps=steps, output_error=output_error,
-                                    rule="no_loss")
+                                    rule="no_loss", n_jobs=n_jobs)
         if c.held_out.confirmed:
             return c
         c.note = "; ".join(filter(None, [c.note, str(c.held_out)]))

@@ -82,7 +82,8 @@ class HypothesisLoop:
     **diagnose_options
         Passed to :func:`~sklearn_pycc.diagnose` (``horizon``,
         ``n_refit``, ``min_improvement``, ``bic_threshold``, ``held_out``,
-        ...).
+        ``units`` (else ``X.attrs["units"]``), ``n_jobs`` (the candidates'
+        refits and held-out folds in parallel), ...).
 
     Attributes
     ----------
@@ -205,22 +206,39 @@ class HypothesisLoop:
 
     # -- reading -------------------------------------------------------------------------
     def table(self) -> pd.DataFrame:
-        """One row per round: size, errors over the common horizon, held-out change, decision."""
+        """One row per round: size, errors over the common horizon, held-out change, decision.
+
+        Besides ``simulation_rmse`` (every state pooled, whatever their
+        units), each measured state has its own ``NAME_rmse`` and
+        ``NAME_nrmse`` (simulated over the common horizon);
+        ``table.attrs["units"]`` gives their units.
+        """
         rows = []
         for r in self.rounds:
             d = r.diagnosis
             held = None if r.added is None else r.added.held_out
-            rows.append({
+            row = {
                 "round": r.index,
                 "n_parameters": r.model.n_parameters_,
                 "derivative_nrmse": float(d.derivatives["nrmse"].max()),
                 "simulation_rmse": d.simulation_rmse,
+            }
+            for state in d.measured:
+                if state in d.trajectories.index:
+                    row[f"{state}_rmse"] = float(d.trajectories.loc[state, "rmse"])
+                    row[f"{state}_nrmse"] = float(d.trajectories.loc[state, "nrmse"])
+            row.update({
                 "added": None if r.added is None else r.added.effect,
+                "move": None if r.added is None else r.added.move,
                 "held_out_change": math.nan if held is None else held.change(),
                 "implausible": len(d.implausible),
                 "decision": r.decision,
             })
-        return pd.DataFrame(rows).set_index("round")
+            rows.append(row)
+        table = pd.DataFrame(rows).set_index("round")
+        if self.rounds:
+            table.attrs["units"] = dict(self.rounds[0].diagnosis.units)
+        return table
 
     def to_html(self, path=None, title: str = "Hypothesis loop") -> str:
         """The whole loop as one self-contained HTML report.
@@ -267,8 +285,12 @@ class HypothesisLoop:
                  + ":"]
         for r in self.rounds:
             d = r.diagnosis
-            lines.append(f"Round {r.index} ({r.model.n_parameters_} fitted numbers, simulation "
-                         f"RMSE {d.simulation_rmse:.4g}):")
+            errors = [f"{s} RMSE {d.trajectories.loc[s, 'rmse']:.4g}"
+                      + (f" {d.units[s]}" if d.units.get(s) else "")
+                      + f" (NRMSE {d.trajectories.loc[s, 'nrmse']:.3g})"
+                      for s in d.measured if s in d.trajectories.index]
+            lines.append(f"Round {r.index} ({r.model.n_parameters_} fitted numbers"
+                         + (f"; simulation {', '.join(errors)}" if errors else "") + "):")
             lines.extend(f"    {text}" for text in r.model.equations())
             lines.extend(f"    IMPLAUSIBLE: {item}" for item in d.implausible)
             lines.append(f"    -> {r.decision}")
