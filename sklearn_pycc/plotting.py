@@ -189,11 +189,15 @@ def _residual_figure(plt, report):
         ax.plot(values, residual, ".", ms=2, color="0.5", label="residual")
         shift = _effect_shift(report, name)
         if shift is not None:
+            change = {"remove": f"without {best.term}",
+                      "replace": f"with - {best.term} in place of {' + '.join(best.replaces)}"
+                      }.get(best.move, f"with - {best.term}")
             ax.plot(values, shift, ".", ms=1.5, color="C3",
-                    label=f"change of the model refitted with - {best.term}")
+                    label=f"change of the model refitted {change}")
         ax.axhline(0.0, color="k", lw=0.6)
         ax.legend(fontsize="small", markerscale=4, loc="best")
-        ax.set_xlabel(variable)
+        unit = getattr(report, "units", {}).get(variable)
+        ax.set_xlabel(f"{variable} [{unit}]" if unit else variable)
         ax.set_ylabel(f"{name}: measured - model")
         ax.set_title(name)
     if best is None:
@@ -211,7 +215,7 @@ def _effect_shift(report, equation: str):
         return None
     for c in report._candidates:
         if (c.effect.name == best.effect and c.roles.derivative == best.equation
-                and c.variable == best.variable and c.shifts):
+                and c.variable == best.variable and c.move == best.move and c.shifts):
             index = list(report.residuals.columns).index(equation)
             return c.shifts.get(index)
     return None
@@ -235,8 +239,9 @@ def _map_figure(plt, report):
         fig.colorbar(mesh, ax=ax, label=f"mean residual of {m.equation} (0: white)")
         ax.set_xlim(m.x_edges[0], m.x_edges[-1])
         ax.set_ylim(m.y_edges[0], m.y_edges[-1])
-        ax.set_xlabel(m.x)
-        ax.set_ylabel(m.y)
+        units = getattr(report, "units", {})
+        ax.set_xlabel(f"{m.x} [{units[m.x]}]" if units.get(m.x) else m.x)
+        ax.set_ylabel(f"{m.y} [{units[m.y]}]" if units.get(m.y) else m.y)
         ax.set_title(m.equation)
         if not finite.all():
             ax.legend(handles=[Patch(facecolor="0.85", hatch="///", edgecolor="0.55",

@@ -243,3 +243,23 @@ def test_errors_are_reported_per_measured_state_with_their_units():
         diagnose(loop.model, X, units={"x9": "m"})
     with pytest.raises(TypeError, match=r"units\['x1'\] must be a string"):
         diagnose(loop.model, X, units={"x1": 3})
+
+
+# -- the final model by simulation when it pays ------------------------------------------
+def test_the_loop_refines_its_last_skeleton_by_output_error_when_that_simulates_better():
+    frame, truth = datasets.make_resonator(n_samples=4000, noise=65.0, samples_per_period=10,
+                                           random_state=0, return_truth=True)
+    loop = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), frame,
+                          n_bootstrap=0).run(max_rounds=3, refine=True)
+    assert loop.stopped and loop.model.fit_mode_ == "equation"
+    refinement = loop.refinement
+    assert refinement.adopted and refinement.after < refinement.before
+    assert loop.final_model is refinement.model and loop.final_model.fit_mode_ == "simulation"
+    assert loop.final_model.skeleton_ == loop.model.skeleton_
+    assert "refined by output error" in loop.summary()
+    # a model already fitted by output error is its own refinement
+    noisy = datasets.make_pendulum(random_state=0, noise=35.0)
+    loop = HypothesisLoop(PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = -a1 x2 - a2 x1"]),
+                          noisy, n_bootstrap=0).run(max_rounds=1)
+    assert loop.model.fit_mode_ == "simulation"
+    assert loop.refine() is None and loop.final_model is loop.model

@@ -5,7 +5,8 @@ from ._failures import ResidualMap
 from ._trajectories import Divergence
 from .compare import compare_skeletons
 from .diagnose import Diagnosis, Suggestion, diagnose
-from .loop import HypothesisLoop, Round
+from .loop import HypothesisLoop, Refinement, Round
 
-__all__ = ["Diagnosis", "Divergence", "HypothesisLoop", "ResidualMap", "Round", "Suggestion",
+__all__ = ["Diagnosis", "Divergence", "HypothesisLoop", "Refinement", "ResidualMap", "Round",
+           "Suggestion",
            "compare_skeletons", "diagnose", "effects"]

@@ -386,7 +386,8 @@ class Diagnosis:
             won = 0
             for k, c in others:
                 if c.effect.name == self.best.effect and c.roles.derivative == \
-                        self.best.equation and c.variable == self.best.variable:
+                        self.best.equation and c.variable == self.best.variable \
+                        and c.move == self.best.move:
                     won = k
             lead = f"{self.best.effect} wins in {won} of {total} resamples"
             parts = [p for p in parts
