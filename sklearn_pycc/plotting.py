@@ -101,7 +101,10 @@ def plot_diagnosis(report) -> dict:
         was simulated), with divergences and the worst windows marked;
         ``"residual"``: each failing equation's derivative residual against
         the variable that explains it best, with the shape of the suggested
-        effect; ``"map"``: the residual maps over position x velocity.
+        effect; ``"map"``: the residual maps over position x velocity;
+        ``"open_curve"`` (when something outside the catalogue is suggested):
+        the free curve with its 95 % band beside the terms it would replace
+        and the formula proposed for it.
     """
     plt = _pyplot()
     figures = {}
@@ -110,7 +113,39 @@ def plot_diagnosis(report) -> dict:
     figures["residual"] = _residual_figure(plt, report)
     if report.maps:
         figures["map"] = _map_figure(plt, report)
+    best = report.best
+    if best is not None and best.curve is not None:
+        figures["open_curve"] = _open_curve_figure(plt, report)
     return figures
+
+
+def _open_curve_figure(plt, report):
+    """The free curve with its band beside the terms it replaces (and the proposed formula)."""
+    best = report.best
+    frame = best.curve
+    variable = frame.columns[0]
+    x = frame[variable].to_numpy()
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    if np.isfinite(frame["lower"]).any():
+        ax.fill_between(x, frame["lower"], frame["upper"], color="C0", alpha=0.25, lw=0,
+                        label="95 % band")
+    name = frame.attrs.get("curve", "free curve")
+    ax.plot(x, frame["curve"], color="C0", lw=1.8, label=f"free curve {name}")
+    current = " + ".join(best.replaces) if best.replaces else "nothing"
+    ax.plot(x, frame["current"], color="0.3", lw=1.2, ls="--",
+            label=f"current: {current}")
+    if "formula" in frame.columns:
+        ax.plot(x, frame["formula"], color="C3", lw=1.2, ls=":",
+                label=f"proposed: {best.formula}")
+    unit = getattr(report, "units", {}).get(variable)
+    ax.set_xlabel(f"{variable} [{unit}]" if unit else variable)
+    per = (f" per unit of {best.variable.split(', ')[-1]}"
+           if best.effect == "free_damping_curve" else "")
+    ax.set_ylabel(f"subtracted from {best.equation}{per}")
+    ax.legend(fontsize="small", loc="best")
+    ax.set_title(f"Outside the catalogue: {best.effect} in {best.equation}")
+    fig.tight_layout()
+    return fig
 
 
 def _model_is_wrong(report) -> bool:

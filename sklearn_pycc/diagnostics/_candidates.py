@@ -43,7 +43,7 @@ ABSURD_RATIO = 10.0
 
 
 #: what a candidate does to the skeleton
-MOVES = ("add", "replace", "remove")
+MOVES = ("add", "replace", "remove", "open")
 
 
 @dataclass
@@ -91,6 +91,8 @@ class Candidate:
     held_out: object = None
     # the refit's squared derivative residual per sample, in each equation it changes
     after_squares: np.ndarray | None = None
+    # fitted numbers of the free curves the move brings (known once refitted)
+    curve_numbers: int = 0
 
     @property
     def equations(self) -> list[int]:
@@ -100,7 +102,7 @@ class Candidate:
     @property
     def n_change(self) -> int:
         """Fitted numbers the move brings in less those it takes out."""
-        return len(self.new_params) - len(self.removed_params)
+        return len(self.new_params) + self.curve_numbers - len(self.removed_params)
 
     @property
     def term(self) -> str:
@@ -528,6 +530,9 @@ def refit_candidate(model, candidate: Candidate, data: Measurements, residuals: 
         bounds = candidate.extended.bounds
         new["param_init"] = {a: float(np.clip(v, *bounds.get(a, (-np.inf, np.inf))))
                              for a, v in init.items()}
+    if candidate.move == "open" and params.get("extrapolation") == "polynomial":
+        # a free curve judged by simulations that may stray beyond its data
+        new["extrapolation"] = "linear"
     estimator = clone(model).set_params(**new)
     rows = np.arange(data.n_samples)
     if params.get("fit_mode") != "simulation":  # an output-error fit needs every sample
@@ -546,6 +551,10 @@ def refit_candidate(model, candidate: Candidate, data: Measurements, residuals: 
         candidate.plausible = False
         candidate.note = "redundant with the skeleton (the extended fit is rank deficient)"
     candidate.refit = estimator
+    if candidate.move == "open":
+        candidate.curve_numbers = max(
+            int(estimator.n_parameters_) - int(model.n_parameters_)
+            - len(candidate.new_params) + len(candidate.removed_params), 0)
     ks = candidate.equations
     # what the refit changes in each equation's prediction: the shape the residual should have
     base = data.derivatives - residuals

@@ -208,7 +208,7 @@ def _fold_errors(base, extended, data: Measurements, held: np.ndarray, spreads,
 def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
                    equations: list[int], *, max_steps: int, output_error: bool = False,
                    cache: dict | None = None, rule: str = "gain",
-                   n_jobs: int | None = None) -> HeldOut:
+                   n_jobs: int | None = None, gain: float = HELD_OUT_GAIN) -> HeldOut:
     """Fit ``base`` and ``extended`` without each fold and compare them on it.
 
     Parameters
@@ -234,6 +234,9 @@ def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
         term worth removing: ``extended`` is then the smaller model).
     n_jobs : int or None, default=None
         Fit the folds in parallel with joblib.
+    gain : float, default=HELD_OUT_GAIN
+        Least relative fall of the pooled deciding error that confirms
+        ``extended`` under ``rule="gain"``.
     """
     description, folds = make_folds(data)
     criterion = "simulation" if horizon is not None else "derivatives"
@@ -271,12 +274,12 @@ def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
     result.before = {k: math.sqrt(v / n) for k, v in totals["before"].items()}
     result.after = {k: math.sqrt(v / n) for k, v in totals["after"].items()}
     others = [result.change(name) for name in result.before if name != criterion]
-    gain = result.before[criterion] - result.after[criterion]
+    fall = result.before[criterion] - result.after[criterion]
     if rule == "no_loss":
         result.confirmed = bool(result.change() <= 0.0 and 2 * result.wins > result.n_folds
                                 and all(change < HELD_OUT_GAIN for change in others))
         return result
-    result.confirmed = bool(result.change() <= -HELD_OUT_GAIN and gain >= HELD_OUT_FLOOR
+    result.confirmed = bool(result.change() <= -gain and fall >= HELD_OUT_FLOOR
                             and 2 * result.wins > result.n_folds
                             and all(change < HELD_OUT_GAIN for change in others))
     return result

@@ -11,6 +11,7 @@ import pandas as pd
 from sklearn.utils.validation import check_is_fitted
 
 from .._random import check_seed_source
+from ..exceptions import SkeletonError
 from ..skeleton import Bound, Skeleton
 from ._candidates import (
     Candidate,
@@ -29,6 +30,7 @@ from ._failures import (
 )
 from ._held_out import HeldOut, held_out_check
 from ._metrics import error_table_row, rmse
+from ._open_curves import formula_candidates, formula_values, open_candidates, open_curve_frame
 from ._physics import Implausibility, implausible_terms
 from ._roles import EquationRoles, equation_roles
 from ._stability import Stability, selection_stability
@@ -55,6 +57,10 @@ REMOVAL_BIC = 2.0
 #: before the refit (a term the model needs raises it far more)
 N_REMOVE = 2
 REMOVAL_SCREEN = 0.5
+#: a removal needs a model that predicts held-out derivatives within this share of their
+#: spread: where noise swamps them, every fitted term is biased, and a simulation may do
+#: better without a real term (a light damping fitted too large)
+REMOVAL_SKILL = 0.5
 
 
 @dataclass(frozen=True)
@@ -98,11 +104,16 @@ class Suggestion:
     bounds : tuple of str
         The bounds the effect's physics puts on the new parameters (in
         ``equations`` too), e.g. ``("a3 >= 0", "a4 >= 0")``.
-    move : {"add", "replace", "remove"}
+    move : {"add", "replace", "remove", "open"}
         What the suggestion does to the skeleton: add the effect's term,
         put it in place of the terms in ``replaces`` (a pendulum's sine for
-        a linear spring), or take the terms in ``replaces`` out (``term``
-        is then the removed term and ``effect`` what it stood for).
+        a linear spring), take the terms in ``replaces`` out (``term`` is
+        then the removed term and ``effect`` what it stood for), or, when no
+        catalogue effect helps, put a free curve (or the formula proposed
+        for it) in place of the terms that play one role (``effect`` is then
+        ``free_restoring_curve``, ``free_friction_curve``,
+        ``free_damping_curve`` or ``free_state_curve``): something outside
+        the catalogue is missing.
     replaces : tuple of str
         The terms of the diagnosed skeleton the move takes out, as written
         there (empty for an addition).
@@ -112,6 +123,19 @@ class Suggestion:
         uncertainty estimate without resampling, and when the model was
         fitted by output error: its equation-error refit would be biased).
         The refit saw at most 20,000 samples of the record.
+    formula : str or None
+        For ``move="open"``: the formula the symbolic engine proposes for
+        the free curve, as a term with fresh parameters (``"a3*x1 / (1 +
+        a4*x1^2)"``); ``term`` and ``equations`` hold it when it too lowers
+        the held-out error (``formula_held_out``), else they hold the free
+        curve. None for other moves and when no formula was found.
+    formula_held_out : HeldOut or None
+        The held-out comparison of the formula with the diagnosed model.
+    curve : DataFrame or None
+        For ``move="open"``: the free curve on a grid of its variable, with
+        ``lower``/``upper`` (95 % band), ``current`` (what the replaced
+        terms subtract; for a damping ``g(x) v``, the factor ``g(x)``) and
+        ``formula`` (the fitted formula, when there is one).
     """
 
     effect: str
@@ -132,6 +156,9 @@ class Suggestion:
     intervals: dict = field(default_factory=dict)
     move: str = "add"
     replaces: tuple[str, ...] = ()
+    formula: str | None = None
+    formula_held_out: HeldOut | None = None
+    curve: pd.DataFrame | None = field(default=None, repr=False, compare=False)
 
     def __str__(self) -> str:
         return f"{self.action()} ({self.effect} through {self.variable or 'nothing'})"
@@ -140,7 +167,7 @@ class Suggestion:
         """What to do to the skeleton, in words: ``"replace 'a2*x1' in x2_dot by ..."``."""
         if self.move == "remove":
             return f"remove '{self.term}' from {self.equation}"
-        if self.move == "replace":
+        if self.replaces:
             old = "' and '".join(self.replaces)
             return f"replace '{old}' in {self.equation} by '- {self.term}'"
         return f"add '- {self.term}' to {self.equation}"
@@ -313,6 +340,12 @@ class Diagnosis:
                      f"{row.equation}, removes {100 * max(row.error_removed, 0):.1f} % of the "
                      f"residual, change of BIC {row.delta_bic:+.1f}). The skeleton is "
                      "complete as far as the catalogue can tell."]
+            opened = [c for c in self._candidates if c.move == "open"]
+            if opened:
+                lines.append("    Nor does a free curve in place of a role's terms ("
+                             + ", ".join(sorted({f"{c.effect.name} in {c.roles.derivative}"
+                                                 for c in opened}))
+                             + "): nothing outside the catalogue is missing either.")
             for c in self._candidates:
                 if c.held_out is not None:
                     lines.append(f"    Not confirmed: {c.effect.name} in {c.roles.derivative} "
@@ -320,6 +353,8 @@ class Diagnosis:
                                  f"{c.held_out}.")
             lines.extend(self._stability_words())
             return lines
+        if best.move == "open":
+            return self._open_words()
         if best.move == "remove":
             lines = [f"Superfluous term: '{best.term}' in {best.equation} ({best.effect}); "
                      "the model without it does as well on data its fit did not see."]
@@ -365,6 +400,33 @@ class Diagnosis:
         rejected = self.ranking[(self.ranking.refit) & (~self.ranking.plausible.astype(bool))]
         for r in rejected.head(2).itertuples():
             lines.append(f"    Rejected: {r.effect} in {r.equation}: {r.note}.")
+        lines.append("    Next: fit report.best.equations and diagnose again.")
+        return lines
+
+    def _open_words(self) -> list[str]:
+        """Something outside the catalogue: the free curve, its formula, what to fit next."""
+        best = self.best
+        place = (f"in place of '{' + '.join(best.replaces)}'" if best.replaces
+                 else "added")
+        lines = [f"Outside the catalogue: no catalogue effect lowers the error, but a free "
+                 f"curve '- {best.curve_term}' in {best.equation}, {place}, does "
+                 f"({best.effect}: {best.description})."]
+        if best.held_out is not None:
+            lines.append(f"    Decided on data each fit did not see: {best.held_out}.")
+        if best.formula is None:
+            lines.append("    The symbolic engine proposed no formula for it: fit the free "
+                         "curve (report.best.equations) and look at its shape.")
+        else:
+            verdict = ("it is what report.best.equations holds" if best.term == best.formula
+                       else "it does not lower the held-out error as the curve does, so "
+                       "report.best.equations holds the free curve")
+            lines.append(f"    The symbolic engine proposes '- {best.formula}' for it; "
+                         f"{verdict}"
+                         + (f" ({best.formula_held_out})" if best.formula_held_out else "")
+                         + ".")
+        lines.append(f"    {best.action()[0].upper()}{best.action()[1:]}.")
+        lines.append("    The curve with its 95 % band beside the current terms: "
+                     "report.best.curve, and report.plot()['open_curve'].")
         lines.append("    Next: fit report.best.equations and diagnose again.")
         return lines
 
@@ -424,7 +486,8 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
              bic_threshold: float = 10.0, simulate: bool = True,
              max_steps: int | None = None, horizon="auto",
              held_out: bool = True, n_bootstrap: int = 100,
-             random_state=0, n_jobs: int | None = None, units=None) -> Diagnosis:
+             random_state=0, n_jobs: int | None = None, units=None,
+             open_curves: bool = True) -> Diagnosis:
     """Compare a fitted model with measurements and name the physical effect it lacks.
 
     The diagnosis has three parts:
@@ -458,8 +521,14 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         simulation error (the derivatives' when there is no time). The
         first of the two leading candidates that lowers the held-out error
         becomes :attr:`Diagnosis.best` (or a simpler effect through the same
-        variable that does within 5 % as well held out); otherwise nothing
-        is missing. A refit is judged on what it changes: terms the model
+        variable that does within 5 % as well held out). Replacements of a
+        term by an effect of the same role compete alike; when nothing is to
+        add or swap, a term whose removal loses nothing held out is
+        suggested for removal. When the catalogue is exhausted, each role's
+        terms give way to a free curve (``open_curves``): one that lowers
+        the held-out error by 5 % or more means something outside the
+        catalogue is missing, and the symbolic engine proposes a formula
+        for it. Otherwise nothing is missing. A refit is judged on what it changes: terms the model
         itself already puts against their role do not condemn it. On long
         records with coloured noise the BIC alone calls almost any term
         significant; the held-out check does not.
@@ -520,6 +589,14 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         Units of the columns (``{"x1": "m", "F": "N"}``), merged over
         ``X.attrs["units"]``; they label the tables, the summary and the
         figures.
+    open_curves : bool, default=True
+        Before saying nothing is missing, replace the terms of each role (a
+        second-order equation's restoring force ``f(x)``, its friction
+        ``f(v)``, its damping ``g(x) v``; a first-order equation's
+        dependence on its state) by a free curve fitted with ``model``'s
+        backend, and suggest it (``move="open"``, with
+        :attr:`Suggestion.curve` and :attr:`Suggestion.formula`) when it
+        lowers the held-out error clearly.
     n_jobs : int or None, default=None
         Refit the candidates in parallel with joblib (None: one at a time;
         -1: every core; a ``joblib.parallel_backend("dask")`` context sends
@@ -555,8 +632,9 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     if n_jobs is not None and (isinstance(n_jobs, bool) or not isinstance(n_jobs, Integral)
                                or n_jobs == 0):
         raise ValueError(f"n_jobs must be None or a non-zero integer, got {n_jobs!r}")
-    if not isinstance(held_out, bool):
-        raise ValueError(f"held_out must be True or False, got {held_out!r}")
+    for name, flag in (("held_out", held_out), ("open_curves", open_curves)):
+        if not isinstance(flag, bool):
+            raise ValueError(f"{name} must be True or False, got {flag!r}")
     check_is_fitted(model, "skeleton_")
     skeleton = model.skeleton_
     units = check_units(units, X, skeleton)
@@ -648,13 +726,31 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
                    model, data, residuals, rss_before, baseline, n_jobs)
         chosen = _decide_removal(removals, model, data, judge, steps, held_out, n_jobs)
     ordered += _ordered(removals)
+    formula = None
+    if chosen is None and open_curves:
+        # the catalogue is exhausted: would a free curve in place of a role's terms do better?
+        opened = open_candidates(skeleton, roles)
+        for candidate in opened:
+            extend(skeleton, candidate)
+        _refit_all(opened, model, data, residuals, rss_before, baseline, n_jobs)
+        if run_simulation:
+            _simulate_leaders([c for c in opened if c.refit is not None], data,
+                              measured_states, window, steps, divergences)
+        opened = _ordered(opened)
+        chosen = _decide_open(_eligible(opened, min_improvement, bic_threshold, simulation_rmse),
+                              model, data, judge, failing, steps, held_out, n_jobs)
+        if chosen is not None:
+            formula = _formula(chosen, skeleton, model, data, residuals, rss_before, baseline,
+                               judge, failing, steps, held_out, n_jobs)
+        candidates += opened
+        ordered += opened
     if chosen is not None:
         ordered.remove(chosen)
         ordered.insert(0, chosen)
     stability = _stability(ordered, residuals, data, min_improvement, bic_threshold,
                            simulation_rmse, int(n_bootstrap), random_state)
     ranking = _ranking(ordered, explained, stability)
-    best = None if chosen is None else _suggestion(chosen, skeleton, model)
+    best = None if chosen is None else _suggestion(chosen, skeleton, model, formula)
     return Diagnosis(model, derivative_table, trajectory_table, simulation_frame,
                      pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
                      maps, ranking, best, simulation_rmse, notes, window, implausible,
@@ -720,7 +816,8 @@ def _stability(ordered: list[Candidate], residuals: np.ndarray, data: Measuremen
         return None
     contenders = [c for c in ordered if _group(c) == 0 and c.after_squares is not None
                   and c.move != "remove"
-                  and (c.held_out is None or c.held_out.confirmed)]
+                  and (c.held_out is None or c.held_out.confirmed)
+                  and (c.move != "open" or c.held_out is not None)]
     better = {id(c) for c in contenders if _simulates_better(c, simulation_rmse)}
     return selection_stability(contenders, residuals, data.derivatives,
                                [rows for _, rows in data.groups],
@@ -896,14 +993,82 @@ def _decide_removal(removals: list[Candidate], model, data: Measurements,
         c.held_out = held_out_check(model, c.refit, data, horizon, c.equations,
                                     max_steps=steps, output_error=output_error,
                                     rule="no_loss", n_jobs=n_jobs)
-        if c.held_out.confirmed:
+        noise = c.held_out.before.get("derivatives", 0.0)
+        if c.held_out.confirmed and noise < REMOVAL_SKILL:
             return c
         c.note = "; ".join(filter(None, [c.note, str(c.held_out)]))
+        if c.held_out.confirmed:
+            c.note += (f"; not removed: the model predicts held-out derivatives no better "
+                       f"than {noise:.2g} of their spread, so its fitted terms are biased by "
+                       "the noise and their removal proves nothing")
         return None  # the least costly removal failed: the others cost more
     return None
 
 
-def _suggestion(c: Candidate, base: Skeleton, model) -> Suggestion:
+#: least relative fall of the held-out error that confirms a free curve: it brings many
+#: more numbers than a catalogue term, and is tried only once none of those helped
+OPEN_GAIN = 0.05
+#: free curves checked on held-out data, best first
+N_OPEN = 2
+
+
+def _decide_open(eligible: list[Candidate], model, data: Measurements,
+                 horizon: Horizon | None, equations: list[int], steps: int, held_out: bool,
+                 n_jobs: int | None = None) -> Candidate | None:
+    """The first free curve that lowers the held-out error clearly, or None."""
+    if not held_out:
+        return eligible[0] if eligible else None
+    output_error = getattr(model, "fit_mode_", "equation") == "simulation"
+    cache: dict = {}
+    for c in eligible[:N_OPEN]:
+        c.held_out = held_out_check(model, c.refit, data, horizon, equations, max_steps=steps,
+                                    output_error=output_error, cache=cache, n_jobs=n_jobs,
+                                    gain=OPEN_GAIN)
+        if c.held_out.confirmed:
+            return c
+        c.note = "; ".join(filter(None, [c.note, str(c.held_out)]))
+    return None
+
+
+def _formula(chosen: Candidate, skeleton: Skeleton, model, data: Measurements,
+             residuals: np.ndarray, rss_before: np.ndarray, baseline: frozenset,
+             horizon: Horizon | None, equations: list[int], steps: int, held_out: bool,
+             n_jobs: int | None) -> Candidate | None:
+    """The symbolic engine's formula for the chosen free curve, refitted and judged.
+
+    Of the formulas found, the plausible refit with the lowest BIC is
+    checked on held-out data.
+    """
+    formulas = []
+    for formula in formula_candidates(chosen):
+        try:
+            extend(skeleton, formula)
+        except (SkeletonError, ValueError):
+            continue
+        formulas.append(formula)
+    _refit_all(formulas, model, data, residuals, rss_before, baseline, n_jobs)
+    fitted = [f for f in formulas if f.refit is not None and math.isfinite(f.delta_bic)]
+    if not fitted:
+        return None
+    formula = min(fitted, key=lambda f: (not f.plausible, f.delta_bic))
+    if formula.plausible and held_out:
+        output_error = getattr(model, "fit_mode_", "equation") == "simulation"
+        formula.held_out = held_out_check(model, formula.refit, data, horizon, equations,
+                                          max_steps=steps, output_error=output_error,
+                                          n_jobs=n_jobs)
+    return formula
+
+
+def _adopted(formula: Candidate | None) -> bool:
+    """Whether the formula takes the free curve's place in the suggested skeleton."""
+    return (formula is not None and formula.refit is not None and bool(formula.plausible)
+            and (formula.held_out is None or formula.held_out.confirmed))
+
+
+def _suggestion(c: Candidate, base: Skeleton, model,
+                formula: Candidate | None = None) -> Suggestion:
+    if c.move == "open":
+        return _open_suggestion(c, base, model, formula)
     skeleton = c.extended
     curve_term, curve_constraints = None, ()
     if c.curve_term is not None:
@@ -938,3 +1103,23 @@ def _suggestion(c: Candidate, base: Skeleton, model) -> Suggestion:
         bounds=tuple(str(x) for x in skeleton.constraints
                      if isinstance(x, Bound) and x not in base.constraints),
         intervals=intervals)
+
+
+def _open_suggestion(c: Candidate, base: Skeleton, model,
+                     formula: Candidate | None) -> Suggestion:
+    """A free curve, or the formula proposed for it, in place of a role's terms."""
+    adopted = _adopted(formula)
+    lead = formula if adopted else c
+    frame = open_curve_frame(c, model)
+    if formula is not None and formula.refit is not None:
+        frame["formula"] = formula_values(formula, frame)
+    return Suggestion(
+        effect=c.effect.name, description=c.effect.description, equation=c.roles.derivative,
+        variable=c.variable, term=lead.term, equations=lead.extended, move="open",
+        replaces=c.replaces,
+        param_init={a: float(v) for a, v in lead.refit.params_.items()},
+        curve_term=c.term, curve_constraints=(), also={},
+        error_removed=float(lead.removed), delta_bic=float(lead.delta_bic),
+        simulation_rmse=float(c.simulation_rmse), held_out=c.held_out,
+        bounds=(), formula=None if formula is None else formula.term,
+        formula_held_out=None if formula is None else formula.held_out, curve=frame)

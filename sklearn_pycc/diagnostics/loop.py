@@ -217,6 +217,8 @@ class HypothesisLoop:
             decision = "stop: nothing is missing"
             if report.implausible:
                 decision += f" (but the model is implausible: {report.implausible[0]})"
+        elif best.move == "open":
+            decision = f"outside the catalogue ({best.effect}): {best.action()}"
         else:
             decision = f"{best.move} {best.effect}: {best.action()}"
         current = Round(len(self.rounds), model.skeleton_, model, report, decision, best)

@@ -134,10 +134,14 @@ class PolyBasis:
         """Matrix mapping coefficients to the power series in ``u``: ``(degree + 1, size)``."""
         return _to_power(self.kind, self.degree)[:, self.degrees]
 
-    def curve(self, coefficients: np.ndarray) -> PolyCurve:
+    def curve(self, coefficients: np.ndarray, extrapolation: str | None = None) -> PolyCurve:
         """The fitted curve for ``coefficients`` (one per basis function)."""
         series = self.to_power() @ np.asarray(coefficients)
-        return PolyCurve(series, self.center, self.half, (self.lo, self.hi))
+        return PolyCurve(series, self.center, self.half, (self.lo, self.hi), extrapolation)
+
+
+#: share of a curve's domain, at each end, whose mean slope a linear extrapolation continues
+EDGE = 0.2
 
 
 class PolyCurve(Curve):
@@ -153,23 +157,52 @@ class PolyCurve(Curve):
         ``u = (x - center) / half``.
     domain : tuple of float
         Argument range seen in training.
+    extrapolation : {None, "linear"}
+        Beyond ``domain``: the polynomial itself (None), or the straight line
+        that continues its value at the nearer end with its mean slope over
+        the outer :data:`EDGE` of the domain (``"linear"``: a degree-7
+        polynomial grows like ``x^7`` out there, and its slope at the very
+        end, where few data hold it, is the least certain thing about it).
     """
 
     def __init__(self, series: np.ndarray, center: float, half: float,
-                 domain: tuple[float, float]) -> None:
+                 domain: tuple[float, float], extrapolation: str | None = None) -> None:
+        if extrapolation not in (None, "linear"):
+            raise ValueError(f"extrapolation must be None or 'linear', got {extrapolation!r}")
         self.series = np.asarray(series, dtype=float)
         self.center = float(center)
         self.half = float(half)
         self.domain = (float(domain[0]), float(domain[1]))
+        self.extrapolation = extrapolation
         self._coefs = [float(c) for c in self.series[::-1]]
         self._inv = 1.0 / self.half
+        if extrapolation == "linear":
+            lo, hi = self.domain
+            step = EDGE * (hi - lo) or 1.0
+            self._edges = tuple(
+                (edge, self._horner(edge),
+                 (self._horner(edge) - self._horner(inner)) / (edge - inner))
+                for edge, inner in ((lo, lo + step), (hi, hi - step)))
 
-    def __call__(self, x):
+    def _horner(self, x):
         u = (x - self.center) * self._inv
         coefs = self._coefs
         acc = coefs[0]
         for c in coefs[1:]:
             acc = acc * u + c
+        return acc
+
+    def __call__(self, x):
+        acc = self._horner(x)
+        if self.extrapolation == "linear":
+            (lo, f_lo, s_lo), (hi, f_hi, s_hi) = self._edges
+            if isinstance(x, np.ndarray):
+                acc = np.where(x < lo, f_lo + s_lo * (x - lo),
+                               np.where(x > hi, f_hi + s_hi * (x - hi), acc))
+            elif x < lo:
+                acc = f_lo + s_lo * (x - lo)
+            elif x > hi:
+                acc = f_hi + s_hi * (x - hi)
         if isinstance(x, np.ndarray) and not isinstance(acc, np.ndarray):
             return np.full(x.shape, acc)
         return acc
@@ -193,13 +226,15 @@ class PolyCurve(Curve):
 
     def __getstate__(self) -> dict:
         return {"series": self.series, "center": self.center, "half": self.half,
-                "domain": self.domain}
+                "domain": self.domain, "extrapolation": self.extrapolation}
 
     def __setstate__(self, state: dict) -> None:
-        self.__init__(state["series"], state["center"], state["half"], state["domain"])
+        self.__init__(state["series"], state["center"], state["half"], state["domain"],
+                      state.get("extrapolation"))
 
     def __repr__(self) -> str:
-        return f"PolyCurve(degree={len(self.series) - 1}, domain={self.domain})"
+        extra = "" if self.extrapolation is None else f", extrapolation={self.extrapolation!r}"
+        return f"PolyCurve(degree={len(self.series) - 1}, domain={self.domain}{extra})"
 
 
 class ZeroCurve(Curve):

@@ -165,6 +165,12 @@ class PolyCCRegressor(CCRegressor):
         Polynomial family in the argument scaled to ``[-1, 1]``.
     alpha : float, default=0.0
         Ridge penalty on the (scaled) coefficients.
+    extrapolation : {"polynomial", "linear"}, default="polynomial"
+        What a curve does beyond the range of its argument in training: go
+        on as the polynomial, or continue in a straight line with the value
+        and slope it has at the nearer end (a simulation that strays beyond
+        the data then stays tame; fitted by equation error, the curves are
+        the same within the range).
     param_init : dict, optional
         Starting values of nonlinear parameters; the others start from a grid.
     gauge : {"auto", "warn", "raise"}, default="auto"
@@ -221,13 +227,15 @@ class PolyCCRegressor(CCRegressor):
         "degree": [Interval(Integral, 0, None, closed="left"), dict],
         "basis": [StrOptions(set(BASES))],
         "alpha": [Interval(Real, 0, None, closed="left")],
+        "extrapolation": [StrOptions({"polynomial", "linear"})],
         "param_init": [dict, None],
         "random_state": RANDOM_STATES,
         **RESAMPLING,
     }
 
     def __init__(self, *, equations=None, constraints=None, degree=7, basis: str = "legendre",
-                 alpha: float = 0.0, param_init: Mapping | None = None, gauge: str = "auto",
+                 alpha: float = 0.0, extrapolation: str = "polynomial",
+                 param_init: Mapping | None = None, gauge: str = "auto",
                  differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, equation_weights=None,
@@ -241,6 +249,7 @@ class PolyCCRegressor(CCRegressor):
         self.degree = degree
         self.basis = basis
         self.alpha = alpha
+        self.extrapolation = extrapolation
         self.param_init = param_init
         self.random_state = random_state
         self.n_bootstrap = n_bootstrap
@@ -265,6 +274,14 @@ class PolyCCRegressor(CCRegressor):
             raise ValueError(f"basis must be one of {sorted(BASES)}, got {self.basis!r}")
         if not np.isfinite(self.alpha) or self.alpha < 0:
             raise ValueError(f"alpha must be a non-negative number, got {self.alpha!r}")
+        if self.extrapolation not in ("polynomial", "linear"):
+            raise ValueError("extrapolation must be 'polynomial' or 'linear', got "
+                             f"{self.extrapolation!r}")
+
+    @property
+    def _beyond(self) -> str | None:
+        """The fitted curves' policy beyond their domain (None: the polynomial)."""
+        return None if self.extrapolation == "polynomial" else self.extrapolation
 
     def _fit_problem(self, problem: Problem):
         self._check_params()
@@ -305,7 +322,7 @@ class PolyCCRegressor(CCRegressor):
             offset += size
             if name in bases:
                 coefficients[name] = chunk.copy()
-                functions[name] = bases[name].curve(chunk)
+                functions[name] = bases[name].curve(chunk, self._beyond)
             else:  # a bound holds exactly, not up to rounding
                 low, high = bounds.get(name, (-np.inf, np.inf))
                 params[name] = float(np.clip(chunk[0], low, high))
@@ -360,7 +377,7 @@ class PolyCCRegressor(CCRegressor):
             values, curves = unpack(theta)
             current = dict(functions)
             for name, (basis, coefficients) in curves.items():
-                current[name] = basis.curve(coefficients)
+                current[name] = basis.curve(coefficients, self._beyond)
             return problem.skeleton.compile(current, values)
 
         bounds = problem.bounds
@@ -375,7 +392,7 @@ class PolyCCRegressor(CCRegressor):
         functions = dict(functions)
         refined = dict(coefficients_at_start)
         for name, (basis, coefficients) in curves.items():
-            functions[name] = basis.curve(coefficients)
+            functions[name] = basis.curve(coefficients, self._beyond)
             refined[name] = coefficients
         params = {**params, **{a: float(values[a]) for a in free_params}}
         # the covariance was of the equation-error estimate, which this stage moved
@@ -420,7 +437,8 @@ class PolyCCRegressor(CCRegressor):
                 block = self._curve_block(name)
                 if block and block[0] in drawn:
                     functions[name] = PolyCurve(np.array([drawn[k] for k in block]),
-                                                curve.center, curve.half, curve.domain)
+                                                curve.center, curve.half, curve.domain,
+                                                curve.extrapolation)
             out.append((functions, params))
         return out
 
