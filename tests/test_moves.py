@@ -250,13 +250,17 @@ def test_the_loop_refines_its_last_skeleton_by_output_error_when_that_simulates_
     frame, truth = datasets.make_resonator(n_samples=4000, noise=65.0, samples_per_period=10,
                                            random_state=0, return_truth=True)
     loop = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), frame,
-                          n_bootstrap=0).run(max_rounds=3, refine=True)
+                          n_bootstrap=0).run(max_rounds=3)  # refined by default
     assert loop.stopped and loop.model.fit_mode_ == "equation"
     refinement = loop.refinement
     assert refinement.adopted and refinement.after < refinement.before
     assert loop.final_model is refinement.model and loop.final_model.fit_mode_ == "simulation"
     assert loop.final_model.skeleton_ == loop.model.skeleton_
     assert "refined by output error" in loop.summary()
+    # asked not to, the loop keeps its last round's model
+    plain = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), frame,
+                           n_bootstrap=0).run(max_rounds=3, refine=False)
+    assert plain.refinement is None and plain.final_model is plain.model
     # a model already fitted by output error is its own refinement
     noisy = datasets.make_pendulum(random_state=0, noise=35.0)
     loop = HypothesisLoop(PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = -a1 x2 - a2 x1"]),

@@ -142,6 +142,8 @@ def test_the_loop_finds_the_formula_and_simulates_a_fresh_record_as_the_truth_do
         max_rounds=4)
     first = loop.rounds[0]
     assert first.added.move == "open" and "outside the catalogue" in first.decision
+    # the next round's curves continue beyond their data as the diagnosis judged them
+    assert loop.rounds[1].model.extrapolation == "linear"
     assert loop.stopped
     truth = PolyCCRegressor(equations=TRUE, param_init={"a3": 0.5, "a4": 2.5}).fit(frame)
     fresh = _record(7, y0=(-1.0, 0.5), freqs=(0.6, 1.1, 1.9))

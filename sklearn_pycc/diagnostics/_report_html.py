@@ -29,6 +29,8 @@ CAPTIONS = {
     "residual": "The derivative residual against the variable that explains it best, "
                 "with the suggested term's fit.",
     "map": "Mean residual over the states; hatched cells hold no samples.",
+    "open_curve": "Outside the catalogue: the free curve with its 95 % band, the terms it "
+                  "would replace, and the formula proposed for it.",
 }
 
 
@@ -82,4 +84,9 @@ def loop_page(loop, title: str = "Hypothesis loop") -> str:
         body.append("<p>The fitted model:</p>")
         body.append(equations_html(r.model))
         body.append(diagnosis_html(r.diagnosis))
+    if loop.refinement is not None:
+        body.append("<h2>The final model</h2>")
+        body.append(f"<p>The last skeleton {html.escape(str(loop.refinement))}.</p>")
+        if loop.refinement.adopted:
+            body.append(equations_html(loop.refinement.model))
     return page(title, "\n".join(body))

@@ -718,8 +718,9 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     ordered = _ordered([c for c in candidates if c.move != "remove"])
     eligible = _eligible(ordered, min_improvement, bic_threshold, simulation_rmse)
     judge = window if run_simulation else None
-    chosen = _decide(eligible, model, data, judge, failing, steps, n_jobs) if held_out else (
-        eligible[0] if eligible else None)
+    cache: dict = {}  # the model's own held-out errors, by fold, for every check
+    chosen = _decide(eligible, model, data, judge, failing, steps, n_jobs, cache) \
+        if held_out else (eligible[0] if eligible else None)
     if chosen is None:
         # nothing to add or swap in: is a term of the skeleton superfluous?
         _refit_all([c for c in removals if c.screen_removed > -REMOVAL_SCREEN][:N_REMOVE],
@@ -737,11 +738,17 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
             _simulate_leaders([c for c in opened if c.refit is not None], data,
                               measured_states, window, steps, divergences)
         opened = _ordered(opened)
-        chosen = _decide_open(_eligible(opened, min_improvement, bic_threshold, simulation_rmse),
-                              model, data, judge, failing, steps, held_out, n_jobs)
+        # a curve that does not simulate the record itself clearly better will not do so
+        # on data it has not seen: spare the held-out fits
+        promising = [c for c in _eligible(opened, min_improvement, bic_threshold,
+                                          simulation_rmse)
+                     if not run_simulation or not math.isfinite(simulation_rmse)
+                     or c.simulation_rmse <= (1 - OPEN_GAIN) * simulation_rmse]
+        chosen = _decide_open(promising, model, data, judge, failing, steps, held_out, n_jobs,
+                              cache)
         if chosen is not None:
             formula = _formula(chosen, skeleton, model, data, residuals, rss_before, baseline,
-                               judge, failing, steps, held_out, n_jobs)
+                               judge, failing, steps, held_out, n_jobs, cache)
         candidates += opened
         ordered += opened
     if chosen is not None:
@@ -943,10 +950,14 @@ def _eligible(ordered: list[Candidate], min_improvement: float, bic_threshold: f
 
 
 def _decide(eligible: list[Candidate], model, data: Measurements, horizon: Horizon | None,
-            equations: list[int], steps: int, n_jobs: int | None = None) -> Candidate | None:
-    """The first eligible candidate that held-out data confirm, or None."""
+            equations: list[int], steps: int, n_jobs: int | None = None,
+            cache: dict | None = None) -> Candidate | None:
+    """The first eligible candidate that held-out data confirm, or None.
+
+    ``cache`` keeps the model's own held-out errors by fold for later checks.
+    """
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
-    cache: dict = {}
+    cache = {} if cache is None else cache
 
     def check(c: Candidate) -> bool:
         c.held_out = held_out_check(model, c.refit, data, horizon, equations,
@@ -1014,12 +1025,12 @@ N_OPEN = 2
 
 def _decide_open(eligible: list[Candidate], model, data: Measurements,
                  horizon: Horizon | None, equations: list[int], steps: int, held_out: bool,
-                 n_jobs: int | None = None) -> Candidate | None:
+                 n_jobs: int | None = None, cache: dict | None = None) -> Candidate | None:
     """The first free curve that lowers the held-out error clearly, or None."""
     if not held_out:
         return eligible[0] if eligible else None
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
-    cache: dict = {}
+    cache = {} if cache is None else cache
     for c in eligible[:N_OPEN]:
         c.held_out = held_out_check(model, c.refit, data, horizon, equations, max_steps=steps,
                                     output_error=output_error, cache=cache, n_jobs=n_jobs,
@@ -1033,7 +1044,7 @@ def _decide_open(eligible: list[Candidate], model, data: Measurements,
 def _formula(chosen: Candidate, skeleton: Skeleton, model, data: Measurements,
              residuals: np.ndarray, rss_before: np.ndarray, baseline: frozenset,
              horizon: Horizon | None, equations: list[int], steps: int, held_out: bool,
-             n_jobs: int | None) -> Candidate | None:
+             n_jobs: int | None, cache: dict | None = None) -> Candidate | None:
     """The symbolic engine's formula for the chosen free curve, refitted and judged.
 
     Of the formulas found, the plausible refit with the lowest BIC is
@@ -1055,7 +1066,7 @@ def _formula(chosen: Candidate, skeleton: Skeleton, model, data: Measurements,
         output_error = getattr(model, "fit_mode_", "equation") == "simulation"
         formula.held_out = held_out_check(model, formula.refit, data, horizon, equations,
                                           max_steps=steps, output_error=output_error,
-                                          n_jobs=n_jobs)
+                                          n_jobs=n_jobs, cache=cache)
     return formula
 
 

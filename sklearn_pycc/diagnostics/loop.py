@@ -6,9 +6,11 @@ import math
 from dataclasses import dataclass
 from numbers import Integral
 
+import numpy as np
 import pandas as pd
 from sklearn.base import clone
 
+from ..exceptions import SimulationError
 from ..skeleton import Skeleton
 from ..skeleton.nodes import Param, rename, signed_terms, walk
 from ..skeleton.printer import to_text
@@ -177,6 +179,9 @@ class HypothesisLoop:
         added = self.rounds[-1].added
         previous = self.rounds[-1].model
         settings = {"equations": added.equations, "constraints": None}
+        if added.move == "open" and previous.get_params().get("extrapolation") == "polynomial":
+            # a free curve continues beyond its data as the diagnosis judged it
+            settings["extrapolation"] = "linear"
         if "param_init" in previous.get_params():
             init = dict(previous.get_params()["param_init"] or {})
             init.update(added.param_init)
@@ -225,15 +230,16 @@ class HypothesisLoop:
         self.rounds.append(current)
         return current
 
-    def run(self, max_rounds: int = 5, refine: bool = False) -> HypothesisLoop:
+    def run(self, max_rounds: int = 5, refine: bool = True) -> HypothesisLoop:
         """Step until nothing is missing or ``max_rounds`` rounds are recorded.
 
         Parameters
         ----------
         max_rounds : int, default=5
             Most rounds in all (the starting skeleton counts as one).
-        refine : bool, default=False
-            Then :meth:`refine` the last skeleton by output error.
+        refine : bool, default=True
+            Then :meth:`refine` the last skeleton by output error: it becomes
+            :attr:`final_model` when it simulates held-out data better.
 
         Returns
         -------
@@ -247,7 +253,14 @@ class HypothesisLoop:
         while not self.stopped and len(self.rounds) < max_rounds:
             self.step()
         if refine:
-            self.refine()
+            try:
+                self.refine()
+            except (SimulationError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+                # the loop's answer stands without it; say why
+                self.refinement = None
+                self.rounds[-1].diagnosis.notes.append(
+                    f"the output-error refinement of the last skeleton failed ({exc}); the "
+                    "final model is the last round's")
         return self
 
     def refine(self) -> Refinement | None:
