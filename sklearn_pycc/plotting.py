@@ -224,9 +224,14 @@ def _residual_figure(plt, report):
         ax.plot(values, residual, ".", ms=2, color="0.5", label="residual")
         shift = _effect_shift(report, name)
         if shift is not None:
-            change = {"remove": f"without {best.term}",
-                      "replace": f"with - {best.term} in place of {' + '.join(best.replaces)}"
-                      }.get(best.move, f"with - {best.term}")
+            # an open move's refit drawn here is the free curve's
+            term = best.curve_term if best.move == "open" else best.term
+            if best.move == "remove":
+                change = f"without {best.term}"
+            elif best.replaces:
+                change = f"with - {term} in place of {' + '.join(best.replaces)}"
+            else:
+                change = f"with - {term}"
             ax.plot(values, shift, ".", ms=1.5, color="C3",
                     label=f"change of the model refitted {change}")
         ax.axhline(0.0, color="k", lw=0.6)
@@ -390,8 +395,19 @@ def plot_loop(loop):
         "simulation_rmse": table["simulation_rmse"].to_numpy(),
         "n_params": table["n_parameters"].to_numpy()},
         index=[f"round {r.index}" + ("" if r.index == 0 else
-                                     f": +{loop.rounds[r.index - 1].added.effect}")
+                                     f": {_move_label(loop.rounds[r.index - 1].added)}")
                for r in loop.rounds])
     fig = plot_comparison(frame)
     fig.suptitle("Watch the error fall, round by round")
     return fig
+
+
+def _move_label(added) -> str:
+    """A round's change in a few characters (``+cubic_stiffness``, ``pendulum for a2*x1``)."""
+    if added.move == "remove":
+        return f"-{added.term}"
+    if added.move == "open":
+        return f"outside: {added.effect}"
+    if added.replaces:
+        return f"{added.effect} for {' + '.join(added.replaces)}"
+    return f"+{added.effect}"
