@@ -115,6 +115,12 @@ class Candidate:
         return self.additions[0][1]
 
     @property
+    def key(self) -> tuple:
+        """What identifies the move, the same after a copy or a pickle round trip."""
+        return (self.move, self.effect.name, tuple(self.equations), self.variable,
+                tuple(self.additions), tuple(self.removals))
+
+    @property
     def replaces(self) -> tuple[str, ...]:
         """The terms the move takes out of the skeleton, as written there."""
         return tuple(text for _, text in self.removals)

@@ -34,7 +34,7 @@ class Stability:
     Attributes
     ----------
     wins : dict
-        ``id(candidate)`` -> resamples it won.
+        ``candidate.key`` -> resamples it won (a key that survives a copy or a pickle).
     nothing : int
         Resamples in which no candidate cleared the thresholds.
     n_resamples : int
@@ -51,7 +51,7 @@ class Stability:
         """Share of the resamples ``candidate`` won."""
         if self.n_resamples == 0:
             return math.nan
-        return self.wins.get(id(candidate), 0) / self.n_resamples
+        return self.wins.get(candidate.key, 0) / self.n_resamples
 
 
 def selection_stability(contenders: list[Candidate], residuals: np.ndarray,
@@ -77,7 +77,7 @@ def selection_stability(contenders: list[Candidate], residuals: np.ndarray,
     tie : (float, float)
         Relative and absolute score margins of a near tie.
     simulates_better : set
-        ``id`` of the candidates that clear the thresholds by their
+        ``key`` of the candidates that clear the thresholds by their
         simulation alone (whatever the resample).
     """
     n = residuals.shape[0]
@@ -94,7 +94,7 @@ def selection_stability(contenders: list[Candidate], residuals: np.ndarray,
         return Stability({}, n_resamples, n_resamples, method)
     # running sums: the residual sum of squares of a block is a difference of two
     base = _running(residuals**2)
-    after = {id(c): _running(c.after_squares) for c in contenders}
+    after = {c.key: _running(c.after_squares) for c in contenders}
     floor = rss_floor(derivatives)
     bic_threshold, min_improvement = thresholds
     rng = np.random.default_rng(next(seeds(random_state)))
@@ -112,19 +112,19 @@ def selection_stability(contenders: list[Candidate], residuals: np.ndarray,
         scored = []
         for c in contenders:
             ks = c.equations
-            running = after[id(c)]
+            running = after[c.key]
             before = np.maximum(rss_base[ks], floor[ks])
             now = np.maximum((running[stops] - running[starts]).sum(axis=0), floor[ks])
             delta = float(m * np.sum(np.log(now / before)) + c.n_change * math.log(m))
             removed = 1.0 - now.sum() / before.sum()
             if delta <= -bic_threshold and (removed >= min_improvement
-                                            or id(c) in simulates_better):
+                                            or c.key in simulates_better):
                 scored.append((c, -delta))
         if not scored:
             nothing += 1
             continue
         winner = _leader(scored, tie)
-        wins[id(winner)] = wins.get(id(winner), 0) + 1
+        wins[winner.key] = wins.get(winner.key, 0) + 1
     return Stability(wins, nothing, n_resamples, method)
 
 

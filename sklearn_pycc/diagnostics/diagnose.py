@@ -436,7 +436,7 @@ class Diagnosis:
         if stability is None or stability.n_resamples == 0:
             return []
         total = stability.n_resamples
-        others = [(stability.wins.get(id(c), 0), c) for c in self._candidates]
+        others = [(stability.wins.get(c.key, 0), c) for c in self._candidates]
         others = sorted(((k, c) for k, c in others if k), key=lambda item: -item[0])
         parts = [f"{c.effect.name} in {c.roles.derivative} wins {k}" for k, c in others]
         if stability.nothing:
@@ -825,7 +825,7 @@ def _stability(ordered: list[Candidate], residuals: np.ndarray, data: Measuremen
                   and c.move != "remove"
                   and (c.held_out is None or c.held_out.confirmed)
                   and (c.move != "open" or c.held_out is not None)]
-    better = {id(c) for c in contenders if _simulates_better(c, simulation_rmse)}
+    better = {c.key for c in contenders if _simulates_better(c, simulation_rmse)}
     return selection_stability(contenders, residuals, data.derivatives,
                                [rows for _, rows in data.groups],
                                (bic_threshold, min_improvement), TIE, better, n_resamples,

@@ -141,6 +141,9 @@ class HypothesisLoop:
     """
 
     def __init__(self, estimator, X, y=None, **diagnose_options) -> None:
+        if isinstance(estimator, type):
+            raise TypeError(f"estimator must be an instance, got the class {estimator.__name__}:"
+                            f" pass {estimator.__name__}(equations=[...])")
         if not hasattr(estimator, "get_params") or "equations" not in estimator.get_params():
             raise TypeError("estimator must be a CCRegressor backend with the starting "
                             f"skeleton as equations, got {type(estimator).__name__}")
@@ -324,6 +327,8 @@ class HypothesisLoop:
         ``NAME_nrmse`` (simulated over the common horizon);
         ``table.attrs["units"]`` gives their units.
         """
+        if not self.rounds:
+            raise ValueError("the loop has not run yet: call step() or run() first")
         rows = []
         for r in self.rounds:
             d = r.diagnosis
@@ -371,6 +376,8 @@ class HypothesisLoop:
         """
         from ._report_html import loop_page
 
+        if not isinstance(title, str):
+            raise TypeError(f"title must be a string, got {type(title).__name__}")
         document = loop_page(self, title)
         if path is not None:
             from pathlib import Path

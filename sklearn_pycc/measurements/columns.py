@@ -45,7 +45,29 @@ def _finite_column(values: np.ndarray, what: str, trajectory: np.ndarray | None 
                          "before fitting (a gap splits an experiment in two)")
 
 
+def _seconds(series: pd.Series, what: str) -> np.ndarray | None:
+    """A datetime or timedelta column in seconds (None for any other column).
+
+    Datetimes count from the column's first value; the conversion is said
+    in a warning, since a logger's clock becomes a relative time.
+    """
+    if pd.api.types.is_datetime64_any_dtype(series.dtype):
+        values = (series - series.iloc[0]).dt.total_seconds()
+        warnings.warn(f"{what} holds datetimes ({series.dtype}): read as seconds since its "
+                      f"first value ({series.iloc[0]})", UserWarning, stacklevel=4)
+        return values.to_numpy(dtype=np.float64, copy=True)
+    if pd.api.types.is_timedelta64_dtype(series.dtype):
+        return series.dt.total_seconds().to_numpy(dtype=np.float64, copy=True)
+    return None
+
+
 def _numeric(series: pd.Series, what: str) -> np.ndarray:
+    seconds = _seconds(series, what)
+    if seconds is not None:
+        if not what.endswith("'t'"):
+            raise ValueError(f"{what} holds {series.dtype} values; only the time column 't' "
+                             "may hold datetimes or durations")
+        return seconds
     try:
         values = series.to_numpy(dtype=np.float64, copy=True)
     except (TypeError, ValueError):

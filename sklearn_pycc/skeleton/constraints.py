@@ -11,6 +11,7 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from itertools import pairwise
+from numbers import Real
 
 from ..exceptions import SkeletonError
 from .functions import is_param_name, is_unknown_name
@@ -21,6 +22,8 @@ __all__ = ["Bound", "Constraint", "check_constraints", "merged_bounds", "parse_c
 
 #: kinds of curve constraints that are shapes rather than points
 MONOTONE = ("increasing", "decreasing")
+#: every kind of curve constraint
+KINDS = ("odd", "even", "value", *MONOTONE)
 
 
 @dataclass(frozen=True)
@@ -41,6 +44,20 @@ class Constraint:
     kind: str
     at: float | None = None
     value: float | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.function, str) or not is_unknown_name(self.function):
+            raise SkeletonError(f"a constraint applies to a curve f1, f2, ..., got "
+                                f"{self.function!r}")
+        if self.kind not in KINDS:
+            raise SkeletonError(f"constraint on {self.function}: kind must be one of "
+                                f"{', '.join(KINDS)}, got {self.kind!r}")
+        if self.kind == "value":
+            for name, number in (("at", self.at), ("value", self.value)):
+                if isinstance(number, bool) or not isinstance(number, Real) \
+                        or not math.isfinite(number):
+                    raise SkeletonError(f"constraint on {self.function}: {name} must be a "
+                                        f"finite number, got {number!r}")
 
     def __str__(self) -> str:
         if self.kind == "value":
@@ -63,6 +80,19 @@ class Bound:
     param: str
     low: float = -math.inf
     high: float = math.inf
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.param, str) or not is_param_name(self.param):
+            raise SkeletonError(f"a bound applies to a parameter a1, a2, ..., got "
+                                f"{self.param!r}")
+        for name, number in (("low", self.low), ("high", self.high)):
+            if isinstance(number, bool) or not isinstance(number, Real) \
+                    or math.isnan(number):
+                raise SkeletonError(f"bound on {self.param}: {name} must be a number (or "
+                                    f"an infinity), got {number!r}")
+        if self.low > self.high:
+            raise SkeletonError(f"bound on {self.param}: low {self.low:g} exceeds high "
+                                f"{self.high:g}")
 
     def __str__(self) -> str:
         if math.isinf(self.low):

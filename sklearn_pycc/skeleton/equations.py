@@ -220,6 +220,7 @@ def classify(parsed: list[tuple[str, Node, Node]]) -> list[Equation]:
                 raise SkeletonError(
                     "this equation has no derivative of its own and nothing to fit (no "
                     f"f_i or a_i): {hint}", equation=index, position=0, text=text)
+            _check_relation(index, text, lhs, rhs)
             equations.append(Equation(index, text, lhs, rhs, None, False))
             continue
         if len(free) > 1:
@@ -242,6 +243,29 @@ def classify(parsed: list[tuple[str, Node, Node]]) -> list[Equation]:
                     f"its own '{name} = ...' equation", equation=eq.index,
                     position=pos if pos >= 0 else 0, text=eq.text)
     return equations
+
+
+def _check_relation(index: int, text: str, lhs: Node, rhs: Node) -> None:
+    """Refuse an equation without derivatives that no data could contradict.
+
+    ``x2 = F_ext - f1(x2) - f2(x1)`` (``_dot`` forgotten) relates ``x2`` to
+    itself: a curve or parameter takes any value that makes it hold, so it
+    fits every record. ``0 = a1`` reads no measured quantity at all.
+    """
+    symbols = [n for side in (lhs, rhs) for n in walk(side) if isinstance(n, Symbol)]
+    if not symbols:
+        raise SkeletonError(
+            "this equation reads no measured quantity (no state, input or output), so "
+            "any record satisfies it: did you mean a derivative 'NAME_dot = ...'?",
+            equation=index, position=0, text=text)
+    if isinstance(lhs, Symbol) and lhs.name != TIME:
+        again = _positions(rhs, lhs.name)
+        if again >= 0:
+            raise SkeletonError(
+                f"{lhs.name} is on both sides of an equation without derivatives: a curve "
+                f"or parameter can make such a relation of {lhs.name} to itself hold for any "
+                f"data; did you mean '{lhs.name}_dot = ...'?", equation=index,
+                position=again, text=text)
 
 
 def _mark_outputs(equations: list[Equation], states: set[str]) -> list[Equation]:

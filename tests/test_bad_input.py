@@ -1,0 +1,110 @@
+"""Careless input gets a clear answer: typos that would change the model, time columns, reports."""
+
+import copy
+import math
+import pickle
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets, diagnose
+from sklearn_pycc.exceptions import SkeletonError
+from sklearn_pycc.skeleton import Bound, Constraint, Skeleton
+
+
+@pytest.fixture(scope="module")
+def record():
+    frame, truth = datasets.make_oscillator(hidden=["cubic_stiffness"], return_truth=True)
+    return frame[["t", "x1", "F_ext"]], truth
+
+
+# -- skeleton text that no data could contradict ------------------------------------------
+def test_a_forgotten_dot_is_refused_with_the_likely_intent():
+    with pytest.raises(SkeletonError, match=r"x2 is on both sides.*did you mean 'x2_dot"):
+        Skeleton(["x1_dot = x2", "x2 = F_ext - f1(x2) - f2(x1)"])
+
+
+@pytest.mark.parametrize("equations, message", [
+    (["F1 = f1(F1)"], "F1 is on both sides"),
+    (["x1_dot = x2", "x2_dot = -a1 x1", "0 = a1"], "reads no measured quantity"),
+])
+def test_tautologies_are_refused(equations, message):
+    with pytest.raises(SkeletonError, match=message):
+        Skeleton(equations)
+
+
+def test_a_static_output_of_the_states_is_still_accepted():
+    skeleton = Skeleton(["x1_dot = -a1 x1 + u", "y = f1(x1)"])
+    assert skeleton.outputs == ["y"]
+
+
+# -- constraints built by hand --------------------------------------------------------------
+@pytest.mark.parametrize("make, message", [
+    (lambda: Bound("a1", math.nan, 1.0), "low must be a number"),
+    (lambda: Bound("a1", 0.0, "1"), "high must be a number"),
+    (lambda: Bound("a1", 2.0, 1.0), "low 2 exceeds high 1"),
+    (lambda: Bound("x1", 0.0, 1.0), "a bound applies to a parameter"),
+    (lambda: Constraint("f1", "sideways"), "kind must be one of"),
+    (lambda: Constraint("f1", "value", 0.0, math.inf), "value must be a finite number"),
+    (lambda: Constraint("a1", "odd"), "applies to a curve"),
+])
+def test_hand_made_constraints_are_checked(make, message):
+    with pytest.raises(SkeletonError, match=message):
+        make()
+
+
+def test_numpy_numbers_make_valid_bounds():
+    assert Bound("a1", np.float64(0.0), np.int64(3)).contains(1.0)
+
+
+# -- time columns as loggers write them ---------------------------------------------------
+def test_datetime_and_timedelta_time_columns_are_read_as_seconds(record):
+    X, truth = record
+    plain = PolyCCRegressor(equations=truth.base_equations).fit(X)
+    stamps = X.assign(t=pd.Timestamp("2026-03-01 08:00") + pd.to_timedelta(X["t"], unit="s"))
+    with pytest.warns(UserWarning, match="read as seconds since its first value"):
+        dated = PolyCCRegressor(equations=truth.base_equations).fit(stamps)
+    spans = X.assign(t=pd.to_timedelta(X["t"], unit="s"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a duration is already a time: nothing to say
+        timed = PolyCCRegressor(equations=truth.base_equations).fit(spans)
+    for model in (dated, timed):
+        for name, value in plain.params_.items():
+            assert model.params_[name] == pytest.approx(value, rel=1e-9)
+
+
+def test_a_duration_outside_the_time_column_is_refused(record):
+    X, truth = record
+    with pytest.raises(ValueError, match="column 'x1' holds timedelta64"):
+        PolyCCRegressor(equations=truth.base_equations).fit(
+            X.assign(x1=pd.to_timedelta(X["x1"], unit="s")))
+
+
+# -- the loop's own arguments ---------------------------------------------------------------
+def test_the_loop_names_a_class_given_for_an_estimator(record):
+    X, _ = record
+    with pytest.raises(TypeError, match=r"got the class PolyCCRegressor: pass "
+                                        r"PolyCCRegressor\(equations="):
+        HypothesisLoop(PolyCCRegressor, X)
+
+
+def test_a_loop_that_has_not_run_says_so(record):
+    X, truth = record
+    loop = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), X)
+    with pytest.raises(ValueError, match="has not run yet"):
+        loop.table()
+    with pytest.raises(TypeError, match="title must be a string"):
+        loop.to_html(title=123)
+
+
+# -- saved reports tell the same story ------------------------------------------------------
+def test_a_copied_or_pickled_diagnosis_keeps_its_stability(record):
+    X, truth = record
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X)
+    report = diagnose(model, X, n_bootstrap=10)
+    assert "cubic_stiffness wins in 10 of 10" in report.summary()
+    for again in (pickle.loads(pickle.dumps(report)), copy.deepcopy(report)):
+        assert again.summary() == report.summary()
+        pd.testing.assert_frame_equal(again.ranking, report.ranking)
