@@ -305,15 +305,33 @@ def choose_horizon(system, states: Sequence[str], columns: Mapping[str, np.ndarr
             why = (f"{HORIZON_PERIODS:g} periods of the model's oscillation"
                    if np.mean(oscillating) >= 0.5 else
                    f"{HORIZON_TIME_CONSTANTS:g} of the model's time constants")
-    elif isinstance(horizon, Real) and not isinstance(horizon, bool) \
-            and math.isfinite(horizon) and horizon > 0:
-        samples = max(1, round(float(horizon) / step))
+    elif isinstance(horizon, Real) and not isinstance(horizon, bool) and _positive(horizon):
+        span = _as_float(horizon)
+        if span < 2 * step:
+            raise ValueError(f"horizon {horizon!r} is shorter than two sampling steps "
+                             f"({2 * step:.4g}): a window must hold at least one step to "
+                             "simulate; give a longer time, 'auto' or None")
+        samples = round(span / step) if math.isfinite(span) else longest
         why = "as given"
     else:
         raise ValueError(f"horizon must be 'auto', None or a positive time, got {horizon!r}")
     if samples >= longest:
         return Horizon(None, None, f"whole experiments ({why}: longer than the record)")
     return Horizon(samples * step, int(samples), why)
+
+
+def _as_float(value) -> float:
+    """``value`` as a float; an integer too large for one is infinite."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+
+
+def _positive(value) -> bool:
+    """Whether a real ``value`` is a positive number (not NaN)."""
+    number = _as_float(value)
+    return not math.isnan(number) and number > 0
 
 
 def simulate_windows(system, states: Sequence[str], inputs: Sequence[str], uses_time: bool,

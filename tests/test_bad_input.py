@@ -108,3 +108,30 @@ def test_a_copied_or_pickled_diagnosis_keeps_its_stability(record):
     for again in (pickle.loads(pickle.dumps(report)), copy.deepcopy(report)):
         assert again.summary() == report.summary()
         pd.testing.assert_frame_equal(again.ranking, report.ranking)
+
+
+# -- work that cannot finish, or numbers no fit can hold ------------------------------------
+def test_absurd_amounts_of_work_are_refused(record):
+    X, truth = record
+    with pytest.raises(ValueError, match="degree of every curve is 100, above 60"):
+        PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
+                        degree=100).fit(X)
+    with pytest.raises(ValueError, match="n_bootstrap"):
+        PolyCCRegressor(equations=truth.base_equations, n_bootstrap=10**9).fit(X)
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X)
+    with pytest.raises(ValueError, match=r"n_bootstrap must be 0 .* from 2 to 100,000"):
+        diagnose(model, X, n_bootstrap=10**9)
+
+
+def test_a_bound_beyond_what_a_float_fit_can_hold_is_refused():
+    with pytest.raises(SkeletonError, match="beyond 1e\\+100"):
+        Skeleton(["x1_dot = -a1 x1"], constraints=["a1 >= 1e300"])
+
+
+def test_horizons_too_long_or_too_short(record):
+    X, truth = record
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X)
+    whole = diagnose(model, X, horizon=10**400, n_bootstrap=0, held_out=False)
+    assert whole.horizon.time is None  # longer than the record: whole experiments
+    with pytest.raises(ValueError, match="shorter than two sampling steps"):
+        diagnose(model, X, horizon=1e-9, n_bootstrap=0, held_out=False)

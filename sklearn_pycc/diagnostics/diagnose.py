@@ -625,9 +625,9 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     """
     _check_options(n_refit, min_improvement, bic_threshold, max_steps)
     if isinstance(n_bootstrap, bool) or not isinstance(n_bootstrap, Integral) \
-            or n_bootstrap < 0 or n_bootstrap == 1:
-        raise ValueError("n_bootstrap must be 0 (no resamples) or an integer of at least 2, "
-                         f"got {n_bootstrap!r}")
+            or n_bootstrap < 0 or n_bootstrap == 1 or n_bootstrap > MAX_RESAMPLES:
+        raise ValueError("n_bootstrap must be 0 (no resamples) or an integer from 2 to "
+                         f"{MAX_RESAMPLES:,}, got {n_bootstrap!r}")
     check_seed_source(random_state)
     if n_jobs is not None and (isinstance(n_jobs, bool) or not isinstance(n_jobs, Integral)
                                or n_jobs == 0):
@@ -793,6 +793,8 @@ def _refit_all(candidates: list[Candidate], model, data: Measurements, residuals
                 setattr(candidate, item.name, getattr(result, item.name))
 
 
+#: most resamples a diagnosis draws (each is a pass over the refits' residuals)
+MAX_RESAMPLES = 100_000
 #: replacements refitted beside the ``n_refit`` additions
 N_REPLACE = 2
 

@@ -47,7 +47,9 @@ _PRIVATE_STATE = ("_compiled", "_y_1d")
 RANDOM_STATES = [None, Interval(Integral, 0, 2**32 - 1, closed="both"),
                  np.random.RandomState, np.random.Generator]
 #: the hyperparameters of a backend that refits on resamples (``n_bootstrap``, ``n_jobs``)
-RESAMPLING = {"n_bootstrap": [Interval(Integral, 0, None, closed="left")],
+#: most refits on resamples a fit may ask for (each is a whole fit)
+MAX_BOOTSTRAP = 10_000
+RESAMPLING = {"n_bootstrap": [Interval(Integral, 0, MAX_BOOTSTRAP, closed="both")],
               "n_jobs": [Integral, None]}
 
 

@@ -141,6 +141,10 @@ class _Design:
         return np.vstack(blocks), np.array(h)
 
 
+#: highest degree of a curve: beyond it the power series loses the fit to rounding
+MAX_DEGREE = 60
+
+
 class PolyCCRegressor(CCRegressor):
     """Characteristic curves as polynomial (linear-basis) expansions.
 
@@ -160,7 +164,8 @@ class PolyCCRegressor(CCRegressor):
     constraints : list of str or dict, optional
         ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, ...
     degree : int or dict, default=7
-        Polynomial degree of every curve, or ``{"f1": 9, "f2": 3}``.
+        Polynomial degree of every curve, or ``{"f1": 9, "f2": 3}``; at most
+        :data:`MAX_DEGREE` (60).
     basis : {"legendre", "chebyshev", "power"}, default="legendre"
         Polynomial family in the argument scaled to ``[-1, 1]``.
     alpha : float, default=0.0
@@ -259,6 +264,12 @@ class PolyCCRegressor(CCRegressor):
         def check(value, name) -> int:
             if not isinstance(value, Integral) or isinstance(value, bool) or value < 0:
                 raise ValueError(f"degree of {name} must be a non-negative integer, got {value!r}")
+            if value > MAX_DEGREE:
+                raise ValueError(
+                    f"degree of {name} is {value}, above {MAX_DEGREE}: a fitted polynomial is "
+                    "evaluated as a power series, whose coefficients then cancel beyond the "
+                    "precision of a float (at degree 90 the fit is worse than a constant); "
+                    "use a lower degree, or NeuralCCRegressor for a curve of many wiggles")
             return int(value)
 
         if isinstance(self.degree, Mapping):

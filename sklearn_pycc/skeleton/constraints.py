@@ -22,6 +22,8 @@ __all__ = ["Bound", "Constraint", "check_constraints", "merged_bounds", "parse_c
 
 #: kinds of curve constraints that are shapes rather than points
 MONOTONE = ("increasing", "decreasing")
+#: largest finite bound a parameter may have (a fit cannot place a number beyond it)
+LARGEST_BOUND = 1e100
 #: every kind of curve constraint
 KINDS = ("odd", "even", "value", *MONOTONE)
 
@@ -90,6 +92,10 @@ class Bound:
                     or math.isnan(number):
                 raise SkeletonError(f"bound on {self.param}: {name} must be a number (or "
                                     f"an infinity), got {number!r}")
+            if math.isfinite(number) and abs(number) > LARGEST_BOUND:
+                raise SkeletonError(f"bound on {self.param}: {name} {number:g} is beyond "
+                                    f"{LARGEST_BOUND:g}, where a fitted number loses its "
+                                    "precision; rescale the quantity or leave it unbounded")
         if self.low > self.high:
             raise SkeletonError(f"bound on {self.param}: low {self.low:g} exceeds high "
                                 f"{self.high:g}")
