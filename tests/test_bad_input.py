@@ -135,3 +135,32 @@ def test_horizons_too_long_or_too_short(record):
     assert whole.horizon.time is None  # longer than the record: whole experiments
     with pytest.raises(ValueError, match="shorter than two sampling steps"):
         diagnose(model, X, horizon=1e-9, n_bootstrap=0, held_out=False)
+
+
+
+# -- static outputs: fit and score read them alike ----------------------------------------------
+def _decay():
+    t = np.linspace(0.0, 10.0, 500)
+    x = np.exp(-0.5 * t)
+    return (pd.DataFrame({"t": t, "x1": x, "y": 2 * x + 0.1}),
+            pd.DataFrame({"x1_dot": -0.5 * x}), ["x1_dot = -a1 x1", "y = a2 x1 + a3"])
+
+
+def test_score_reads_a_static_output_from_X_as_fit_does():
+    from sklearn.model_selection import cross_val_score
+
+    X, y, equations = _decay()
+    model = PolyCCRegressor(equations=equations).fit(X)
+    assert model.score(X, y) == pytest.approx(1.0, abs=1e-6)
+    scores = cross_val_score(PolyCCRegressor(equations=equations), X, y, cv=3,
+                             error_score="raise")
+    assert np.all(scores > 0.999)
+
+
+def test_a_static_output_given_twice_must_agree():
+    X, y, equations = _decay()
+    with pytest.raises(ValueError, match=r"'y' is in both X and y, with different values "
+                                         r"\(first at row 0: 2.1 in X, 2 in y\)"):
+        PolyCCRegressor(equations=equations).fit(X, y.assign(y=2 * X["x1"]))
+    same = PolyCCRegressor(equations=equations).fit(X, y.assign(y=X["y"]))
+    assert same.params_["a2"] == pytest.approx(2.0)

@@ -431,3 +431,19 @@ def test_pysr_model_of_train_and_post_processing(stick_slip):
         assert np.allclose(copy["f1"](x), found["f1"](x))
         assert copy["f1"]["pysr_model"].get_best()["equation"] == \
             found["f1"]["pysr_model"].get_best()["equation"]
+
+
+@pytest.mark.parametrize("params, message", [
+    ({"N_order": "five"}, r"'N_order' must be a whole number of at least 0, got 'five'"),
+    ({"N_order": 2.7}, r"'N_order' must be a whole number of at least 0, got 2.7"),
+    ({"N_order": float("nan")}, r"'N_order' must be a whole number"),
+    ({"N_order": True}, r"'N_order' must be a whole number"),
+])
+def test_paper_params_of_the_wrong_kind_are_named_not_truncated(stick_slip, params, message):
+    with pytest.raises(ValueError, match=message):
+        pycc.train(stick_slip, STICK_SLIP, "Poly", params)
+
+
+def test_a_whole_float_is_a_whole_number(stick_slip):
+    models, _, _ = pycc.train(stick_slip, STICK_SLIP, "Poly", {"N_order": 5.0})
+    assert models.estimator.degree == 5

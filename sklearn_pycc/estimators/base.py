@@ -24,6 +24,7 @@ from ..measurements.differentiation import (
     Differentiator,
     resolve_differentiation,
 )
+from ..measurements.record import targets_in_y
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.curves import as_curve
@@ -502,7 +503,18 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         check_is_fitted(self, "functions_")
         pred = np.asarray(self.predict(X))
         pred = pred[:, None] if pred.ndim == 1 else pred
-        truth = read_y(y, self.skeleton_.targets, pred.shape[0])
+        targets = self.skeleton_.targets
+        held = targets_in_y(y, self.skeleton_)
+        if held != targets and isinstance(X, pd.DataFrame) \
+                and all(t in X.columns for t in targets if t not in held):
+            # static outputs y does not hold are read from X, as fit reads them
+            given = read_y(y, held, pred.shape[0])
+            rest = [t for t in targets if t not in held]
+            found = read_y(X[rest], rest, pred.shape[0])
+            by_name = {**dict(zip(held, given.T)), **dict(zip(rest, found.T))}
+            truth = np.column_stack([by_name[t] for t in targets])
+        else:
+            truth = read_y(y, targets, pred.shape[0])
         bad = ~np.isfinite(pred)
         if bad.any():
             raise ValueError(

@@ -18,7 +18,7 @@ from .differentiation import resolve_differentiation
 from .experiments import TIME, TRAJECTORY, Experiment, split_experiments
 from .reconstruct import estimate_states, kinematic_chains
 
-__all__ = ["Record", "read_record"]
+__all__ = ["Record", "read_record", "targets_in_y"]
 
 MEASURED = "measured"
 #: the derivative source of a skeleton of static equations only
@@ -180,7 +180,7 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
     """
     states = skeleton.states
     outputs = list(getattr(skeleton, "outputs", []))
-    in_y = _targets_in_y(y, skeleton) if y is not None else []
+    in_y = targets_in_y(y, skeleton) if y is not None else []
     # a skeleton of static equations only has no derivative to measure or estimate
     given = y is not None or not skeleton.derivatives
     if not given and derivatives_from_X and isinstance(X, pd.DataFrame):
@@ -207,6 +207,7 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
         ndim = 2
         if y is not None:
             values, ndim = read_y(y, in_y, data.n_samples, with_ndim=True)
+            _check_twice_given(X, in_y[n_derivatives:], values[:, n_derivatives:])
             columns.update({name: values[:, j] for j, name in enumerate(in_y)})
             derivatives = values[:, :n_derivatives]
         elif n_derivatives:
@@ -233,7 +234,24 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
     return record.keep() if trim else record
 
 
-def _targets_in_y(y, skeleton) -> list[str]:
+def _check_twice_given(X, outputs: list[str], values: np.ndarray) -> None:
+    """Refuse a static output given in ``X`` and in ``y`` with different values."""
+    if not isinstance(X, pd.DataFrame):
+        return
+    for j, name in enumerate(outputs):
+        if name not in X.columns:
+            continue
+        other = pd.to_numeric(X[name], errors="coerce").to_numpy(dtype=float)
+        differ = ~np.isclose(other, values[:, j], rtol=1e-12, atol=0.0, equal_nan=True)
+        if differ.any():
+            row = int(np.flatnonzero(differ)[0])
+            raise ValueError(
+                f"the static output {name!r} is in both X and y, with different values (first "
+                f"at row {row}: {float(other[row]):.6g} in X, {float(values[row, j]):.6g} in y): "
+                "give it once")
+
+
+def targets_in_y(y, skeleton) -> list[str]:
     """The targets ``y`` holds, in order: the derivatives, and static outputs.
 
     ``y`` holds the derivatives (for a skeleton of static equations only, its

@@ -137,7 +137,7 @@ def post_fine_tuning(read: Params, df: pd.DataFrame, skeleton: Skeleton):
         return {}, df
     settings = {"fit_mode": "simulation"}
     if read.given("n_iter_outer"):
-        settings["shooting_iterations"] = int(read["n_iter_outer"])
+        settings["shooting_iterations"] = read.integer("n_iter_outer", 1)
     if read.supplied("outer_tol"):
         read.note("'outer_tol' has no effect: the output-error stage (multiple "
                   "shooting) stops at its own tolerances or after n_iter_outer iterations")

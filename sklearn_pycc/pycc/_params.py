@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import difflib
+import math
 import warnings
 from collections.abc import Mapping
+from numbers import Integral, Real
 
 __all__ = ["Params"]
 
@@ -71,6 +73,31 @@ class Params:
     def get(self, key: str, default=None):
         """The value of ``key``, or ``default`` for a key this call does not take."""
         return self._values.get(key, default)
+
+    def integer(self, key: str, least: int = 0) -> int:
+        """``key``'s value as a whole number of at least ``least``, or an error naming it.
+
+        ``2.0`` is 2; ``2.7``, ``"five"``, NaN and booleans are refused rather
+        than truncated or converted.
+        """
+        value = self._values[key]
+        number = value
+        if isinstance(value, Real) and not isinstance(value, (bool, Integral)) \
+                and math.isfinite(value) and float(value).is_integer():
+            number = int(value)
+        if isinstance(number, bool) or not isinstance(number, Integral) or number < least:
+            raise ValueError(f"{self.where}: {key!r} must be a whole number of at least "
+                             f"{least}, got {value!r}")
+        return int(number)
+
+    def number(self, key: str, positive: bool = False) -> float:
+        """``key``'s value as a finite float (positive when asked), or an error naming it."""
+        value = self._values[key]
+        if isinstance(value, bool) or not isinstance(value, Real) \
+                or not math.isfinite(value) or (positive and value <= 0):
+            kind = "a positive finite number" if positive else "a finite number"
+            raise ValueError(f"{self.where}: {key!r} must be {kind}, got {value!r}")
+        return float(value)
 
     def supplied(self, key: str) -> bool:
         """Whether the user gave ``key``."""

@@ -179,8 +179,8 @@ def _neural(equations, skeleton: Skeleton, read: Params) -> NeuralCCRegressor:
             if net.history[-1, "train_loss"] < self.threshold:
                 raise KeyboardInterrupt  # skorch ends training on this
 
-    layers = int(read["layers"])
-    callbacks = [StopBelow(float(read["error_threshold"]))] if read.given(
+    layers = read.integer("layers", 1)
+    callbacks = [StopBelow(read.number("error_threshold"))] if read.given(
         "error_threshold") else None
     lbfgs = read["optimizer"] == "lbfgs"
     if lbfgs and read.supplied("lr"):
@@ -189,9 +189,9 @@ def _neural(equations, skeleton: Skeleton, read: Params) -> NeuralCCRegressor:
                   "trains with Adam and this lr)")
     return NeuralCCRegressor(
         equations=equations, constraints=_constraints(read),
-        hidden_layer_sizes=(int(read["neurons"]),) * layers, activation=_activation(read),
-        optimizer=read["optimizer"], lr=None if lbfgs else float(read["lr"]),
-        max_epochs=int(read["epochs"]), early_stopping=lbfgs,
+        hidden_layer_sizes=(read.integer("neurons", 1),) * layers, activation=_activation(read),
+        optimizer=read["optimizer"], lr=None if lbfgs else read.number("lr", positive=True),
+        max_epochs=read.integer("epochs", 1), early_stopping=lbfgs,
         extrapolation=read["extrapolation"] or "linear", device=_device(read),
         callbacks=callbacks, param_init=_param_init(read, skeleton),
         random_state=read["random_state"], **_equation_weights(read, skeleton))
@@ -205,7 +205,7 @@ def _poly(equations, skeleton: Skeleton, read: Params, df: pd.DataFrame):
                   "well conditioned")
     settings, df = post_fine_tuning(read, df, skeleton)
     estimator = PolyCCRegressor(
-        equations=equations, constraints=_constraints(read), degree=int(read["N_order"]),
+        equations=equations, constraints=_constraints(read), degree=read.integer("N_order"),
         param_init=_param_init(read, skeleton), **_equation_weights(read, skeleton),
         **settings)
     return estimator, df
@@ -228,8 +228,8 @@ def _symbolic(equations, skeleton: Skeleton, read: Params) -> SymbolicCCRegresso
     settings = symbolic_settings(read["pysr"], read)
     return SymbolicCCRegressor(
         equations=equations, constraints=_constraints(read),
-        max_iterations=int(read["max_iterations"]), tol=float(read["tol"]),
-        n_fit_points=int(read["N_fit_points"]), param_init=_param_init(read, skeleton),
+        max_iterations=read.integer("max_iterations", 1), tol=read.number("tol", positive=True),
+        n_fit_points=read.integer("N_fit_points", 2), param_init=_param_init(read, skeleton),
         random_state=read["random_state"], **settings)
 
 
@@ -337,5 +337,5 @@ def train(df: pd.DataFrame, equations, method: str = "NN", params: dict | None =
         curves = symbolic_entries(estimator)
     else:
         curves = {name: estimator.functions_[name] for name in estimator.skeleton_.functions}
-    return (Models(curves, estimator), evals_of(estimator, int(read["n_eval"])),
+    return (Models(curves, estimator), evals_of(estimator, read.integer("n_eval", 2)),
             coefficients(estimator))
