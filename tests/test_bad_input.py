@@ -164,3 +164,21 @@ def test_a_static_output_given_twice_must_agree():
         PolyCCRegressor(equations=equations).fit(X, y.assign(y=2 * X["x1"]))
     same = PolyCCRegressor(equations=equations).fit(X, y.assign(y=X["y"]))
     assert same.params_["a2"] == pytest.approx(2.0)
+
+
+# -- the automatic differentiation on records it should not misread -----------------------------
+def test_a_clean_ramp_is_neither_quantised_nor_noisy():
+    t = np.linspace(0.0, 10.0, 1001)
+    X = pd.DataFrame({"t": t, "x1": 0.5 * t, "u": np.ones_like(t)})
+    model = PolyCCRegressor(equations=["x1_dot = a1 u"]).fit(X)
+    assert "quantised" not in model.derivative_source_ and "no noise" in model.derivative_source_
+    assert model.fit_mode_ == "equation"
+    assert model.params_["a1"] == pytest.approx(0.5, rel=1e-3)
+
+
+def test_a_lowpass_cutoff_above_nyquist_is_refused(record):
+    X, truth = record
+    with pytest.raises(ValueError, match=r"cutoff 1e\+06 Hz is at or above the record's "
+                                         r"Nyquist frequency"):
+        PolyCCRegressor(equations=truth.base_equations,
+                        differentiation={"method": "lowpass", "cutoff": 1e6}).fit(X)

@@ -87,7 +87,13 @@ class LowpassDifferentiator(Differentiator):
         return what + (f"; {self.note}" if self.note else "")
 
     def _filters(self, grid: EvenGrid) -> bool:
-        """Whether the low-pass does anything on this grid."""
+        """Whether the low-pass does anything on this grid (a cutoff above Nyquist is an error)."""
+        nyquist = 0.5 / grid.step
+        if self.cutoff is not None and self.cutoff >= nyquist:
+            raise ValueError(f"lowpass cutoff {self.cutoff:g} Hz is at or above the record's "
+                             f"Nyquist frequency {nyquist:.4g} Hz (half its sampling rate): "
+                             "nothing there to filter; give a lower cutoff or "
+                             "differentiation='auto'")
         return (self.cutoff is not None and grid.size >= 8
                 and self.cutoff < NO_FILTER_ABOVE / (2 * grid.step))
 

@@ -110,7 +110,9 @@ def read_spectrum(x: np.ndarray, step: float, quantum: Quantum | None = None) ->
         floor = max(floor, 2.0 * quantum.noise_variance / fs)
     detrended = signal.detrend(x, type="linear")
     signal_std = float(np.std(detrended))
-    if signal_std == 0 or floor <= CLEAN_RATIO * signal_std**2 / fs:
+    # a straight line leaves rounding only: nothing above it to call signal or noise
+    straight = signal_std <= 1e-12 * (float(np.max(np.abs(x))) or 1.0)
+    if straight or floor <= CLEAN_RATIO * signal_std**2 / fs:
         floor = 0.0
     noise_std = float(np.sqrt(floor * fs / 2.0))
     return SpectrumReading(frequencies, smoothed, floor, noise_std, signal_std)
@@ -158,7 +160,9 @@ def find_quantum(x: np.ndarray, tolerance: float = 0.05) -> Quantum | None:
     share = float(np.mean(whole))
     if share < 0.99:
         return None
-    # refine the step over all changes (the smallest one carries rounding error)
     counts = np.round(ratio)
+    if len(moving) == len(changes) and np.all(counts == counts[0]):
+        return None  # one change, every sample: a straight line, not a lattice
+    # refine the step over all changes (the smallest one carries rounding error)
     step = float(np.sum(moving * counts) / np.sum(counts * counts))
     return Quantum(step, share)
