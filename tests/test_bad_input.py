@@ -182,3 +182,53 @@ def test_a_lowpass_cutoff_above_nyquist_is_refused(record):
                                          r"Nyquist frequency"):
         PolyCCRegressor(equations=truth.base_equations,
                         differentiation={"method": "lowpass", "cutoff": 1e6}).fit(X)
+
+
+def test_a_pickled_or_copied_loop_writes_the_same_report(record):
+    X, truth = record
+    loop = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), X,
+                          n_bootstrap=10).run(max_rounds=2)
+    document = loop.to_html()
+    for again in (pickle.loads(pickle.dumps(loop)), copy.deepcopy(loop)):
+        assert again.to_html() == document
+        assert again.summary() == loop.summary()
+
+
+# -- fuzzing skeletons, constraints and parameter values (make test-slow) -------------------
+_PIECES = ["x1", "x2", "u", "a1", "a2", "a3", "f1(x1)", "f2(x2)", "f1(u)", "tanh(", "exp(",
+           "sqrt(", "log(", "abs(", "sin(", "(", ")", " + ", " - ", " * ", " / ", "^2", "^a1",
+           "-", "2.5", "0", "1e308", "pi", "t"]
+_LEFT = ["x1_dot", "x2_dot", "0", "y", "x1", "u"]
+_CONSTRAINTS = ["f1 odd", "f1 even", "f2(0)=0", "f1 increasing", "f3 odd", "a1 >= 0",
+                "a2 <= -1", "0 <= a3 <= 1", "a1 >= 1e300", "f1(nan)=0", "a9 >= 0", "f1 sideways",
+                "a1 >= 2", "a1 <= 1"]
+
+
+@pytest.mark.slow
+def test_fuzzed_skeletons_constraints_and_values_fail_only_with_a_named_error():
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    equation = st.tuples(st.sampled_from(_LEFT),
+                         st.lists(st.sampled_from(_PIECES), min_size=1, max_size=12)).map(
+        lambda pair: f"{pair[0]} = {''.join(pair[1])}")
+    values = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
+                       st.sampled_from([0.0, 1.0, -1.0, 1e300]))
+
+    @settings(max_examples=5000, deadline=None, database=None,
+              suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+    @given(st.lists(equation, min_size=1, max_size=3),
+           st.lists(st.sampled_from(_CONSTRAINTS), max_size=3), st.lists(values, min_size=3,
+                                                                           max_size=3))
+    def check(equations, constraints, numbers):
+        try:
+            skeleton = Skeleton(equations, constraints=constraints)
+            params = dict(zip(skeleton.params, numbers * 3))
+            curves = {f: np.tanh for f in skeleton.functions}
+            if skeleton.states:
+                system = skeleton.compile(curves, params)
+                assert system is not None
+        except (SkeletonError, ValueError, TypeError) as error:
+            assert str(error).strip(), f"an empty message for {equations} {constraints}"
+
+    check()
