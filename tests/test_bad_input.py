@@ -232,3 +232,13 @@ def test_fuzzed_skeletons_constraints_and_values_fail_only_with_a_named_error():
             assert str(error).strip(), f"an empty message for {equations} {constraints}"
 
     check()
+
+
+def test_a_skeleton_of_very_many_curves_is_warned_about():
+    rng = np.random.default_rng(0)
+    n_curves = 51
+    X = pd.DataFrame({f"u{i}": rng.standard_normal(300) for i in range(1, n_curves + 1)})
+    y = pd.DataFrame({"z_dot": np.tanh(X).sum(axis=1)})
+    equation = "z_dot = " + " + ".join(f"f{i}(u{i})" for i in range(1, n_curves + 1))
+    with pytest.warns(UserWarning, match="51 curves: its identifiability analysis"):
+        PolyCCRegressor(equations=[equation], degree=2).fit(X, y)

@@ -299,6 +299,10 @@ def points_of(constraints: list[Constraint]) -> list[tuple[float, float]]:
     return [(c.at, c.value) for c in constraints if c.kind == "value"]
 
 
+#: a skeleton with more curves than this is warned about: its fit grows like their cube
+MANY_CURVES = 50
+
+
 def gauge_skeleton(skeleton: Skeleton, gauge: str):
     """Apply the gauge policy; return ``(constraints, fixed_params, zeroed, gauge_dict)``."""
     if gauge not in GAUGES:
@@ -306,6 +310,12 @@ def gauge_skeleton(skeleton: Skeleton, gauge: str):
     constraints = {f: list(skeleton.constraints_of(f)) for f in skeleton.functions}
     fixed: dict[str, float] = {}
     zeroed: set[str] = set()
+    if len(skeleton.functions) > MANY_CURVES:
+        warnings.warn(
+            f"the skeleton has {len(skeleton.functions)} curves: its identifiability analysis "
+            "and fit grow like the cube of that count (60 curves take about 5 s on one core, "
+            "200 several minutes); fewer curves, or shared ones, fit far faster",
+            UserWarning, stacklevel=4)
     try:
         report = _cached_report(skeleton)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as error:
