@@ -242,3 +242,16 @@ def test_a_skeleton_of_very_many_curves_is_warned_about():
     equation = "z_dot = " + " + ".join(f"f{i}(u{i})" for i in range(1, n_curves + 1))
     with pytest.warns(UserWarning, match="51 curves: its identifiability analysis"):
         PolyCCRegressor(equations=[equation], degree=2).fit(X, y)
+
+
+def test_a_very_long_simulation_says_so_and_offers_progress(monkeypatch):
+    import sklearn_pycc.skeleton.skeleton as module
+
+    monkeypatch.setattr(module, "LONG_SIMULATION", 100)
+    skeleton = Skeleton(["x1_dot = -a1 x1"])
+    t = np.linspace(0.0, 1.0, 101)
+    with pytest.warns(UserWarning, match="simulating 101 samples takes minutes"):
+        skeleton.simulate(t, [1.0], params={"a1": 1.0})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        skeleton.simulate(t[:100], [1.0], params={"a1": 1.0})

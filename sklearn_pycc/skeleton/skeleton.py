@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import replace
 
@@ -534,6 +535,10 @@ class Skeleton:
                                verbose=verbose, **solver_options)
 
 
+#: a simulation of more samples than this says it will take a while
+LONG_SIMULATION = 2_000_000
+
+
 def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method=None, rtol=1e-6,
                     atol=1e-8, return_derivatives=False, input_hold="bandlimited", verbose=False,
                     **solver_options) -> pd.DataFrame:
@@ -554,6 +559,9 @@ def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method=None, 
     signals = InputSignals(system.inputs, inputs, t, input_hold)
     sampled = method is None and signals.sampled
     rhs = system.make_rhs(signals.at, list_states=sampled)
+    if len(t) > LONG_SIMULATION and not verbose:
+        warnings.warn(f"simulating {len(t):,} samples takes minutes (about 25 s per million on "
+                      "one core); verbose=True shows its progress", UserWarning, stacklevel=3)
     with progress_bar(len(t), verbose) as progress:
         if sampled:
             unknown = set(solver_options) - {"max_steps"}
