@@ -255,3 +255,18 @@ def test_a_very_long_simulation_says_so_and_offers_progress(monkeypatch):
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
         skeleton.simulate(t[:100], [1.0], params={"a1": 1.0})
+
+
+def test_a_relation_the_data_contradict_is_said_not_to_hold():
+    t = np.linspace(0.0, 10.0, 500)
+    X = pd.DataFrame({"t": t, "x1": np.sin(t) + 2.0, "x2": np.cos(t)})
+    y = pd.DataFrame({"x1_dot": np.cos(t)})
+    with pytest.warns(UserWarning, match=r"'0 = x1 - a1'\) does not hold on the data: after "
+                                         r"the fit its residual keeps 100 %"):
+        PolyCCRegressor(equations=["x1_dot = x2", "0 = x1 - a1"]).fit(X, y)
+    with warnings.catch_warnings():  # a relation that holds (a circle) says nothing
+        warnings.simplefilter("error", UserWarning)
+        circle = PolyCCRegressor(equations=["x1_dot = x2", "0 = x2^2 + (x1 - a2)^2 - a1"],
+                                 param_init={"a2": 1.5}).fit(X, y)
+    assert circle.params_["a1"] == pytest.approx(1.0)
+    assert circle.params_["a2"] == pytest.approx(2.0)

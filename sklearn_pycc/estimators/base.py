@@ -33,7 +33,13 @@ from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
 from ._intervals import N_DRAWS, IntervalsMixin, check_level
-from ._setup import GAUGES, FitResult, Problem, build_skeleton, gauge_skeleton
+from ._setup import (
+    GAUGES,
+    FitResult,
+    Problem,
+    build_skeleton,
+    gauge_skeleton,
+)
 
 __all__ = ["FIT_MODES", "RANDOM_STATES", "RESAMPLING", "CCRegressor"]
 
@@ -355,6 +361,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         if n_bootstrap:
             facts = {**facts, **self._bootstrap(problem, result, n_bootstrap)}
         self._store(problem, result, facts)
+        _warn_unmet_relations(problem, result)
         return self
 
     def _fit_result(self, problem: Problem, window: int) -> FitResult:
@@ -934,3 +941,46 @@ def _argument_ranges(problem: Problem, params: Mapping,
         values = problem.argument_values(f, params, functions)
         ranges[f] = (float(values.min()), float(values.max())) if values.size else (0.0, 0.0)
     return ranges
+
+
+#: an algebraic relation whose fitted residual keeps this share of the size of its terms
+#: does not hold on the data
+UNMET_RELATION = 0.5
+
+
+def _warn_unmet_relations(problem: Problem, result: FitResult) -> None:
+    """Warn when a relation ``0 = ...`` the data were to satisfy is far from holding.
+
+    A differential or static equation is judged by its score; a relation
+    among measured quantities (``0 = x1 - a1``) is fitted like the others
+    and would otherwise never be judged at all.
+    """
+    residuals = problem.residual_values(result.params, result.functions)
+    slots, env = problem.environment()
+    zero = {a: 0.0 for a in problem.free_params}
+    curves = {f: _zeros for f in problem.skeleton.functions}
+    for j, i in enumerate(problem.active):
+        eq = problem.equations[i]
+        if eq.derivative is not None or eq.output is not None:
+            continue
+        value = residuals[:, j]
+        size = float(np.std(value)) if np.isfinite(value).all() else np.inf
+        # how much the measured part of the relation varies: what the fit must explain
+        with np.errstate(all="ignore"):
+            measured = np.broadcast_to(np.asarray(compile_expression(
+                eq.fit_residual, slots, {**zero, **problem.fixed_params}, curves)(env),
+                dtype=float), value.shape)
+        spread = float(np.std(measured)) if np.isfinite(measured).all() else 0.0
+        if not spread > 0:
+            continue  # nothing measured varies: nothing to judge the relation by
+        share = size / spread
+        if not share <= UNMET_RELATION:
+            warnings.warn(f"equations[{eq.index}] ({eq.text!r}) does not hold on the data: "
+                          f"after the fit its residual keeps {100 * share:.0f} % of the spread of "
+                          "its measured part; the relation, or the data, is wrong", UserWarning,
+                          stacklevel=3)
+
+
+def _zeros(z):
+    """A curve that is zero everywhere (the measured part of a relation)."""
+    return 0.0 * np.asarray(z, dtype=float)
