@@ -270,3 +270,16 @@ def test_a_relation_the_data_contradict_is_said_not_to_hold():
                                  param_init={"a2": 1.5}).fit(X, y)
     assert circle.params_["a1"] == pytest.approx(1.0)
     assert circle.params_["a2"] == pytest.approx(2.0)
+
+
+def test_a_generator_as_random_state_gives_a_reproducible_fit():
+    t = np.linspace(0.0, 10.0, 200)
+    x = np.sin(t) + 0.3 * np.sin(2.3 * t)
+    X = pd.DataFrame({"x1": x})
+    y = pd.DataFrame({"x1_dot": 1.5 * np.tanh(2 * x) + 0.7 * np.exp(-0.8 * x**2)
+                      + np.sin(1.3 * x)})
+    # three nonlinear parameters or more: the starts of the search are drawn
+    equations = ["x1_dot = a1 tanh(a2 x1) + a3 exp(-a4 x1^2) + a5 sin(a6 x1)"]
+    fits = [PolyCCRegressor(equations=equations, random_state=np.random.default_rng(5)).fit(X, y)
+            for _ in range(3)]
+    assert fits[0].params_ == fits[1].params_ == fits[2].params_

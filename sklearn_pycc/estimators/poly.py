@@ -12,6 +12,7 @@ from scipy.linalg import block_diag, null_space
 from scipy.optimize import least_squares
 from sklearn.utils._param_validation import Interval, StrOptions
 
+from .._random import seeds
 from .._threads import blas_threads
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
 from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
@@ -493,7 +494,11 @@ class PolyCCRegressor(CCRegressor):
                 mesh = np.meshgrid(*[grid] * len(free), indexing="ij")
                 combos = np.column_stack([g.ravel() for g in mesh])
             else:
-                rng = np.random.default_rng(_seed(self.random_state))
+                state = self.random_state
+                # an integer seeds the starts itself; a generator gives a seed from its stream
+                rng = np.random.default_rng(
+                    state if state is None or isinstance(state, (Integral, np.integer))
+                    else next(seeds(state)))
                 combos = rng.choice(grid, size=(256, len(free)))
             for combo in combos:
                 start = base.copy()
@@ -668,9 +673,3 @@ def _prefer_positive(theta: np.ndarray, best: float, cost, low: np.ndarray,
     return theta
 
 
-def _seed(random_state) -> int | None:
-    if random_state is None or isinstance(random_state, (int, np.integer)):
-        return random_state
-    if isinstance(random_state, np.random.RandomState):
-        return int(random_state.randint(0, 2**31 - 1))
-    return None
