@@ -133,6 +133,12 @@ def test_a_spring_outside_the_catalogue_is_not_called_complete(cogging_report):
     assert "sin(" in best.equations.equations[1] and "a2" not in best.equations.params
     figures = report.plot()
     assert "open_curve" in figures
+    # every free curve tried is on record, the confirmed one with its formula
+    tried = {p.role: p for p in report.open_curves}
+    assert set(tried) == {"free_restoring_curve", "free_friction_curve", "free_damping_curve"}
+    chosen = tried["free_restoring_curve"]
+    assert chosen.confirmed and chosen.formula == best.formula and chosen.curve is best.curve
+    assert not any(p.confirmed for p in report.open_curves if p is not chosen)
 
 
 @pytest.mark.slow

@@ -2,11 +2,12 @@
 
 from . import effects
 from ._failures import ResidualMap
+from ._open_curves import OpenCurve
 from ._trajectories import Divergence
 from .compare import compare_skeletons
 from .diagnose import Diagnosis, Suggestion, diagnose
 from .loop import HypothesisLoop, Refinement, Round
 
-__all__ = ["Diagnosis", "Divergence", "HypothesisLoop", "Refinement", "ResidualMap", "Round",
-           "Suggestion",
+__all__ = ["Diagnosis", "Divergence", "HypothesisLoop", "OpenCurve", "Refinement", "ResidualMap",
+           "Round", "Suggestion",
            "compare_skeletons", "diagnose", "effects"]

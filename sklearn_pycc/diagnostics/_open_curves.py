@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -27,8 +28,8 @@ from ._candidates import Candidate, _absorbed, _fitted_terms, _symbols
 from ._roles import EquationRoles
 from .effects import Effect
 
-__all__ = ["OPEN_EFFECTS", "formula_candidates", "formula_values", "open_candidates",
-           "open_curve_frame"]
+__all__ = ["OPEN_EFFECTS", "OpenCurve", "formula_candidates", "formula_values",
+           "open_candidates", "open_curve_frame", "probes"]
 
 #: the free curves tried, by the variable they act through
 OPEN_EFFECTS = {
@@ -167,6 +168,68 @@ def formula_values(formula: Candidate, frame: pd.DataFrame) -> np.ndarray:
         variables[r.velocity] = np.ones(len(frame))
     node = parse_expression(formula.term, kind="term")
     return _grid_values(node, variables, formula.refit.params_, formula.refit.functions_)
+
+
+@dataclass(frozen=True)
+class OpenCurve:
+    """One free curve a diagnosis tried in place of a role's terms.
+
+    Attributes
+    ----------
+    equation : str
+        The derivative of the equation (``"x2_dot"``).
+    role : str
+        ``"free_restoring_curve"``, ``"free_friction_curve"``,
+        ``"free_damping_curve"`` or ``"free_state_curve"``.
+    curve_term : str
+        The free curve as it entered the equation (``"f3(x1)"``).
+    replaces : tuple of str
+        The terms of the diagnosed skeleton it took the place of.
+    curve : DataFrame or None
+        The fitted curve on a grid with its 95 % band and the replaced
+        terms (see :attr:`Suggestion.curve`); None when it could not be fitted.
+    held_out : HeldOut or None
+        Its held-out comparison with the diagnosed model, when it was made
+        (a curve that does not simulate the record itself 5 % better is not
+        held out).
+    confirmed : bool
+        Whether it lowered the held-out error clearly: something outside
+        the catalogue is missing.
+    formula : str or None
+        The formula the symbolic engine proposes for it (the confirmed curve
+        only).
+    note : str
+        Why it was not confirmed, when it was not.
+    """
+
+    equation: str
+    role: str
+    curve_term: str
+    replaces: tuple[str, ...]
+    curve: pd.DataFrame | None = field(default=None, repr=False, compare=False)
+    held_out: object = None
+    confirmed: bool = False
+    formula: str | None = None
+    note: str = ""
+
+
+def probes(opened: list[Candidate], model, chosen: Candidate | None,
+           formula: Candidate | None) -> list[OpenCurve]:
+    """Every free curve tried, as :class:`OpenCurve` records."""
+    out = []
+    for c in opened:
+        frame = None
+        if c.refit is not None:
+            frame = open_curve_frame(c, model)
+            if c is chosen and formula is not None and formula.refit is not None:
+                frame["formula"] = formula_values(formula, frame)
+        out.append(OpenCurve(
+            equation=c.roles.derivative, role=c.effect.name, curve_term=c.term,
+            replaces=c.replaces, curve=frame, held_out=c.held_out,
+            confirmed=c is chosen,
+            formula=formula.term if c is chosen and formula is not None else None,
+            note=c.note))
+    return out
 
 
 # -- a formula for the curve ----------------------------------------------------------

@@ -30,7 +30,7 @@ from ._failures import (
 )
 from ._held_out import HeldOut, held_out_check
 from ._metrics import error_table_row, rmse
-from ._open_curves import formula_candidates, formula_values, open_candidates, open_curve_frame
+from ._open_curves import OpenCurve, formula_candidates, open_candidates, probes
 from ._physics import Implausibility, implausible_terms
 from ._roles import EquationRoles, equation_roles
 from ._stability import Stability, selection_stability
@@ -136,6 +136,10 @@ class Suggestion:
         ``lower``/``upper`` (95 % band), ``current`` (what the replaced
         terms subtract; for a damping ``g(x) v``, the factor ``g(x)``) and
         ``formula`` (the fitted formula, when there is one).
+    settings : dict
+        Hyperparameters the diagnosis refitted the suggestion with besides
+        the skeleton and the starting values (``{"extrapolation": "linear"}``
+        for a polynomial free curve); fit ``equations`` with them too.
     """
 
     effect: str
@@ -159,6 +163,7 @@ class Suggestion:
     formula: str | None = None
     formula_held_out: HeldOut | None = None
     curve: pd.DataFrame | None = field(default=None, repr=False, compare=False)
+    settings: dict = field(default_factory=dict)
 
     def __str__(self) -> str:
         return f"{self.action()} ({self.effect} through {self.variable or 'nothing'})"
@@ -232,6 +237,12 @@ class Diagnosis:
     measured : list of str
         The states with a column of their own in ``X`` (the others were
         reconstructed): the errors that matter are theirs.
+    open_curves : list of OpenCurve
+        The free curves tried in place of each role's terms once no
+        catalogue move helped (see ``diagnose(..., open_curves=True)``):
+        each with its curve and band, its held-out comparison and, for the
+        confirmed one, the proposed formula. Empty when a catalogue move
+        was chosen.
     """
 
     model: object
@@ -251,6 +262,7 @@ class Diagnosis:
     implausible: list[Implausibility] = field(default_factory=list)
     units: dict[str, str] = field(default_factory=dict)
     measured: list[str] = field(default_factory=list)
+    open_curves: list[OpenCurve] = field(default_factory=list)
     _candidates: list[Candidate] = field(default_factory=list, repr=False)
     _data: Measurements | None = field(default=None, repr=False)
     # values of the explaining variables, by equation and label (for the figures)
@@ -727,7 +739,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
                    model, data, residuals, rss_before, baseline, n_jobs)
         chosen = _decide_removal(removals, model, data, judge, steps, held_out, n_jobs)
     ordered += _ordered(removals)
-    formula = None
+    formula, opened = None, []
     if chosen is None and open_curves:
         # the catalogue is exhausted: would a free curve in place of a role's terms do better?
         opened = open_candidates(skeleton, roles)
@@ -757,11 +769,12 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     stability = _stability(ordered, residuals, data, min_improvement, bic_threshold,
                            simulation_rmse, int(n_bootstrap), random_state)
     ranking = _ranking(ordered, explained, stability)
-    best = None if chosen is None else _suggestion(chosen, skeleton, model, formula)
+    tried = probes(opened, model, chosen, formula)
+    best = None if chosen is None else _suggestion(chosen, skeleton, model, formula, tried)
     return Diagnosis(model, derivative_table, trajectory_table, simulation_frame,
                      pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
                      maps, ranking, best, simulation_rmse, notes, window, implausible,
-                     units, [s for s in states if s in X.columns], candidates, data,
+                     units, [s for s in states if s in X.columns], tried, candidates, data,
                      variables, stability)
 
 
@@ -1078,10 +1091,11 @@ def _adopted(formula: Candidate | None) -> bool:
             and (formula.held_out is None or formula.held_out.confirmed))
 
 
-def _suggestion(c: Candidate, base: Skeleton, model,
-                formula: Candidate | None = None) -> Suggestion:
+def _suggestion(c: Candidate, base: Skeleton, model, formula: Candidate | None = None,
+                tried: list[OpenCurve] = ()) -> Suggestion:
     if c.move == "open":
-        return _open_suggestion(c, base, model, formula)
+        probe = next(p for p in tried if p.confirmed)
+        return _open_suggestion(c, model, formula, probe.curve)
     skeleton = c.extended
     curve_term, curve_constraints = None, ()
     if c.curve_term is not None:
@@ -1115,17 +1129,20 @@ def _suggestion(c: Candidate, base: Skeleton, model,
         simulation_rmse=float(c.simulation_rmse), held_out=c.held_out,
         bounds=tuple(str(x) for x in skeleton.constraints
                      if isinstance(x, Bound) and x not in base.constraints),
-        intervals=intervals)
+        intervals=intervals, settings=_settings(c.refit, model))
 
 
-def _open_suggestion(c: Candidate, base: Skeleton, model,
-                     formula: Candidate | None) -> Suggestion:
+def _settings(refit, model) -> dict:
+    """The hyperparameters ``refit`` was fitted with that differ from ``model``'s."""
+    own = model.get_params(deep=False)
+    return {k: v for k, v in refit.get_params(deep=False).items()
+            if k not in ("equations", "constraints", "param_init") and own.get(k) != v}
+
+
+def _open_suggestion(c: Candidate, model, formula: Candidate | None,
+                     frame: pd.DataFrame) -> Suggestion:
     """A free curve, or the formula proposed for it, in place of a role's terms."""
-    adopted = _adopted(formula)
-    lead = formula if adopted else c
-    frame = open_curve_frame(c, model)
-    if formula is not None and formula.refit is not None:
-        frame["formula"] = formula_values(formula, frame)
+    lead = formula if _adopted(formula) else c
     return Suggestion(
         effect=c.effect.name, description=c.effect.description, equation=c.roles.derivative,
         variable=c.variable, term=lead.term, equations=lead.extended, move="open",
@@ -1135,4 +1152,5 @@ def _open_suggestion(c: Candidate, base: Skeleton, model,
         error_removed=float(lead.removed), delta_bic=float(lead.delta_bic),
         simulation_rmse=float(c.simulation_rmse), held_out=c.held_out,
         bounds=(), formula=None if formula is None else formula.term,
-        formula_held_out=None if formula is None else formula.held_out, curve=frame)
+        formula_held_out=None if formula is None else formula.held_out, curve=frame,
+        settings=_settings(lead.refit, model))

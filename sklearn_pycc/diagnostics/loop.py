@@ -181,10 +181,8 @@ class HypothesisLoop:
             return clone(self.estimator)
         added = self.rounds[-1].added
         previous = self.rounds[-1].model
-        settings = {"equations": added.equations, "constraints": None}
-        if added.move == "open" and previous.get_params().get("extrapolation") == "polynomial":
-            # a free curve continues beyond its data as the diagnosis judged it
-            settings["extrapolation"] = "linear"
+        # fitted as the diagnosis judged it (a free curve continues beyond its data linearly)
+        settings = {**added.settings, "equations": added.equations, "constraints": None}
         if "param_init" in previous.get_params():
             init = dict(previous.get_params()["param_init"] or {})
             init.update(added.param_init)

@@ -374,10 +374,7 @@ def residual_scale(problem: Problem, eq: Equation) -> float:
     as_written = eq.fit_residual == eq.residual
     if as_written and not lhs_curves and not (lhs_params - set(fixed)):
         candidates.append(compile_expression(eq.lhs, slots, fixed))
-    zero = {a: 0.0 for a in problem.free_params}
-    zero_curves = {f: _zero_curve for f in problem.skeleton.functions}
-    candidates.append(compile_expression(eq.fit_residual, slots, {**zero, **fixed},
-                                         zero_curves))
+    candidates.append(lambda _: measured_part(problem, eq))
     for fn in candidates:
         try:
             with np.errstate(all="ignore"):
@@ -388,6 +385,22 @@ def residual_scale(problem: Problem, eq: Equation) -> float:
         if np.isfinite(rms) and rms > 0:
             return rms
     return 1.0
+
+
+def measured_part(problem: Problem, eq) -> np.ndarray:
+    """An equation's fitted residual with its free curves and parameters at zero, on the data.
+
+    What the data alone put into the equation (``x2 x2_dot`` of ``0 = x2
+    x2_dot + f2(x1) x2``, ``x1`` of ``0 = x1 - a1``). Raises ``KeyError``
+    for a column the data do not hold.
+    """
+    slots, env = problem.environment()
+    zero = {a: 0.0 for a in problem.free_params}
+    curves = {f: _zero_curve for f in problem.skeleton.functions}
+    with np.errstate(all="ignore"):
+        value = compile_expression(eq.fit_residual, slots, {**zero, **problem.fixed_params},
+                                   curves)(env)
+    return np.broadcast_to(np.asarray(value, dtype=float), (problem.data.n_samples,))
 
 
 def _zero_curve(u):

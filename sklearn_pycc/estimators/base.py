@@ -33,13 +33,7 @@ from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
 from ._intervals import N_DRAWS, IntervalsMixin, check_level
-from ._setup import (
-    GAUGES,
-    FitResult,
-    Problem,
-    build_skeleton,
-    gauge_skeleton,
-)
+from ._setup import GAUGES, FitResult, Problem, build_skeleton, gauge_skeleton, measured_part
 
 __all__ = ["FIT_MODES", "RANDOM_STATES", "RESAMPLING", "CCRegressor"]
 
@@ -943,8 +937,8 @@ def _argument_ranges(problem: Problem, params: Mapping,
     return ranges
 
 
-#: an algebraic relation whose fitted residual keeps this share of the size of its terms
-#: does not hold on the data
+#: an algebraic relation whose fitted residual keeps this share of the spread of its
+#: measured part does not hold on the data
 UNMET_RELATION = 0.5
 
 
@@ -955,21 +949,17 @@ def _warn_unmet_relations(problem: Problem, result: FitResult) -> None:
     among measured quantities (``0 = x1 - a1``) is fitted like the others
     and would otherwise never be judged at all.
     """
+    relations = [(j, problem.equations[i]) for j, i in enumerate(problem.active)
+                 if problem.equations[i].derivative is None
+                 and problem.equations[i].output is None]
+    if not relations:
+        return
     residuals = problem.residual_values(result.params, result.functions)
-    slots, env = problem.environment()
-    zero = {a: 0.0 for a in problem.free_params}
-    curves = {f: _zeros for f in problem.skeleton.functions}
-    for j, i in enumerate(problem.active):
-        eq = problem.equations[i]
-        if eq.derivative is not None or eq.output is not None:
-            continue
+    for j, eq in relations:
         value = residuals[:, j]
         size = float(np.std(value)) if np.isfinite(value).all() else np.inf
         # how much the measured part of the relation varies: what the fit must explain
-        with np.errstate(all="ignore"):
-            measured = np.broadcast_to(np.asarray(compile_expression(
-                eq.fit_residual, slots, {**zero, **problem.fixed_params}, curves)(env),
-                dtype=float), value.shape)
+        measured = measured_part(problem, eq)
         spread = float(np.std(measured)) if np.isfinite(measured).all() else 0.0
         if not spread > 0:
             continue  # nothing measured varies: nothing to judge the relation by
@@ -979,8 +969,3 @@ def _warn_unmet_relations(problem: Problem, result: FitResult) -> None:
                           f"after the fit its residual keeps {100 * share:.0f} % of the spread of "
                           "its measured part; the relation, or the data, is wrong", UserWarning,
                           stacklevel=3)
-
-
-def _zeros(z):
-    """A curve that is zero everywhere (the measured part of a relation)."""
-    return 0.0 * np.asarray(z, dtype=float)
