@@ -283,3 +283,35 @@ def test_a_generator_as_random_state_gives_a_reproducible_fit():
     fits = [PolyCCRegressor(equations=equations, random_state=np.random.default_rng(5)).fit(X, y)
             for _ in range(3)]
     assert fits[0].params_ == fits[1].params_ == fits[2].params_
+
+
+def test_a_long_run_of_signs_is_refused_where_it_starts():
+    assert Skeleton(["x1_dot = ----x1"]).parsed[0].rhs == Skeleton(["x1_dot = x1"]).parsed[0].rhs
+    with pytest.raises(SkeletonError, match=r"position 9: a run of more than 40 signs"):
+        Skeleton(["x1_dot = " + "-" * 10_000 + "x1"])
+
+
+def test_score_without_y_points_to_the_simulation_scorer(record):
+    X, truth = record
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X)
+    with pytest.raises(ValueError, match=r"score needs y.*make_simulation_scorer"):
+        model.score(X, None)
+
+
+def test_skeleton_names_that_break_latex_are_drawn_as_given(record):
+    import io
+
+    import matplotlib.pyplot as plt
+
+    from sklearn_pycc import compare_skeletons
+    from sklearn_pycc.plotting import plot_comparison
+
+    X, truth = record
+    names = ["$\\frac{", "a_b^c{", "x $ y", "100% \\"]
+    table = compare_skeletons({name: truth.base_equations for name in names}, X)
+    fig = plot_comparison(table)
+    try:
+        fig.savefig(io.BytesIO(), format="png")  # mathtext would fail here
+        assert [label.get_text() for label in fig.axes[0].get_xticklabels()] == names
+    finally:
+        plt.close(fig)

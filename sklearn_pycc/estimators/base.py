@@ -502,6 +502,12 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         outputs of static equations; a DataFrame is matched by name.
         """
         check_is_fitted(self, "functions_")
+        if y is None:
+            raise ValueError(
+                "score needs y, the measured targets "
+                f"{list(self.skeleton_.targets)}; on a record without them (position only), "
+                "score the simulation instead: "
+                "sklearn_pycc.model_selection.make_simulation_scorer()")
         pred = np.asarray(self.predict(X))
         pred = pred[:, None] if pred.ndim == 1 else pred
         targets = self.skeleton_.targets
