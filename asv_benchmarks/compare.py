@@ -117,6 +117,7 @@ from scipy.integrate import solve_ivp
 import sklearn_pycc
 from sklearn_pycc import PolyCCRegressor, datasets
 from sklearn_pycc.estimators._linear import split_parameters
+from sklearn_pycc.estimators.base import backend_of, make_problem
 from sklearn_pycc.estimators.poly import _Design
 
 FUNCTIONAL = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]
@@ -203,8 +204,8 @@ def _stick_slip_model() -> PolyCCRegressor:
 
 def _design(model: PolyCCRegressor, X, y):
     """The weighted design ``A, b`` the estimator solves (``min ||A x + b||``), and ``C``."""
-    problem, _ = model._problem(X, y)
-    degrees = model._degrees(problem.free_functions)
+    problem = make_problem(model, X, y)
+    degrees = backend_of(model)._degrees(problem.free_functions)
     residuals = [(eq.index, eq.text, eq.residual) for eq in problem.equations]
     linear, nonlinear = split_parameters(residuals, problem.free_params, "PolyCCRegressor")
     if nonlinear:
@@ -238,8 +239,8 @@ def case_lstsq(frame, label: str) -> Case:
 class _WithoutCovariance(PolyCCRegressor):
     """The same fit, without estimating the covariance of its estimate."""
 
-    def _problem(self, X, y):
-        problem, facts = super()._problem(X, y)
+    def _problem(self, X, y, backend=None):
+        problem, facts = super()._problem(X, y, backend)
         problem.covariance = False
         return problem, facts
 

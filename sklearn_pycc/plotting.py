@@ -215,7 +215,7 @@ def _residual_figure(plt, report):
         part = report.explained[report.explained.equation == name]
         variable = part.variable.iloc[0] if not part.empty else None
         residual = report.residuals[name].to_numpy()
-        known = report._variables.get(name, {})
+        known = report.variable_values.get(name, {})
         if best is not None and best.equation == name and best.variable in known:
             variable = best.variable
         values = known.get(variable)
@@ -253,7 +253,7 @@ def _effect_shift(report, equation: str):
     best = report.best
     if best is None:
         return None
-    for c in report._candidates:
+    for c in report.candidates:
         if (c.effect.name == best.effect and c.roles.derivative == best.equation
                 and c.variable == best.variable and c.move == best.move and c.shifts):
             index = list(report.residuals.columns).index(equation)

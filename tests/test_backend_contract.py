@@ -1,23 +1,28 @@
-"""The backend contract: one method returning a FitResult; the base stores it."""
+"""The backend contract: one method returning a FitResult; the estimator stores it."""
 
 import numpy as np
 import pandas as pd
 import pytest
 
 from sklearn_pycc import CCRegressor
-from sklearn_pycc.estimators._setup import FitResult
+from sklearn_pycc.estimators.backend import Backend, FitResult
 
 
-class ProportionalCurves(CCRegressor):
+class Proportional(Backend):
     """A toy backend: every curve is a line through zero fitted by least squares alone."""
 
-    def _fit_problem(self, problem):
+    def fit(self, problem):
         x = problem.data.columns["x1"]
         target = problem.y[:, 0]
         slope = float(x @ target / (x @ x))
         curves = {name: (lambda u, s=slope: s * np.asarray(u, dtype=float))
                   for name in problem.skeleton.functions}
         return FitResult(curves, {}, {"slope_": slope})
+
+
+class ProportionalCurves(CCRegressor):
+    def _make_backend(self):
+        return Proportional()
 
 
 def test_a_backend_is_one_method_and_the_base_does_the_rest():

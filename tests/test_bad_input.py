@@ -285,12 +285,6 @@ def test_a_generator_as_random_state_gives_a_reproducible_fit():
     assert fits[0].params_ == fits[1].params_ == fits[2].params_
 
 
-def test_a_long_run_of_signs_is_refused_where_it_starts():
-    assert Skeleton(["x1_dot = ----x1"]).parsed[0].rhs == Skeleton(["x1_dot = x1"]).parsed[0].rhs
-    with pytest.raises(SkeletonError, match=r"position 9: a run of more than 40 signs"):
-        Skeleton(["x1_dot = " + "-" * 10_000 + "x1"])
-
-
 def test_score_without_y_points_to_the_simulation_scorer(record):
     X, truth = record
     model = PolyCCRegressor(equations=truth.base_equations).fit(X)

@@ -113,7 +113,7 @@ def test_quadratic_drag_outranks_coulomb_friction_held_to_its_bounds():
     assert "(within a3 >= 0)" in report.summary()
     # a Coulomb level is not negative: the term can lower the error only by removing
     # energy, never by feeding it in as an unbounded fit would
-    candidate = next(c for c in report._candidates if c.effect.name == "coulomb_friction")
+    candidate = next(c for c in report.candidates if c.effect.name == "coulomb_friction")
     level, steepness = candidate.screen_params.values()  # fitted to the residual
     assert level >= 0 and steepness >= 0
     if candidate.refit is not None:

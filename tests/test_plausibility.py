@@ -118,5 +118,5 @@ def test_a_role_the_model_breaks_by_design_does_not_block_suggestions(record):
     report = diagnose(PolyCCRegressor(equations=pumped).fit(X, y), X, y, n_refit=3)
     assert report.implausible and "IMPLAUSIBLE" in report.summary()
     assert report.best is not None and report.best.effect == "coulomb_friction"
-    candidate = next(c for c in report._candidates if c.effect.name == "coulomb_friction")
+    candidate = next(c for c in report.candidates if c.effect.name == "coulomb_friction")
     assert "the refitted model is implausible" not in candidate.note

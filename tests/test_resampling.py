@@ -25,7 +25,8 @@ from sklearn_pycc import (
     datasets,
 )
 from sklearn_pycc.estimators._resampling import Resampler
-from sklearn_pycc.estimators.base import CCRegressor
+from sklearn_pycc.estimators.base import CCRegressor, make_problem
+from sklearn_pycc.estimators.poly import PolyBackend
 
 TRUE = ["x1_dot = x2", "x2_dot = F - a1 x2 - a2 x1 - a3 x1^3"]
 HYBRID = ["x1_dot = x2", "x2_dot = F - a1 x2 - f1(x1)"]
@@ -102,7 +103,7 @@ def test_blocks_stay_within_experiments_and_many_experiments_are_drawn_whole():
     X, y = record(n=300, experiments=3)
     model = PolyCCRegressor(equations=TRUE, n_bootstrap=4, random_state=0).fit(X, y)
     assert model.bootstrap_method_.endswith("each of the 3 experiment(s)")
-    problem, _ = model._problem(X, y)
+    problem = make_problem(model, X, y)
     resampler = Resampler(problem, np.zeros((problem.data.n_samples, 1)))
     labels = X["trajectory"].to_numpy()
     for block in resampler.draw(np.random.default_rng(0)):
@@ -181,15 +182,19 @@ def test_one_resample_is_refused_and_failed_refits_are_counted():
     with pytest.raises(ValueError, match="at least 2, got 1"):
         PolyCCRegressor(equations=TRUE, n_bootstrap=1).fit(X, y)
 
-    class Fragile(PolyCCRegressor):
+    class FragileBackend(PolyBackend):
         calls = 0
 
-        def _fit_problem(self, problem):
+        def fit(self, problem):
             if not problem.covariance and problem.data.trajectory is not None:
-                Fragile.calls += 1
-                if Fragile.calls % 2:
+                FragileBackend.calls += 1
+                if FragileBackend.calls % 2:
                     raise ValueError("singular on this resample")
-            return super()._fit_problem(problem)
+            return super().fit(problem)
+
+    class Fragile(PolyCCRegressor):
+        def _make_backend(self):
+            return FragileBackend(**self._backend_settings(FragileBackend))
 
     with pytest.warns(UserWarning, match=r"2 of 4 refits on resamples failed.*singular"):
         model = Fragile(equations=TRUE, n_bootstrap=4, n_jobs=1).fit(X, y)

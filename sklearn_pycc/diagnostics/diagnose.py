@@ -243,6 +243,15 @@ class Diagnosis:
         each with its curve and band, its held-out comparison and, for the
         confirmed one, the proposed formula. Empty when a catalogue move
         was chosen.
+    candidates : list of Candidate
+        Every term or move tried, with its screens and refits (``ranking``
+        is their table).
+    record : Measurements
+        The record as the diagnosis read it: experiments, states (measured
+        or reconstructed), inputs and derivatives, on the trusted samples.
+    variable_values : dict
+        Equation -> ``{label: values}`` of the variables that explain its
+        residual (the figures' axes).
     """
 
     model: object
@@ -263,10 +272,9 @@ class Diagnosis:
     units: dict[str, str] = field(default_factory=dict)
     measured: list[str] = field(default_factory=list)
     open_curves: list[OpenCurve] = field(default_factory=list)
-    _candidates: list[Candidate] = field(default_factory=list, repr=False)
-    _data: Measurements | None = field(default=None, repr=False)
-    # values of the explaining variables, by equation and label (for the figures)
-    _variables: dict = field(default_factory=dict, repr=False)
+    candidates: list[Candidate] = field(default_factory=list, repr=False)
+    record: Measurements | None = field(default=None, repr=False)
+    variable_values: dict = field(default_factory=dict, repr=False)
     _stability: Stability | None = field(default=None, repr=False)
 
     def __repr__(self) -> str:
@@ -279,7 +287,7 @@ class Diagnosis:
         lines = []
         model = self.model
         n = len(self.residuals)
-        experiments = 1 if self._data is None else len(self._data.groups)
+        experiments = 1 if self.record is None else len(self.record.groups)
         lines.append(f"Model ({type(model).__name__}, {model.n_parameters_} fitted numbers) "
                      f"against {n} samples in {experiments} experiment"
                      f"{'s' if experiments != 1 else ''}:")
@@ -352,13 +360,13 @@ class Diagnosis:
                      f"{row.equation}, removes {100 * max(row.error_removed, 0):.1f} % of the "
                      f"residual, change of BIC {row.delta_bic:+.1f}). The skeleton is "
                      "complete as far as the catalogue can tell."]
-            opened = [c for c in self._candidates if c.move == "open"]
+            opened = [c for c in self.candidates if c.move == "open"]
             if opened:
                 lines.append("    Nor does a free curve in place of a role's terms ("
                              + ", ".join(sorted({f"{c.effect.name} in {c.roles.derivative}"
                                                  for c in opened}))
                              + "): nothing outside the catalogue is missing either.")
-            for c in self._candidates:
+            for c in self.candidates:
                 if c.held_out is not None:
                     lines.append(f"    Not confirmed: {c.effect.name} in {c.roles.derivative} "
                                  f"fits the record but not the data it did not see: "
@@ -448,7 +456,7 @@ class Diagnosis:
         if stability is None or stability.n_resamples == 0:
             return []
         total = stability.n_resamples
-        others = [(stability.wins.get(c.key, 0), c) for c in self._candidates]
+        others = [(stability.wins.get(c.key, 0), c) for c in self.candidates]
         others = sorted(((k, c) for k, c in others if k), key=lambda item: -item[0])
         parts = [f"{c.effect.name} in {c.roles.derivative} wins {k}" for k, c in others]
         if stability.nothing:

@@ -292,7 +292,7 @@ class HypothesisLoop:
                 or "fit_mode" not in model.get_params():
             self.refinement = None
             return None
-        data = last.diagnosis._data
+        data = last.diagnosis.record
         settings = {"fit_mode": "simulation"}
         if "param_init" in model.get_params():
             settings["param_init"] = dict(model.params_)

@@ -2,10 +2,10 @@
 
 :class:`IntervalsMixin` gives every estimator the same questions to ask.
 They are answered from refits on resamples when the fit made them
-(``n_bootstrap``: the ``bootstrap_`` members), else by the backend through
-its fitted ``covariance_`` of the parameters and two hooks,
-:meth:`IntervalsMixin._curve_sd` (the standard deviation of a curve at
-given points) and :meth:`IntervalsMixin._draws` (models drawn from the
+(``n_bootstrap``: the ``bootstrap_`` members), else by the fitted
+``covariance_`` of the parameters and the backend's
+:meth:`~.backend.Backend.curve_sd` (the standard deviation of a curve at
+given points) and :meth:`~.backend.Backend.draws` (models drawn from the
 estimate's distribution). A fit with neither says so when asked, rather
 than return numbers that mean nothing.
 """
@@ -53,20 +53,7 @@ def _quantile(level: float, members: int | None = None) -> float:
 
 
 class IntervalsMixin:
-    """Uncertainty of a fitted characteristic-curve model."""
-
-    #: whether bands from refits hold beyond the measured range: a curve that continues
-    #: the same way in every refit (a network's straight line) says nothing there
-    _members_bound_extrapolation = True
-
-    # -- backend hooks -------------------------------------------------------------
-    def _curve_sd(self, name: str, x: np.ndarray) -> np.ndarray | None:
-        """Standard deviation of the fitted curve ``name`` at ``x`` (None: not known)."""
-        return None
-
-    def _draws(self, n: int, rng: np.random.Generator) -> list[tuple[dict, dict]] | None:
-        """``n`` models ``(functions, params)`` drawn from the estimate's distribution."""
-        return None
+    """Uncertainty of a fitted characteristic-curve model (its backend in ``backend_``)."""
 
     def _no_uncertainty(self, what: str) -> ValueError:
         hint = ("fit it with n_bootstrap=100 (refits on resamples)"
@@ -151,12 +138,12 @@ class IntervalsMixin:
                 stack = np.stack([np.broadcast_to(np.asarray(m.functions[name](x), dtype=float),
                                                   x.shape) for m in members])
             sd = np.nanstd(stack, axis=0, ddof=1)
-            if not self._members_bound_extrapolation:
+            if not self.backend_.bands_beyond_data:
                 lo, hi = self.curve_ranges_[name]
                 sd = np.where((x < lo) | (x > hi), np.nan, sd)
             z = _quantile(level, len(members))
         else:
-            sd = self._curve_sd(name, x)
+            sd = self.backend_.curve_sd(self, name, x)
             z = _quantile(level)
         if sd is None:
             raise self._no_uncertainty("curves")
@@ -181,7 +168,7 @@ class IntervalsMixin:
             draws = [(members[k].functions, {**self.params_, **members[k].params})
                      for k in picked]
         else:
-            draws = self._draws(int(n_draws), rng)
+            draws = self.backend_.draws(self, int(n_draws), rng)
         if draws is None:
             raise self._no_uncertainty("simulations")
         names = [c for c in frame.columns if c != "t"]

@@ -290,7 +290,7 @@ class CurveNet(nn.Module):
         if self.exact and at.size:
             bare = NumpyCurve(self.name, layers, self.activation, self.center, self.scale,
                               parity, [], [], domain, extrapolation)
-            coefficients = inverse @ (values - bare._value(at))
+            coefficients = inverse @ (values - bare.inside_value(at))
         else:
             exponents = np.zeros(0)
         if parity:

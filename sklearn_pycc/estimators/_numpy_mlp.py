@@ -125,7 +125,7 @@ class NumpyCurve(Curve):
             h = np.diff(x)
             m0, m1 = d[:-1] * h, d[1:] * h
             middle = 0.5 * (v[:-1] + v[1:]) + (m0 - m1) / 8.0
-            error = np.abs(middle - self._value(x[:-1] + 0.5 * h))
+            error = np.abs(middle - self.inside_value(x[:-1] + 0.5 * h))
             bad = error > TABLE_TOLERANCE * scale
             if not bad.any():
                 y0, y1 = v[:-1], v[1:]
@@ -178,8 +178,8 @@ class NumpyCurve(Curve):
             dout = dout + powers @ self.coefficients
         return out, dout / self.scale
 
-    def _value(self, x: np.ndarray) -> np.ndarray:
-        """The constrained network on a 1-D array, ignoring the domain."""
+    def inside_value(self, x: np.ndarray) -> np.ndarray:
+        """The constrained network on a 1-D array, as if every point were inside its domain."""
         u = (x - self.center) / self.scale
         if self.parity is None:
             out = self._network(u)
@@ -250,7 +250,7 @@ class NumpyCurve(Curve):
             bad = np.flatnonzero((flat < lo) | (flat > hi))
             if bad.size:
                 raise self._outside(flat[bad[0]])
-        out = self._value(clipped)
+        out = self.inside_value(clipped)
         if self.extrapolation == "linear":
             v_lo, v_hi, s_lo, s_hi = self._edges
             below, above = flat < lo, flat > hi
@@ -274,7 +274,7 @@ class NumpyCurve(Curve):
             return v_lo + s_lo * (x - lo) if x < lo else v_hi + s_hi * (x - hi)
         table = self._table
         if table is None:
-            return float(self._value(np.array([x]))[0])
+            return float(self.inside_value(np.array([x]))[0])
         nodes, inverse, c0, c1, c2, c3 = table
         k = bisect_right(nodes, x) - 1
         if k < 0:

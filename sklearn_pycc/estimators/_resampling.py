@@ -22,12 +22,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from joblib import Parallel, delayed
-from sklearn.base import clone
 
 from .._blocks import MIN_EXPERIMENTS, block_length, draw_blocks, segments
 from ..measurements.columns import FitData
 from ..measurements.experiments import Experiment
-from ._setup import FitResult, Problem
+from .backend import Backend, FitResult, Problem
 
 __all__ = ["Member", "Resampler", "fit_members"]
 
@@ -134,33 +133,32 @@ def resampled_problem(problem: Problem, blocks: list[np.ndarray]) -> Problem:
                    rows=None if kept.all() else np.flatnonzero(kept), covariance=False)
 
 
-def _fit_one(estimator, problem: Problem, blocks: list[np.ndarray], seed: int,
-             window: int) -> Member | str:
+def _fit_one(backend: Backend, problem: Problem, blocks: list[np.ndarray], seed: int,
+             window: int, iterations: int) -> Member | str:
     """Refit on one resample; the reason in words when it fails."""
-    member = clone(estimator)
-    if "random_state" in member.get_params(deep=False):
-        member.set_params(random_state=seed)
+    member = backend.reseeded(seed)
     sample = resampled_problem(problem, blocks)
     with warnings.catch_warnings():  # the full fit has said what there is to say
         warnings.simplefilter("ignore")
         try:
-            result: FitResult = member._fit_result(sample, window)
+            result: FitResult = member.estimate(sample, shooting_window=window,
+                                                shooting_iterations=iterations)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
             return f"{type(error).__name__}: {error}"
     return Member(dict(result.functions), {k: float(v) for k, v in result.params.items()})
 
 
-def fit_members(estimator, problem: Problem, resampler: Resampler, n: int, seed: int,
-                n_jobs, window: int) -> tuple[list[Member], list[str]]:
-    """``n`` refits of ``estimator`` on resamples, in parallel; and the failures' reasons.
+def fit_members(backend: Backend, problem: Problem, resampler: Resampler, n: int, seed: int,
+                n_jobs, window: int, iterations: int) -> tuple[list[Member], list[str]]:
+    """``n`` refits by ``backend`` on resamples, in parallel; and the failures' reasons.
 
     The resamples and the refits' seeds are drawn here from ``seed``, so the
     members do not depend on ``n_jobs``.
     """
     rng = np.random.default_rng(seed)
     draws = [(resampler.draw(rng), int(rng.integers(0, 2**31 - 1))) for _ in range(n)]
-    outcomes = Parallel(n_jobs=n_jobs, prefer=estimator._resample_in)(
-        delayed(_fit_one)(estimator, problem, blocks, member_seed, window)
+    outcomes = Parallel(n_jobs=n_jobs, prefer=backend.resample_in)(
+        delayed(_fit_one)(backend, problem, blocks, member_seed, window, iterations)
         for blocks, member_seed in draws)
     members = [o for o in outcomes if isinstance(o, Member)]
     failures = [o for o in outcomes if not isinstance(o, Member)]

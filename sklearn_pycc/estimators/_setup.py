@@ -232,6 +232,16 @@ class Problem:
             columns.append(np.broadcast_to(np.asarray(value, dtype=float), (n,)))
         return np.column_stack(columns) if columns else np.zeros((n, 0))
 
+    def residual_weights(self) -> np.ndarray:
+        """The weight of each column of :meth:`residual_values`.
+
+        The user's weight of the equation over the size of its residual on
+        the data (:func:`residual_scale`): a least-squares fit minimises the
+        sum of squares of ``residual_values(...) * residual_weights()``.
+        """
+        return np.array([self.weight(i) / residual_scale(self, self.equations[i])
+                         for i in self.active])
+
     def argument_values(self, function: str, params, functions=None) -> np.ndarray:
         """Finite values of every argument of ``function`` on the data.
 
@@ -413,9 +423,5 @@ def active_residuals(problem: Problem) -> tuple[list[Node], list[float]]:
     Each residual is divided by its size on the data
     (:func:`residual_scale`) and multiplied by the user's weight.
     """
-    residuals, weights = [], []
-    for i in problem.active:
-        eq = problem.equations[i]
-        residuals.append(eq.fit_residual)
-        weights.append(problem.weight(i) / residual_scale(problem, eq))
-    return residuals, weights
+    residuals = [problem.equations[i].fit_residual for i in problem.active]
+    return residuals, [float(w) for w in problem.residual_weights()]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import inspect
 import warnings
 from abc import ABCMeta, abstractmethod
 from collections.abc import Mapping
@@ -34,8 +35,10 @@ from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
 from ._intervals import N_DRAWS, IntervalsMixin, check_level
 from ._setup import GAUGES, FitResult, Problem, build_skeleton, gauge_skeleton, measured_part
+from .backend import Backend
 
-__all__ = ["FIT_MODES", "RANDOM_STATES", "RESAMPLING", "CCRegressor"]
+__all__ = ["FIT_MODES", "RANDOM_STATES", "RESAMPLING", "CCRegressor", "adopt", "backend_of",
+           "make_problem", "set_fitted"]
 
 FIT_MODES = ("auto", "equation", "simulation")
 #: below this signal-to-noise ratio of the measured states, ``fit_mode="auto"`` refines the
@@ -97,9 +100,10 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
     """Abstract base class of the characteristic-curve estimators.
 
     It cannot be fitted itself: use :class:`PolyCCRegressor`,
-    :class:`NeuralCCRegressor` or :class:`SymbolicCCRegressor`. A backend
-    only decides how an unknown curve ``f_i`` is represented and fitted
-    (:meth:`_fit_problem`); parsing, constraints, the gauge, prediction,
+    :class:`NeuralCCRegressor` or :class:`SymbolicCCRegressor`. Each of
+    them builds a :class:`~sklearn_pycc.estimators.backend.Backend` from its
+    hyperparameters, which only decides how an unknown curve ``f_i`` is
+    represented and fitted; parsing, constraints, the gauge, prediction,
     scoring and simulation live here. Hyperparameters are keyword-only and
     checked at the start of ``fit`` against ``_parameter_constraints``.
 
@@ -182,6 +186,9 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         samples) that led to it.
     fit_mode_ : str
         The mode the fit used: ``"equation"`` or ``"simulation"``.
+    backend_ : Backend
+        The backend that fitted the curves, built from the hyperparameters
+        (:mod:`sklearn_pycc.estimators.backend`).
     shooting_ : dict
         Only after an output-error fit: segments, iterations, the
         normalised RMSE of the simulated states before and after, and the
@@ -193,9 +200,6 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
     """
 
     equations = _EquationsParameter()
-    #: where refits on resamples run in parallel: joblib's ``prefer`` (a backend whose
-    #: work releases the GIL saves the processes' start)
-    _resample_in = "processes"
 
     #: checked at the start of ``fit`` (scikit-learn's parameter validation);
     #: each backend extends it with its own hyperparameters
@@ -226,27 +230,16 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         self.shooting_window = shooting_window
         self.shooting_iterations = shooting_iterations
 
-    # -- to be provided by a backend ---------------------------------------
+    # -- to be provided by each estimator -------------------------------------
     @abstractmethod
-    def _fit_problem(self, problem: Problem) -> FitResult:
-        """Fit the free curves and parameters of ``problem`` (the backend's one duty).
+    def _make_backend(self) -> Backend:
+        """The backend these hyperparameters describe (checked already by ``fit``)."""
 
-        Return a :class:`~._setup.FitResult`; the base class stores it. A
-        backend writes nothing on ``self`` here.
-        """
-
-    def _fit_simulation(self, problem: Problem, result: FitResult, plan) -> FitResult:
-        """Refine an equation-error fit by output error.
-
-        ``plan`` is a :class:`~._shooting.ShootingPlan` with its substeps
-        chosen. Return the refined result, with the stage's summary among
-        its attributes as ``shooting_``.
-        """
-        raise ValueError(f"{type(self).__name__} does not support fit_mode='simulation'")
-
-    def _curve_text(self, name: str, variable: str, precision: int) -> str:
-        """Text of a fitted curve as a function of ``variable``."""
-        return self.functions_[name].text(variable, precision)
+    def _backend_settings(self, backend: type[Backend]) -> dict:
+        """The hyperparameters that ``backend``'s constructor takes, by name."""
+        accepted = inspect.signature(backend.__init__).parameters
+        params = self.get_params(deep=False)
+        return {name: params[name] for name in accepted if name in params}
 
     # -- scikit-learn plumbing -------------------------------------------------
     def __sklearn_tags__(self):
@@ -268,8 +261,9 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         return state
 
     # -- fitting ---------------------------------------------------------------
-    def _problem(self, X, y) -> tuple[Problem, dict]:
+    def _problem(self, X, y, backend: Backend | None = None) -> tuple[Problem, dict]:
         """The fitting problem, and what was learned about the record (to be stored)."""
+        backend = self._make_backend() if backend is None else backend
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
         if self.fit_mode == "simulation":
             _check_simulable(skeleton)
@@ -279,7 +273,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
                              who=type(self).__name__, trim=False)
         weights = _equation_weights(self.equation_weights, skeleton)
-        mode, why = self._resolve_mode(skeleton, record)
+        mode, why = self._resolve_mode(skeleton, record, backend)
         facts = {"fit_mode_": mode, "derivative_source_": record.source + why,
                  "measured_states_": list(record.measured),
                  "_y_1d": record.y_ndim == 1 and len(skeleton.targets) == 1}
@@ -293,13 +287,13 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                           rows=None if record.trusted is None else np.flatnonzero(record.trusted))
         return problem, facts
 
-    def _resolve_mode(self, skeleton, record) -> tuple[str, str]:
+    def _resolve_mode(self, skeleton, record, backend: Backend) -> tuple[str, str]:
         """The fit mode to use, and why ``"auto"`` chose output error (else "")."""
         if self.fit_mode != "auto":
             return self.fit_mode, ""
         noisy = record.estimated and record.snr_db is not None \
             and record.snr_db < AUTO_SIMULATION_SNR_DB
-        simulable = (type(self)._fit_simulation is not CCRegressor._fit_simulation
+        simulable = (backend.output_error
                      and record.experiments is not None
                      and all(eq.explicit for eq in skeleton.parsed)
                      and not skeleton.algebraic
@@ -311,9 +305,6 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             f"; refined by output error (fit_mode='auto': the states' SNR of "
             f"{record.snr_db:.0f} dB is below {AUTO_SIMULATION_SNR_DB:g} dB, where estimated "
             "derivatives bias the fit)")
-
-    def _check_params(self) -> None:
-        """Cross-checks of hyperparameters the constraints cannot express (a backend's)."""
 
     def _reset_fitted(self) -> None:
         """Forget everything a previous fit learned (attributes ending in ``_``)."""
@@ -344,37 +335,23 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         """
         self._reset_fitted()
         # every hyperparameter is checked before any data work
-        self._check_params()
-        resolve_differentiation(self.differentiation)
-        problem, facts = self._problem(X, y)
-        problem.check_enough_rows()
         n_bootstrap = getattr(self, "n_bootstrap", 0)
         if n_bootstrap == 1:
             raise ValueError("n_bootstrap must be 0 (no resampling) or at least 2, got 1")
-        result = self._fit_result(problem, self.shooting_window)
+        resolve_differentiation(self.differentiation)
+        backend = self._make_backend()
+        problem, facts = self._problem(X, y, backend)
+        problem.check_enough_rows()
+        result = backend.estimate(problem, shooting_window=self.shooting_window,
+                                  shooting_iterations=self.shooting_iterations)
         if n_bootstrap:
-            facts = {**facts, **self._bootstrap(problem, result, n_bootstrap)}
-        self._store(problem, result, facts)
+            facts = {**facts, **self._bootstrap(problem, result, n_bootstrap, backend)}
+        self._store(problem, result, {**facts, "backend_": backend})
         _warn_unmet_relations(problem, result)
         return self
 
-    def _fit_result(self, problem: Problem, window: int) -> FitResult:
-        """The backend's fit of ``problem``, refined by output error when its mode says so."""
-        plan = None
-        if problem.fit_mode == "simulation":
-            from ._shooting import ShootingPlan, check_iterations
-
-            check_iterations(self.shooting_iterations)
-            plan = ShootingPlan(problem, window)
-        result = self._fit_problem(problem)
-        if plan is not None:
-            start = problem.skeleton.compile(result.functions,
-                                             {**problem.fixed_params, **result.params})
-            plan.choose_substeps(start, dict(problem.data.columns))
-            result = self._fit_simulation(problem, result, plan)
-        return result
-
-    def _bootstrap(self, problem: Problem, result: FitResult, n: int) -> dict:
+    def _bootstrap(self, problem: Problem, result: FitResult, n: int,
+                   backend: Backend) -> dict:
         """Refits on ``n`` resamples that respect time: the ``bootstrap_`` attributes."""
         from ._resampling import Resampler, fit_members
 
@@ -383,8 +360,9 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         resampler = Resampler(problem, residuals,
                               min_block=2 * self.shooting_window if simulation else 2)
         seed = next(seeds(getattr(self, "random_state", None)))
-        members, failures = fit_members(self, problem, resampler, n, seed,
-                                        getattr(self, "n_jobs", None), self.shooting_window)
+        members, failures = fit_members(backend, problem, resampler, n, seed,
+                                        getattr(self, "n_jobs", None), self.shooting_window,
+                                        self.shooting_iterations)
         if len(members) < 2:
             raise ValueError(f"{len(failures)} of {n} refits on resamples failed, so the "
                              f"fit has no bootstrap estimate; the first said: {failures[0]}")
@@ -409,15 +387,18 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             "params_": params, "functions_": functions,
             "curve_ranges_": _argument_ranges(problem, params, functions)})
         self._set_fitted({"n_parameters_": len(problem.free_params) + sum(
-            self._curve_parameters(problem, f) for f in problem.free_functions)})
+            facts["backend_"].n_numbers(problem, result, f) for f in problem.free_functions)})
 
     def _set_fitted(self, values: Mapping) -> None:
         """The one writer of fitted state; the model is compiled when its numbers change.
 
-        Fitted attributes end in ``_``; a backend adds its own by
-        :meth:`_derived_attributes`.
+        Fitted attributes end in ``_``; a backend adds those it derives from
+        the curves by :meth:`Backend.attributes_of`.
         """
         values = dict(values)
+        if "functions_" in values and "backend_" not in values \
+                and not hasattr(self, "backend_"):
+            values["backend_"] = self._make_backend()
         if "functions_" in values:  # every stored curve speaks the Curve protocol
             values["functions_"] = {name: as_curve(curve)
                                     for name, curve in values["functions_"].items()}
@@ -428,16 +409,9 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             solvable = all(eq.solvable for eq in skeleton.parsed)
             self._compiled = (skeleton.compile(self.functions_, self.params_) if solvable
                               else None)
-            for name, value in self._derived_attributes().items():
+            variables = {name: self._variable(name) for name in self.functions_}
+            for name, value in self.backend_.attributes_of(self.functions_, variables).items():
                 setattr(self, name, value)
-
-    def _derived_attributes(self) -> dict:
-        """Fitted attributes a backend derives from ``functions_`` and ``params_``."""
-        return {}
-
-    def _curve_parameters(self, problem: Problem, name: str) -> int:
-        """Number of numbers fitted for the curve ``name`` (its own count by default)."""
-        return self.functions_[name].n_numbers
 
     def _adopt(self, source: CCRegressor, functions: Mapping, params: Mapping,
                n_parameters: int, attributes: Mapping | None = None) -> None:
@@ -454,7 +428,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         skeleton = source.skeleton_
         values = {name: copy.deepcopy(getattr(source, name)) for name in adopted
                   if hasattr(source, name)}
-        self._set_fitted({**values, **dict(attributes or {}),
+        self._set_fitted({**values, **dict(attributes or {}), "backend_": self._make_backend(),
                           "params_": {a: float(params[a]) for a in skeleton.params},
                           "functions_": {f: functions[f] for f in skeleton.functions},
                           "n_parameters_": int(n_parameters)})
@@ -765,7 +739,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             lines.append(f"{lhs} = {rhs}")
         for name in self.skeleton_.functions:
             variable = self._variable(name)
-            body = self._curve_text(name, variable, precision)
+            body = self.backend_.curve_text(self.functions_[name], variable, precision)
             line = f"{name}({variable}) = {body}"
             if variable == "u":
                 args = sorted({to_text(a) for a in self._arguments(name)})
@@ -975,3 +949,40 @@ def _warn_unmet_relations(problem: Problem, result: FitResult) -> None:
                           f"after the fit its residual keeps {100 * share:.0f} % of the spread of "
                           "its measured part; the relation, or the data, is wrong", UserWarning,
                           stacklevel=3)
+
+
+# -- what conversions and meta-estimators may do with an estimator ----------------------
+def backend_of(estimator: CCRegressor) -> Backend:
+    """The backend ``estimator``'s hyperparameters describe (they are checked first)."""
+    estimator._validate_params()
+    return estimator._make_backend()
+
+
+def make_problem(estimator: CCRegressor, X, y=None) -> Problem:
+    """The fitting problem ``estimator.fit(X, y)`` would hand its backend."""
+    estimator._validate_params()
+    problem, _ = estimator._problem(X, y)
+    return problem
+
+
+def adopt(target: CCRegressor, source: CCRegressor, functions: Mapping, params: Mapping,
+          n_parameters: int, attributes: Mapping | None = None) -> CCRegressor:
+    """Make ``target`` fitted with ``functions`` and ``params`` on ``source``'s data.
+
+    The way a conversion or a meta-estimator makes an estimator fitted from
+    another fitted one: the skeleton, gauge, curve ranges and what was
+    learned about ``X`` are ``source``'s; ``attributes`` are the target's
+    own fitted attributes. Returns ``target``.
+    """
+    target._adopt(source, functions, params, n_parameters, attributes)
+    return target
+
+
+def set_fitted(model: CCRegressor, values: Mapping) -> CCRegressor:
+    """Write fitted attributes of ``model`` through its one writer; returns ``model``.
+
+    For models made without data (:func:`~sklearn_pycc.from_tables`) and
+    for replacing curves of a fitted model: the model is compiled again.
+    """
+    model._set_fitted(values)
+    return model

@@ -17,7 +17,7 @@ from ._basis import ZeroCurve
 from ._setup import build_skeleton, gauge_skeleton, parity_of, points_of
 from ._symbolic_curves import SymbolicCurve, Template
 from ._symbolic_engines import make_engine
-from .base import CCRegressor
+from .base import CCRegressor, adopt, backend_of, make_problem, set_fitted
 from .interpolated import (
     InterpolatedCCRegressor,
     InterpolatedCurve,
@@ -26,7 +26,7 @@ from .interpolated import (
     sample_curve,
     tabulate,
 )
-from .symbolic import SymbolicCCRegressor, _Curve, _Residuals, choose_candidate
+from .symbolic import SymbolicCCRegressor, _Curve, _Residuals, choose_candidate, polish
 
 __all__ = ["from_tables", "to_interpolated", "to_symbolic"]
 
@@ -147,14 +147,14 @@ def to_symbolic(
         unary_operators=unary_operators, maxsize=maxsize, population_size=population_size,
         generations=generations, n_fit_points=n_points, model_selection=model_selection,
         engine_options=engine_options, random_state=random_state)
-    target._check_params()
     search = make_engine(engine)
+    backend = backend_of(target)
     rng = seeds(random_state)
     constraints, fixed, zeroed = _gauged(model)
     free = [f for f in model.skeleton_.functions if f not in zeroed]
     problem = residuals = None
     if X is not None:
-        problem, _ = target._problem(X, y)
+        problem = make_problem(target, X, y)
         residuals = _Residuals(problem)
     functions = dict(model.functions_)
     params = dict(model.params_)
@@ -168,7 +168,7 @@ def to_symbolic(
         # swings between them (sin of a steep tanh) matches the samples, not the curve
         dense, dense_learned = checks[name] = _grid(model, name, CHECK_DENSITY * n_points)
         parity = parity_of(constraints[name])
-        found = target._run_engine(search, grid, learned, parity, seed)
+        found = backend.search(search, grid, learned, parity, seed)
         template = Template(parity, points_of(constraints[name]))
         domain = (float(grid[0]), float(grid[-1]))
         monotone = next((c.kind for c in constraints[name]
@@ -180,7 +180,7 @@ def to_symbolic(
             if residuals is None:
                 loss, columns = error**2, {"error": error}
             else:
-                trial_params = SymbolicCCRegressor._polish(
+                trial_params = polish(
                     residuals, problem, {name: curve}, functions, start,
                     effort=CANDIDATE_EFFORT)
                 loss = residuals.loss({**functions, name: curve.function()}, trial_params)
@@ -199,7 +199,7 @@ def to_symbolic(
         curves[name] = curve
         functions[name] = curve.function()
     if residuals is not None and curves:
-        params = SymbolicCCRegressor._polish(residuals, problem, curves, functions, params)
+        params = polish(residuals, problem, curves, functions, params)
     out = dict(model.functions_)
     for name, curve in curves.items():
         grid, learned = checks[name]
@@ -217,11 +217,10 @@ def to_symbolic(
                                        for c in out.values() if isinstance(c, SymbolicCurve))
     conversion = pd.DataFrame(summary).set_index("curve") if summary else pd.DataFrame(
         columns=["expression", "complexity", "error", "relative_error"])
-    target._adopt(model, out, params, n_parameters,
-                  {"pareto_": pareto, "n_iterations_": 0, "conversion_": conversion})
-    target._set_fitted({"loss_history_": [residuals.loss(target.functions_, target.params_)]
-                        if residuals is not None else []})
-    return target
+    adopt(target, model, out, params, n_parameters,
+          {"pareto_": pareto, "n_iterations_": 0, "conversion_": conversion})
+    return set_fitted(target, {"loss_history_": [
+        residuals.loss(target.functions_, target.params_)] if residuals is not None else []})
 
 
 def _table(name: str, value) -> tuple[np.ndarray, np.ndarray]:
@@ -284,8 +283,7 @@ def to_interpolated(model: CCRegressor, curves: Mapping | None = None, *,
             out[name] = tabulate(model.functions_[name], lo, hi, n_points, method, name)
     n_parameters = _n_free_params(model, _gauged(model)[1]) + sum(c.x.size for c in out.values()
                                        if isinstance(c, InterpolatedCurve))
-    target._adopt(model, out, model.params_, n_parameters)
-    return target
+    return adopt(target, model, out, model.params_, n_parameters)
 
 
 def from_tables(equations, curves: Mapping, params: Mapping | None = None, constraints=None,
@@ -319,10 +317,9 @@ def from_tables(equations, curves: Mapping, params: Mapping | None = None, const
     functions = {name: InterpolatedCurve(*_table(name, table), method, name)
                  for name, table in curves.items()}
     functions, params = skeleton.check_values(functions, params)
-    model._set_fitted({
+    return set_fitted(model, {
         "skeleton_": skeleton, "gauge_": {},
         "curve_ranges_": {name: curve.domain for name, curve in functions.items()},
         "_y_1d": False, "params_": {a: float(params[a]) for a in skeleton.params},
         "functions_": {f: functions[f] for f in skeleton.functions},
         "n_parameters_": len(params) + sum(c.x.size for c in functions.values())})
-    return model

@@ -22,10 +22,11 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from ..exceptions import GaugeWarning
 from ..skeleton.curves import Curve
 from ._basis import ZeroCurve
-from ._setup import FitResult, Problem, gauge_skeleton
-from .base import CCRegressor
+from ._setup import gauge_skeleton
+from .backend import Backend, FitResult, Problem
+from .base import CCRegressor, backend_of
 
-__all__ = ["INTERPOLATIONS", "InterpolatedCCRegressor", "InterpolatedCurve",
+__all__ = ["INTERPOLATIONS", "InterpolatedCCRegressor", "InterpolatedCurve", "TableBackend",
            "sample_curve", "tabulate"]
 
 _CUBIC = {"pchip": PchipInterpolator, "akima": Akima1DInterpolator, "cubic": CubicSpline}
@@ -173,6 +174,45 @@ def check_n_points(n_points) -> int:
     return int(n_points)
 
 
+class TableBackend(Backend):
+    """Another backend's curves, tabulated over the range of their arguments.
+
+    Parameters
+    ----------
+    inner : Backend
+        The backend that fits the curves first.
+    n_points : int, default=200
+        Points of each table.
+    method : {"pchip", "akima", "cubic", "linear"}, default="pchip"
+        How a table is interpolated (see :class:`InterpolatedCurve`).
+    """
+
+    def __init__(self, *, inner: Backend, n_points: int = 200, method: str = "pchip") -> None:
+        self.inner = inner
+        self.n_points = n_points
+        self.method = method
+
+    def reseeded(self, seed: int) -> TableBackend:
+        """A copy whose inner backend draws its randomness from ``seed``."""
+        twin = super().reseeded(seed)
+        twin.inner = self.inner.reseeded(seed)
+        return twin
+
+    def fit(self, problem: Problem) -> FitResult:
+        """The inner backend's fit, each curve tabulated where the data put its argument."""
+        result = self.inner.fit(problem)
+        params = {**problem.fixed_params, **result.params}
+        functions = dict(result.functions)
+        for name in problem.free_functions:
+            values = problem.argument_values(name, params, functions)
+            values = values[np.isfinite(values)]
+            if values.size:
+                functions[name] = tabulate(functions[name], float(values.min()),
+                                           float(values.max()), self.n_points, self.method,
+                                           name)
+        return FitResult(functions, dict(result.params))
+
+
 class InterpolatedCCRegressor(CCRegressor):
     """Characteristic curves as interpolated tables (the paper's ``Interp``).
 
@@ -247,30 +287,35 @@ class InterpolatedCCRegressor(CCRegressor):
         if self.estimator is None:
             from .poly import PolyCCRegressor
 
-            backend = PolyCCRegressor()
+            fitted = PolyCCRegressor()
         else:
-            backend = clone(self.estimator)
-        backend.set_params(equations=self.__dict__.get("equations"),
+            fitted = clone(self.estimator)
+        fitted.set_params(equations=self.__dict__.get("equations"),
                            constraints=self.constraints, gauge=self.gauge,
                            differentiation=self.differentiation,
                            smooth_states=self.smooth_states,
                            equation_weights=self.equation_weights)
-        backend.fit(X, y)
+        fitted.fit(X, y)
         tables = {}
-        for name, curve in backend.functions_.items():
-            lo, hi = backend.curve_ranges_[name]
+        for name, curve in fitted.functions_.items():
+            lo, hi = fitted.curve_ranges_[name]
             tables[name] = tabulate(curve, lo, hi, n_points, self.method, name)
-        with warnings.catch_warnings():  # the backend's fit has said it already
+        with warnings.catch_warnings():  # the fitted's fit has said it already
             warnings.simplefilter("ignore", GaugeWarning)
-            _, fixed, _, _ = gauge_skeleton(backend.skeleton_, backend.gauge)
-        n_parameters = len([a for a in backend.skeleton_.params if a not in fixed]) + sum(
+            _, fixed, _, _ = gauge_skeleton(fitted.skeleton_, fitted.gauge)
+        n_parameters = len([a for a in fitted.skeleton_.params if a not in fixed]) + sum(
             t.x.size for t in tables.values() if isinstance(t, InterpolatedCurve))
-        self._adopt(backend, tables, backend.params_, n_parameters, {"estimator_": backend})
+        self._adopt(fitted, tables, fitted.params_, n_parameters, {"estimator_": fitted})
         return self
 
-    def _fit_problem(self, problem: Problem) -> FitResult:
-        """Not used: :meth:`fit` drives ``estimator`` through its public ``fit``."""
-        raise NotImplementedError("InterpolatedCCRegressor fits through its estimator's fit")
+    def _make_backend(self) -> TableBackend:
+        if self.estimator is None:
+            from .poly import PolyBackend
+
+            inner = PolyBackend()
+        else:
+            inner = backend_of(self.estimator)
+        return TableBackend(inner=inner, n_points=self.n_points, method=self.method)
 
     @property
     def tables_(self) -> dict:

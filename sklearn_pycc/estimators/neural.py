@@ -14,9 +14,10 @@ from ._activations import ACTIVATIONS
 from ._basis import ZeroCurve
 from ._numpy_mlp import EXTRAPOLATIONS, NumpyCurve
 from ._setup import FitResult, Problem, active_residuals
+from .backend import Backend
 from .base import RANDOM_STATES, RESAMPLING, CCRegressor
 
-__all__ = ["NeuralCCRegressor"]
+__all__ = ["NeuralBackend", "NeuralCCRegressor"]
 
 #: optimizer name -> (torch.optim class name, default learning rate)
 OPTIMIZERS: dict[str, tuple[str, float]] = {
@@ -31,19 +32,8 @@ DTYPES = ("float32", "float64")
 CONSTRAINT_MODES = ("exact", "penalty")
 
 
-def _positive_int(value, name: str, allow_none: bool = False):
-    if value is None and allow_none:
-        return None
-    if not isinstance(value, Integral) or isinstance(value, bool) or value < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
-
-
-def _non_negative(value, name: str) -> float:
-    if not isinstance(value, Real) or isinstance(value, bool) or not np.isfinite(value) \
-            or value < 0:
-        raise ValueError(f"{name} must be a non-negative number, got {value!r}")
-    return float(value)
+def _int_or_none(value) -> int | None:
+    return None if value is None else int(value)
 
 
 def resolve_device(device) -> str:
@@ -65,6 +55,262 @@ def resolve_device(device) -> str:
         raise ValueError(f"device={device!r}, but torch finds no XPU "
                          "(torch.xpu is missing or unavailable); use 'cpu' or 'auto'")
     return device
+
+
+class NeuralBackend(Backend):
+    """Curves as small multilayer perceptrons, trained with the parameters through skorch.
+
+    The settings are :class:`NeuralCCRegressor`'s, with the same meanings.
+    """
+
+    output_error = True
+    #: every network continues its edge slope beyond the data, so their spread there
+    #: says nothing: the ensemble's band stops at the measured range
+    bands_beyond_data = False
+    #: quasi-Newton iterations per epoch with optimizer="lbfgs" (torch's default)
+    lbfgs_iterations = 20
+    #: curvature pairs L-BFGS keeps (torch's default)
+    lbfgs_history = 100
+
+    def __init__(self, *, hidden_layer_sizes=(16, 16), activation: str = "tanh",
+                 optimizer="lbfgs", lr: float | None = None, max_epochs: int = 100,
+                 batch_size: int | None = None, early_stopping: bool = True,
+                 patience: int = 5, tol: float = 1e-4, curve_tol: float = 1e-3,
+                 validation_fraction: float | None = None, constraint_mode: str = "exact",
+                 constraint_weight: float = 1.0, param_init: Mapping | None = None,
+                 extrapolation: str = "linear", dtype: str = "float32", device: str = "cpu",
+                 n_threads: int | None = 1, callbacks: Sequence | None = None,
+                 shooting_start_epochs: int | None = 10, random_state=None,
+                 verbose: int = 0) -> None:
+        self.hidden_layer_sizes = hidden_layer_sizes
+        self.activation = activation
+        self.optimizer = optimizer
+        self.lr = lr
+        self.max_epochs = max_epochs
+        self.batch_size = batch_size
+        self.early_stopping = early_stopping
+        self.patience = patience
+        self.tol = tol
+        self.curve_tol = curve_tol
+        self.validation_fraction = validation_fraction
+        self.constraint_mode = constraint_mode
+        self.constraint_weight = constraint_weight
+        self.param_init = param_init
+        self.extrapolation = extrapolation
+        self.dtype = dtype
+        self.device = device
+        self.n_threads = n_threads
+        self.callbacks = callbacks
+        self.shooting_start_epochs = shooting_start_epochs
+        self.random_state = random_state
+        self.verbose = verbose
+
+    # -- hyperparameter checks -----------------------------------------------------
+    def _hidden(self) -> tuple[int, ...]:
+        sizes = self.hidden_layer_sizes
+        if isinstance(sizes, Integral) and not isinstance(sizes, bool):
+            sizes = (sizes,)
+        try:
+            sizes = tuple(sizes)
+        except TypeError:
+            raise ValueError("hidden_layer_sizes must be a tuple of positive integers, "
+                             f"got {self.hidden_layer_sizes!r}") from None
+        if not sizes:
+            raise ValueError("hidden_layer_sizes must name at least one hidden layer, got ()")
+        for k, size in enumerate(sizes):
+            if not isinstance(size, Integral) or isinstance(size, bool) or size < 1:
+                raise ValueError(
+                    f"hidden_layer_sizes must be positive integers; position {k} is "
+                    f"{size!r} in {self.hidden_layer_sizes!r}")
+        return tuple(int(s) for s in sizes)
+
+    def _optimizer(self):
+        import torch
+
+        from ._lbfgs import CompactLBFGS
+
+        if isinstance(self.optimizer, str):
+            if self.optimizer not in OPTIMIZERS:
+                raise ValueError(f"optimizer must be one of {sorted(OPTIMIZERS)} or a torch "
+                                 f"optimizer class, got {self.optimizer!r}")
+            name, default_lr = OPTIMIZERS[self.optimizer]
+            if self.optimizer == "lbfgs":  # torch's L-BFGS, with a cheaper direction
+                return CompactLBFGS, default_lr, True
+            return getattr(torch.optim, name), default_lr, False
+        if isinstance(self.optimizer, type) and issubclass(self.optimizer, torch.optim.Optimizer):
+            lbfgs = issubclass(self.optimizer, torch.optim.LBFGS)
+            return self.optimizer, 1.0 if lbfgs else 1e-3, lbfgs
+        raise ValueError(f"optimizer must be one of {sorted(OPTIMIZERS)} or a torch optimizer "
+                         f"class, got {self.optimizer!r}")
+
+    def _resolved(self) -> dict:
+        """The settings in the form training uses (defaults filled in, device found)."""
+        checked = {"hidden": self._hidden()}
+        checked["optimizer"], default_lr, checked["lbfgs"] = self._optimizer()
+        checked["lr"] = float(default_lr if self.lr is None else self.lr)
+        checked["max_epochs"] = int(self.max_epochs)
+        checked["start_epochs"] = _int_or_none(self.shooting_start_epochs)
+        checked["batch_size"] = _int_or_none(self.batch_size)
+        checked["patience"] = int(self.patience)
+        checked["tol"] = float(self.tol)
+        checked["constraint_weight"] = float(self.constraint_weight)
+        checked["n_threads"] = _int_or_none(self.n_threads)
+        checked["device"] = resolve_device(self.device)
+        return checked
+
+    # -- fitting -----------------------------------------------------------------
+    def fit(self, problem: Problem) -> FitResult:
+        """Train every curve's network and the parameters jointly (skorch)."""
+        checked = self._resolved()
+        init = problem.starting_values(self.param_init)
+        params0 = {a: float(init[a]) if a in init else _inside(problem.bounds.get(a))
+                   for a in problem.free_params}
+        functions: dict = {name: ZeroCurve() for name in problem.zeroed}
+        residuals, weights = active_residuals(problem)
+        if not residuals:
+            return FitResult(functions, params0, {"history_": [], "n_epochs_": 0,
+                                                  "loss_": 0.0, "device_": checked["device"]})
+        if problem.fit_mode == "simulation" and checked["start_epochs"] is not None:
+            # the output-error stage takes over from a short equation fit
+            checked["max_epochs"] = min(checked["max_epochs"], checked["start_epochs"])
+        with torch_threads(checked["n_threads"]):
+            result = self._train(problem, residuals, weights, params0, checked)
+        result.functions.update(functions)
+        if problem.covariance and problem.fit_mode == "equation":
+            from ._linearized import linearized_covariance
+
+            features = {f: result.functions[f].features for f in problem.free_functions}
+            result.attributes["covariance_"] = linearized_covariance(
+                problem, result.functions, result.params, features)
+        return result
+
+    def _train(self, problem, residuals, weights, params0, checked):
+        import torch
+
+        from ._networks import SkeletonModule
+        from ._skorch_net import CurvesSettled, EpochProgress, SkeletonNet
+
+        dtype = getattr(torch, self.dtype)
+        device = checked["device"]
+        seed = next(seeds(self.random_state))
+        slots, columns = problem.environment()
+        curves = {f: self._curve_spec(problem, f, params0) for f in problem.free_functions}
+        data = np.column_stack(columns)
+        X = torch.as_tensor(data, dtype=dtype).to(device)
+        y = torch.zeros((X.shape[0], len(residuals)), dtype=dtype, device=device)
+        exact = self.constraint_mode == "exact"
+        callbacks = []
+        if self.early_stopping:
+            from skorch.callbacks import EarlyStopping
+
+            monitor = "valid_loss" if self.validation_fraction else "train_loss"
+            callbacks.append(("early_stopping", EarlyStopping(
+                monitor=monitor, patience=checked["patience"], threshold=checked["tol"],
+                threshold_mode="rel", lower_is_better=True,
+                sink=print if self.verbose >= 2 else _silent)))
+            if checked["lbfgs"] and self.curve_tol > 0:
+                # an L-BFGS epoch is many full-batch steps: once the curves stand
+                # still from one epoch to the next, the fit has converged
+                callbacks.append(("curves_settled", CurvesSettled(self.curve_tol)))
+        if self.verbose == 1:
+            callbacks.append(("progress", EpochProgress(checked["max_epochs"])))
+        for k, callback in enumerate(self.callbacks or []):
+            callbacks.append((f"user_{k}", callback))
+        train_split = None
+        if self.validation_fraction:
+            from skorch.dataset import ValidSplit
+
+            train_split = ValidSplit(self.validation_fraction, random_state=seed)
+        optimizer_params = {}
+        if checked["lbfgs"]:
+            optimizer_params = {"optimizer__line_search_fn": "strong_wolfe",
+                                "optimizer__max_iter": self.lbfgs_iterations,
+                                "optimizer__history_size": self.lbfgs_history}
+        if self.verbose < 2:
+            optimizer_params["callbacks__print_log"] = None
+        shuffle = None
+        if checked["batch_size"] is not None:
+            shuffle = torch.Generator().manual_seed(seed + 1)
+        net = SkeletonNet(
+            SkeletonModule,
+            module__residuals=residuals, module__weights=weights, module__slots=slots,
+            module__curves=curves, module__params=params0,
+            module__fixed=problem.fixed_params, module__bounds=problem.bounds,
+            module__hidden_layer_sizes=checked["hidden"],
+            module__activation=self.activation, module__exact=exact, module__seed=seed,
+            module__dtype=dtype,
+            criterion=torch.nn.MSELoss,
+            optimizer=checked["optimizer"], lr=checked["lr"], max_epochs=checked["max_epochs"],
+            batch_size=-1 if checked["batch_size"] is None else checked["batch_size"],
+            train_split=train_split, callbacks=callbacks, device=device,
+            verbose=1 if self.verbose >= 2 else 0,
+            penalty_weight=0.0 if exact else checked["constraint_weight"],
+            shuffle_generator=shuffle,
+            **optimizer_params,
+        )
+        net.fit(X, y)
+        module = net.module_
+        functions, params = self._export(module, X)
+        history = net.history
+        loss = float(history[-1, "train_loss"]) if len(history) else float("nan")
+        if not np.isfinite(loss):
+            raise FloatingPointError(
+                "training diverged: the loss is not finite. Lower lr, scale the data, or "
+                "give param_init values closer to the truth" + _domain_hint(problem))
+        stage = (module, X, checked["n_threads"]) if problem.fit_mode == "simulation" else None
+        return FitResult(functions, params, {"history_": history, "n_epochs_": len(history),
+                                             "loss_": loss, "device_": device}, stage)
+
+    def _export(self, module, X) -> tuple[dict, dict]:
+        ranges = module.record_ranges(X)
+        functions = {name: curve.export(ranges[name], self.extrapolation)
+                     for name, curve in module.curves.items()}
+        bounds = module.params.bounds  # float32 rounding must not step outside a bound
+        params = {name: float(np.clip(float(p.detach().cpu()), *bounds[name]))
+                  for name, p in module.params.items()}
+        return functions, params
+
+    # -- output error ----------------------------------------------------------
+    def refine(self, problem: Problem, result: FitResult, plan) -> FitResult:
+        """Refine the trained networks by multiple shooting through a torch RK4."""
+        from ._torch_shooting import shoot_module
+
+        if result.stage is None:  # nothing was trained: no free curve or parameter
+            return FitResult(result.functions, result.params,
+                             {**result.attributes, "shooting_": {}})
+        module, X, n_threads = result.stage
+        with torch_threads(n_threads):
+            info = shoot_module(plan, problem, module, plan.iterations, X)
+            refined, values = self._export(module, X)
+        return FitResult({**result.functions, **refined}, {**result.params, **values},
+                         {**result.attributes, "shooting_": info})
+
+    def _curve_spec(self, problem: Problem, name: str, params: Mapping[str, float]) -> dict:
+        """Input scaling and constraints of one curve's network."""
+        parity = problem.parity(name)
+        values = problem.argument_values(name, {**problem.fixed_params, **params})
+        if values.size:
+            lo, hi = float(values.min()), float(values.max())
+        else:
+            lo, hi = -1.0, 1.0
+        if parity:
+            center, scale = 0.0, max(abs(lo), abs(hi))
+        else:
+            center, scale = (lo + hi) / 2.0, (hi - lo) / 2.0
+        if not np.isfinite(scale) or scale <= 0:
+            scale = max(abs(center), 1.0)
+        return {"center": center, "scale": scale, "parity": parity,
+                "points": problem.points(name), "monotone": problem.monotone(name)}
+
+    def curve_text(self, curve, variable: str, precision: int) -> str:
+        """The network's shape: ``MLP(x2; hidden=(16, 16), activation=tanh)``."""
+        if not isinstance(curve, NumpyCurve):
+            return super().curve_text(curve, variable, precision)
+        sizes = ", ".join(str(w.shape[0]) for w, _ in curve.layers[:-1])
+        text = f"MLP({variable}; hidden=({sizes}), activation={curve.activation})"
+        if curve.parity:
+            text += f", {curve.parity}"
+        return text
 
 
 class NeuralCCRegressor(CCRegressor):
@@ -206,14 +452,6 @@ default="lbfgs"
     True
     """
 
-    #: every network continues its edge slope beyond the data, so their spread there
-    #: says nothing: the ensemble's band stops at the measured range
-    _members_bound_extrapolation = False
-    #: quasi-Newton iterations per epoch with optimizer="lbfgs" (torch's default)
-    _lbfgs_iterations = 20
-    #: curvature pairs L-BFGS keeps (torch's default)
-    _lbfgs_history = 100
-
     _parameter_constraints: dict = {
         **CCRegressor._parameter_constraints,
         "hidden_layer_sizes": [tuple, list, Interval(Integral, 1, None, closed="left")],
@@ -285,232 +523,8 @@ default="lbfgs"
         self.n_jobs = n_jobs
         self.verbose = verbose
 
-    # -- hyperparameter checks -----------------------------------------------------
-    def _hidden(self) -> tuple[int, ...]:
-        sizes = self.hidden_layer_sizes
-        if isinstance(sizes, Integral) and not isinstance(sizes, bool):
-            sizes = (sizes,)
-        try:
-            sizes = tuple(sizes)
-        except TypeError:
-            raise ValueError("hidden_layer_sizes must be a tuple of positive integers, "
-                             f"got {self.hidden_layer_sizes!r}") from None
-        if not sizes:
-            raise ValueError("hidden_layer_sizes must name at least one hidden layer, got ()")
-        for k, size in enumerate(sizes):
-            if not isinstance(size, Integral) or isinstance(size, bool) or size < 1:
-                raise ValueError(
-                    f"hidden_layer_sizes must be positive integers; position {k} is "
-                    f"{size!r} in {self.hidden_layer_sizes!r}")
-        return tuple(int(s) for s in sizes)
-
-    def _optimizer(self):
-        import torch
-
-        from ._lbfgs import CompactLBFGS
-
-        if isinstance(self.optimizer, str):
-            if self.optimizer not in OPTIMIZERS:
-                raise ValueError(f"optimizer must be one of {sorted(OPTIMIZERS)} or a torch "
-                                 f"optimizer class, got {self.optimizer!r}")
-            name, default_lr = OPTIMIZERS[self.optimizer]
-            if self.optimizer == "lbfgs":  # torch's L-BFGS, with a cheaper direction
-                return CompactLBFGS, default_lr, True
-            return getattr(torch.optim, name), default_lr, False
-        if isinstance(self.optimizer, type) and issubclass(self.optimizer, torch.optim.Optimizer):
-            lbfgs = issubclass(self.optimizer, torch.optim.LBFGS)
-            return self.optimizer, 1.0 if lbfgs else 1e-3, lbfgs
-        raise ValueError(f"optimizer must be one of {sorted(OPTIMIZERS)} or a torch optimizer "
-                         f"class, got {self.optimizer!r}")
-
-    def _check_params(self) -> dict:
-        checked = {"hidden": self._hidden()}
-        if self.activation not in ACTIVATIONS:
-            raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}, "
-                             f"got {self.activation!r}")
-        checked["optimizer"], default_lr, checked["lbfgs"] = self._optimizer()
-        lr = default_lr if self.lr is None else self.lr
-        if not isinstance(lr, Real) or isinstance(lr, bool) or not np.isfinite(lr) or lr <= 0:
-            raise ValueError(f"lr must be a positive number, got {self.lr!r}")
-        checked["lr"] = float(lr)
-        checked["max_epochs"] = _positive_int(self.max_epochs, "max_epochs")
-        checked["start_epochs"] = _positive_int(self.shooting_start_epochs,
-                                                "shooting_start_epochs", allow_none=True)
-        checked["batch_size"] = _positive_int(self.batch_size, "batch_size", allow_none=True)
-        checked["patience"] = _positive_int(self.patience, "patience")
-        checked["tol"] = _non_negative(self.tol, "tol")
-        fraction = self.validation_fraction
-        if fraction is not None and (not isinstance(fraction, Real) or not 0 < fraction < 1):
-            raise ValueError("validation_fraction must be None or a number strictly between "
-                             f"0 and 1, got {fraction!r}")
-        if self.constraint_mode not in CONSTRAINT_MODES:
-            raise ValueError(f"constraint_mode must be one of {CONSTRAINT_MODES}, "
-                             f"got {self.constraint_mode!r}")
-        checked["constraint_weight"] = _non_negative(self.constraint_weight,
-                                                     "constraint_weight")
-        if self.extrapolation not in EXTRAPOLATIONS:
-            raise ValueError(f"extrapolation must be one of {EXTRAPOLATIONS}, "
-                             f"got {self.extrapolation!r}")
-        if self.dtype not in DTYPES:
-            raise ValueError(f"dtype must be one of {DTYPES}, got {self.dtype!r}")
-        checked["n_threads"] = _positive_int(self.n_threads, "n_threads", allow_none=True)
-        checked["device"] = resolve_device(self.device)
-        if not isinstance(self.verbose, Integral) or self.verbose < 0:
-            raise ValueError(f"verbose must be a non-negative integer, got {self.verbose!r}")
-        return checked
-
-    # -- fitting -----------------------------------------------------------------
-    def _fit_problem(self, problem: Problem):
-        checked = self._check_params()
-        init = problem.starting_values(self.param_init)
-        params0 = {a: float(init[a]) if a in init else _inside(problem.bounds.get(a))
-                   for a in problem.free_params}
-        functions: dict = {name: ZeroCurve() for name in problem.zeroed}
-        residuals, weights = active_residuals(problem)
-        if not residuals:
-            return FitResult(functions, params0, {"history_": [], "n_epochs_": 0,
-                                                  "loss_": 0.0, "device_": checked["device"]})
-        if problem.fit_mode == "simulation" and checked["start_epochs"] is not None:
-            # the output-error stage takes over from a short equation fit
-            checked["max_epochs"] = min(checked["max_epochs"], checked["start_epochs"])
-        with torch_threads(checked["n_threads"]):
-            result = self._train(problem, residuals, weights, params0, checked)
-        result.functions.update(functions)
-        if problem.covariance and problem.fit_mode == "equation":
-            from ._linearized import linearized_covariance
-
-            features = {f: result.functions[f].features for f in problem.free_functions}
-            result.attributes["covariance_"] = linearized_covariance(
-                problem, result.functions, result.params, features)
-        return result
-
-    def _train(self, problem, residuals, weights, params0, checked):
-        import torch
-
-        from ._networks import SkeletonModule
-        from ._skorch_net import CurvesSettled, EpochProgress, SkeletonNet
-
-        dtype = getattr(torch, self.dtype)
-        device = checked["device"]
-        seed = next(seeds(self.random_state))
-        slots, columns = problem.environment()
-        curves = {f: self._curve_spec(problem, f, params0) for f in problem.free_functions}
-        data = np.column_stack(columns)
-        X = torch.as_tensor(data, dtype=dtype).to(device)
-        y = torch.zeros((X.shape[0], len(residuals)), dtype=dtype, device=device)
-        exact = self.constraint_mode == "exact"
-        callbacks = []
-        if self.early_stopping:
-            from skorch.callbacks import EarlyStopping
-
-            monitor = "valid_loss" if self.validation_fraction else "train_loss"
-            callbacks.append(("early_stopping", EarlyStopping(
-                monitor=monitor, patience=checked["patience"], threshold=checked["tol"],
-                threshold_mode="rel", lower_is_better=True,
-                sink=print if self.verbose >= 2 else _silent)))
-            if checked["lbfgs"] and self.curve_tol > 0:
-                # an L-BFGS epoch is many full-batch steps: once the curves stand
-                # still from one epoch to the next, the fit has converged
-                callbacks.append(("curves_settled", CurvesSettled(self.curve_tol)))
-        if self.verbose == 1:
-            callbacks.append(("progress", EpochProgress(checked["max_epochs"])))
-        for k, callback in enumerate(self.callbacks or []):
-            callbacks.append((f"user_{k}", callback))
-        train_split = None
-        if self.validation_fraction:
-            from skorch.dataset import ValidSplit
-
-            train_split = ValidSplit(self.validation_fraction, random_state=seed)
-        optimizer_params = {}
-        if checked["lbfgs"]:
-            optimizer_params = {"optimizer__line_search_fn": "strong_wolfe",
-                                "optimizer__max_iter": self._lbfgs_iterations,
-                                "optimizer__history_size": self._lbfgs_history}
-        if self.verbose < 2:
-            optimizer_params["callbacks__print_log"] = None
-        shuffle = None
-        if checked["batch_size"] is not None:
-            shuffle = torch.Generator().manual_seed(seed + 1)
-        net = SkeletonNet(
-            SkeletonModule,
-            module__residuals=residuals, module__weights=weights, module__slots=slots,
-            module__curves=curves, module__params=params0,
-            module__fixed=problem.fixed_params, module__bounds=problem.bounds,
-            module__hidden_layer_sizes=checked["hidden"],
-            module__activation=self.activation, module__exact=exact, module__seed=seed,
-            module__dtype=dtype,
-            criterion=torch.nn.MSELoss,
-            optimizer=checked["optimizer"], lr=checked["lr"], max_epochs=checked["max_epochs"],
-            batch_size=-1 if checked["batch_size"] is None else checked["batch_size"],
-            train_split=train_split, callbacks=callbacks, device=device,
-            verbose=1 if self.verbose >= 2 else 0,
-            penalty_weight=0.0 if exact else checked["constraint_weight"],
-            shuffle_generator=shuffle,
-            **optimizer_params,
-        )
-        net.fit(X, y)
-        module = net.module_
-        functions, params = self._export(module, X)
-        history = net.history
-        loss = float(history[-1, "train_loss"]) if len(history) else float("nan")
-        if not np.isfinite(loss):
-            raise FloatingPointError(
-                "training diverged: the loss is not finite. Lower lr, scale the data, or "
-                "give param_init values closer to the truth" + _domain_hint(problem))
-        stage = (module, X, checked["n_threads"]) if problem.fit_mode == "simulation" else None
-        return FitResult(functions, params, {"history_": history, "n_epochs_": len(history),
-                                             "loss_": loss, "device_": device}, stage)
-
-    def _export(self, module, X) -> tuple[dict, dict]:
-        ranges = module.record_ranges(X)
-        functions = {name: curve.export(ranges[name], self.extrapolation)
-                     for name, curve in module.curves.items()}
-        bounds = module.params.bounds  # float32 rounding must not step outside a bound
-        params = {name: float(np.clip(float(p.detach().cpu()), *bounds[name]))
-                  for name, p in module.params.items()}
-        return functions, params
-
-    # -- output error ----------------------------------------------------------
-    def _fit_simulation(self, problem: Problem, result: FitResult, plan) -> FitResult:
-        """Refine the trained networks by multiple shooting through a torch RK4."""
-        from ._torch_shooting import shoot_module
-
-        if result.stage is None:  # nothing was trained: no free curve or parameter
-            return FitResult(result.functions, result.params,
-                             {**result.attributes, "shooting_": {}})
-        module, X, n_threads = result.stage
-        with torch_threads(n_threads):
-            info = shoot_module(plan, problem, module, self.shooting_iterations, X)
-            refined, values = self._export(module, X)
-        return FitResult({**result.functions, **refined}, {**result.params, **values},
-                         {**result.attributes, "shooting_": info})
-
-    def _curve_spec(self, problem: Problem, name: str, params: Mapping[str, float]) -> dict:
-        """Input scaling and constraints of one curve's network."""
-        parity = problem.parity(name)
-        values = problem.argument_values(name, {**problem.fixed_params, **params})
-        if values.size:
-            lo, hi = float(values.min()), float(values.max())
-        else:
-            lo, hi = -1.0, 1.0
-        if parity:
-            center, scale = 0.0, max(abs(lo), abs(hi))
-        else:
-            center, scale = (lo + hi) / 2.0, (hi - lo) / 2.0
-        if not np.isfinite(scale) or scale <= 0:
-            scale = max(abs(center), 1.0)
-        return {"center": center, "scale": scale, "parity": parity,
-                "points": problem.points(name), "monotone": problem.monotone(name)}
-
-    def _curve_text(self, name: str, variable: str, precision: int) -> str:
-        curve = self.functions_[name]
-        if not isinstance(curve, NumpyCurve):
-            return super()._curve_text(name, variable, precision)
-        sizes = ", ".join(str(w.shape[0]) for w, _ in curve.layers[:-1])
-        text = f"MLP({variable}; hidden=({sizes}), activation={curve.activation})"
-        if curve.parity:
-            text += f", {curve.parity}"
-        return text
+    def _make_backend(self) -> NeuralBackend:
+        return NeuralBackend(**self._backend_settings(NeuralBackend))
 
 
 def _silent(*args, **kwargs) -> None:

@@ -21,9 +21,10 @@ from ._lstsq import bounded_lstsq, constrained_lstsq
 from ._setup import FitResult, Problem, residual_scale
 from ._shooting import ShootingPlan, fit_shooting
 from ._uncertainty import sandwich_covariance
+from .backend import Backend
 from .base import RANDOM_STATES, RESAMPLING, CCRegressor
 
-__all__ = ["PolyCCRegressor"]
+__all__ = ["PolyBackend", "PolyCCRegressor"]
 
 # grid of starting magnitudes for nonlinear parameters: +-10^k
 _LOG_GRID = np.arange(-2.0, 4.01, 0.5)
@@ -146,120 +147,28 @@ class _Design:
 MAX_DEGREE = 60
 
 
-class PolyCCRegressor(CCRegressor):
-    """Characteristic curves as polynomial (linear-basis) expansions.
+class PolyBackend(Backend):
+    """Curves as polynomial expansions, fitted by (constrained) linear least squares.
 
-    Each unknown curve ``f_i`` is expanded in orthogonal polynomials over the
-    range of its argument; parameters ``a_i`` that enter linearly are solved
-    jointly with the curve coefficients by one least-squares problem over
-    all equations, with constraints as exact linear equalities. Parameters
-    that enter nonlinearly (``a3`` in ``a2 tanh(a3 x2)``) are found by
-    variable projection: an outer nonlinear least-squares search, started
-    from a grid of magnitudes, over the residual of the inner linear fit.
-
-    Parameters
-    ----------
-    equations : list of str or Skeleton
-        The structural skeleton. After ``fit``, ``model.equations()`` returns
-        the fitted model written out (:meth:`~CCRegressor.equations_text`).
-    constraints : list of str or dict, optional
-        ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, ...
-    degree : int or dict, default=7
-        Polynomial degree of every curve, or ``{"f1": 9, "f2": 3}``; at most
-        :data:`MAX_DEGREE` (60).
-    basis : {"legendre", "chebyshev", "power"}, default="legendre"
-        Polynomial family in the argument scaled to ``[-1, 1]``.
-    alpha : float, default=0.0
-        Ridge penalty on the (scaled) coefficients.
-    extrapolation : {"polynomial", "linear"}, default="polynomial"
-        What a curve does beyond the range of its argument in training: go
-        on as the polynomial, or continue in a straight line with the value
-        and slope it has at the nearer end (a simulation that strays beyond
-        the data then stays tame; fitted by equation error, the curves are
-        the same within the range).
-    param_init : dict, optional
-        Starting values of nonlinear parameters; the others start from a grid.
-    gauge : {"auto", "warn", "raise"}, default="auto"
-        See :class:`CCRegressor`.
-    differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations
-        How measurements without derivatives are used, and output-error
-        fitting: see :class:`CCRegressor`.
-    equation_weights : list of float, optional
-        One weight per equation: see :class:`CCRegressor`.
-    n_bootstrap : int, default=0
-        Refit on this many resamples of the record (blocks of consecutive
-        samples within each experiment, or whole experiments when there are
-        many): ``params_std_``, ``params_interval``, the bands of
-        ``cc_curves`` and ``simulate`` then come from their spread. 0 makes
-        none: the covariance of the least-squares estimate answers then
-        (equation-error fits).
-    n_jobs : int or None, default=None
-        Processes for the refits on resamples (joblib; None is one, -1
-        every core). The result does not depend on it.
-    random_state : int, RandomState or None
-        Seeds the multi-start search when there are three or more nonlinear
-        parameters.
-
-    Attributes
-    ----------
-    coefficients_ : dict
-        Basis coefficients of each curve.
-    nonlinear_params_ : list of str
-        Parameters found by variable projection.
-    cost_ : float
-        Final weighted sum of squared equation residuals.
-    bootstrap_params_ : DataFrame
-        Only with ``n_bootstrap``: the free parameters of each refit on a
-        resample, one row per refit (``bootstrap_`` holds their curves too,
-        and ``bootstrap_method_`` says how the resamples were drawn).
-
-    Examples
-    --------
-    >>> from sklearn_pycc import PolyCCRegressor, datasets
-    >>> df = datasets.make_duffing(n_samples=500)
-    >>> model = PolyCCRegressor(
-    ...     equations=["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
-    ...     constraints=["f1 odd", "f2 odd"], degree=3)
-    >>> _ = model.fit(df[["x1", "x2", "F_ext"]], df[["x1_dot", "x2_dot"]])
-    >>> round(model.score(df[["x1", "x2", "F_ext"]], df[["x1_dot", "x2_dot"]]), 6)
-    1.0
+    Parameters that enter nonlinearly are found by variable projection. The
+    settings are :class:`PolyCCRegressor`'s, with the same meanings.
     """
 
+    output_error = True
+    uncertainty = True
     #: the refits' least squares run in LAPACK, which releases the GIL
-    _resample_in = "threads"
+    resample_in = "threads"
 
-    _parameter_constraints: dict = {
-        **CCRegressor._parameter_constraints,
-        "degree": [Interval(Integral, 0, None, closed="left"), dict],
-        "basis": [StrOptions(set(BASES))],
-        "alpha": [Interval(Real, 0, None, closed="left")],
-        "extrapolation": [StrOptions({"polynomial", "linear"})],
-        "param_init": [dict, None],
-        "random_state": RANDOM_STATES,
-        **RESAMPLING,
-    }
-
-    def __init__(self, *, equations=None, constraints=None, degree=7, basis: str = "legendre",
-                 alpha: float = 0.0, extrapolation: str = "polynomial",
-                 param_init: Mapping | None = None, gauge: str = "auto",
-                 differentiation="auto", smooth_states: bool = True,
-                 fit_mode: str = "auto", shooting_window: int = 40,
-                 shooting_iterations: int = 30, equation_weights=None,
-                 random_state=None, n_bootstrap: int = 0,
-                 n_jobs: int | None = None) -> None:
-        super().__init__(equations=equations, constraints=constraints, gauge=gauge,
-                         differentiation=differentiation, smooth_states=smooth_states,
-                         fit_mode=fit_mode, shooting_window=shooting_window,
-                         shooting_iterations=shooting_iterations,
-                         equation_weights=equation_weights)
+    def __init__(self, *, degree=7, basis: str = "legendre", alpha: float = 0.0,
+                 extrapolation: str = "polynomial", param_init: Mapping | None = None,
+                 random_state=None, gauge: str = "auto") -> None:
         self.degree = degree
         self.basis = basis
         self.alpha = alpha
         self.extrapolation = extrapolation
         self.param_init = param_init
         self.random_state = random_state
-        self.n_bootstrap = n_bootstrap
-        self.n_jobs = n_jobs
+        self.gauge = gauge
 
     def _degrees(self, functions: list[str]) -> dict[str, int]:
         def check(value, name) -> int:
@@ -281,22 +190,13 @@ class PolyCCRegressor(CCRegressor):
             return {f: check(self.degree.get(f, 7), f) for f in functions}
         return {f: check(self.degree, "every curve") for f in functions}
 
-    def _check_params(self) -> None:
-        if self.basis not in BASES:
-            raise ValueError(f"basis must be one of {sorted(BASES)}, got {self.basis!r}")
-        if not np.isfinite(self.alpha) or self.alpha < 0:
-            raise ValueError(f"alpha must be a non-negative number, got {self.alpha!r}")
-        if self.extrapolation not in ("polynomial", "linear"):
-            raise ValueError("extrapolation must be 'polynomial' or 'linear', got "
-                             f"{self.extrapolation!r}")
-
     @property
     def _beyond(self) -> str | None:
         """The fitted curves' policy beyond their domain (None: the polynomial)."""
         return None if self.extrapolation == "polynomial" else self.extrapolation
 
-    def _fit_problem(self, problem: Problem):
-        self._check_params()
+    def fit(self, problem: Problem) -> FitResult:
+        """One constrained least-squares fit of every curve and linear parameter."""
         degrees = self._degrees(problem.free_functions)
         residuals = [(eq.index, eq.text, eq.fit_residual) for eq in problem.equations]
         linear, nonlinear = split_parameters(residuals, problem.free_params, type(self).__name__)
@@ -347,8 +247,7 @@ class PolyCCRegressor(CCRegressor):
                                              "covariance_": covariance})
 
     # -- output error ----------------------------------------------------------
-    def _fit_simulation(self, problem: Problem, result: FitResult,
-                        plan: ShootingPlan) -> FitResult:
+    def refine(self, problem: Problem, result: FitResult, plan: ShootingPlan) -> FitResult:
         """Refine the coefficients and parameters so that simulations match the states.
 
         The curves keep their bases; coefficients move in the null space of
@@ -399,7 +298,7 @@ class PolyCCRegressor(CCRegressor):
                                np.full(sum(sizes), np.inf)])
         with blas_threads(1):
             theta, info = fit_shooting(plan, system_for, np.clip(theta0, low, high),
-                                       self.shooting_iterations, bounds=(low, high))
+                                       plan.iterations, bounds=(low, high))
         values, curves = unpack(theta)
         functions = dict(functions)
         refined = dict(coefficients_at_start)
@@ -413,17 +312,19 @@ class PolyCCRegressor(CCRegressor):
                                              "shooting_": info})
 
     # -- uncertainty (the covariance of the equation-error estimate) ------------------------
-    def _curve_block(self, name: str) -> list[str]:
-        curve = self.functions_[name]
+    @staticmethod
+    def _curve_block(functions: Mapping, name: str) -> list[str]:
+        curve = functions[name]
         return [f"{name}[{k}]" for k in range(len(curve.series))] \
             if isinstance(curve, PolyCurve) else []
 
-    def _curve_sd(self, name: str, x: np.ndarray) -> np.ndarray | None:
-        cov = getattr(self, "covariance_", None)
+    def curve_sd(self, model, name: str, x: np.ndarray) -> np.ndarray | None:
+        """From the covariance of the equation-error estimate (``covariance_``)."""
+        cov = getattr(model, "covariance_", None)
         if cov is None:
             return None
-        curve = self.functions_[name]
-        block = [k for k in self._curve_block(name) if k in cov.index]
+        curve = model.functions_[name]
+        block = [k for k in self._curve_block(model.functions_, name) if k in cov.index]
         if not block:  # pinned to zero by the gauge: known exactly
             return np.zeros_like(np.asarray(x, dtype=float))
         u = (np.asarray(x, dtype=float) - curve.center) / curve.half
@@ -431,22 +332,23 @@ class PolyCCRegressor(CCRegressor):
         sigma = cov.loc[block, block].to_numpy()
         return np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", V, sigma, V), 0.0))
 
-    def _draws(self, n: int, rng: np.random.Generator) -> list[tuple[dict, dict]] | None:
-        cov = getattr(self, "covariance_", None)
+    def draws(self, model, n: int, rng: np.random.Generator) -> list[tuple[dict, dict]] | None:
+        """Coefficients and parameters drawn from a normal law with ``covariance_``."""
+        cov = getattr(model, "covariance_", None)
         if cov is None:
             return None
         names = list(cov.index)
-        mean = np.array([self._estimate_of(name) for name in names])
+        mean = np.array([_estimate_of(model, name) for name in names])
         values, vectors = np.linalg.eigh(cov.to_numpy())
         root = vectors * np.sqrt(np.clip(values, 0.0, None))
         samples = mean + rng.standard_normal((n, len(names))) @ root.T
         out = []
         for sample in samples:
             drawn = dict(zip(names, sample))
-            params = {a: float(drawn.get(a, v)) for a, v in self.params_.items()}
-            functions = dict(self.functions_)
-            for name, curve in self.functions_.items():
-                block = self._curve_block(name)
+            params = {a: float(drawn.get(a, v)) for a, v in model.params_.items()}
+            functions = dict(model.functions_)
+            for name, curve in model.functions_.items():
+                block = self._curve_block(model.functions_, name)
                 if block and block[0] in drawn:
                     functions[name] = PolyCurve(np.array([drawn[k] for k in block]),
                                                 curve.center, curve.half, curve.domain,
@@ -454,16 +356,10 @@ class PolyCCRegressor(CCRegressor):
             out.append((functions, params))
         return out
 
-    def _estimate_of(self, name: str) -> float:
-        """The fitted value of a ``covariance_`` entry (``a1`` or ``f1[k]``)."""
-        if name in self.params_:
-            return float(self.params_[name])
-        curve, k = name[:-1].split("[")
-        return float(self.functions_[curve].series[int(k)])
-
-    def _curve_parameters(self, problem: Problem, name: str) -> int:
-        # coefficients of the basis, less one per point value they must satisfy
-        return max(len(self.coefficients_[name]) - len(problem.points(name)), 0)
+    def n_numbers(self, problem: Problem, result: FitResult, name: str) -> int:
+        """Coefficients of the basis, less one per point value they must satisfy."""
+        coefficients = result.attributes["coefficients_"][name]
+        return max(len(coefficients) - len(problem.points(name)), 0)
 
     # -- nonlinear parameters: variable projection with a multi-start --------------
     def _search(self, solve, names: list[str], init: Mapping[str, float],
@@ -549,10 +445,10 @@ class PolyCCRegressor(CCRegressor):
             raise IdentifiabilityError(message)
         warnings.warn(message, RankDeficiencyWarning, stacklevel=4)
 
-    def _curve_text(self, name: str, variable: str, precision: int) -> str:
-        curve = self.functions_[name]
+    def curve_text(self, curve, variable: str, precision: int) -> str:
+        """The curve's power series in ``variable``."""
         if not isinstance(curve, PolyCurve):
-            return super()._curve_text(name, variable, precision)
+            return super().curve_text(curve, variable, precision)
         coefs = curve.polynomial().coef
         biggest = float(np.max(np.abs(coefs))) if coefs.size else 0.0
         terms = []
@@ -570,6 +466,129 @@ class PolyCCRegressor(CCRegressor):
             text += f" {'-' if negative else '+'} {body}"
         return text
 
+
+def _estimate_of(model, name: str) -> float:
+    """The fitted value of a ``covariance_`` entry (``a1`` or ``f1[k]``) of ``model``."""
+    if name in model.params_:
+        return float(model.params_[name])
+    curve, k = name[:-1].split("[")
+    return float(model.functions_[curve].series[int(k)])
+
+
+class PolyCCRegressor(CCRegressor):
+    """Characteristic curves as polynomial (linear-basis) expansions.
+
+    Each unknown curve ``f_i`` is expanded in orthogonal polynomials over the
+    range of its argument; parameters ``a_i`` that enter linearly are solved
+    jointly with the curve coefficients by one least-squares problem over
+    all equations, with constraints as exact linear equalities. Parameters
+    that enter nonlinearly (``a3`` in ``a2 tanh(a3 x2)``) are found by
+    variable projection: an outer nonlinear least-squares search, started
+    from a grid of magnitudes, over the residual of the inner linear fit.
+
+    Parameters
+    ----------
+    equations : list of str or Skeleton
+        The structural skeleton. After ``fit``, ``model.equations()`` returns
+        the fitted model written out (:meth:`~CCRegressor.equations_text`).
+    constraints : list of str or dict, optional
+        ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``, ...
+    degree : int or dict, default=7
+        Polynomial degree of every curve, or ``{"f1": 9, "f2": 3}``; at most
+        :data:`MAX_DEGREE` (60).
+    basis : {"legendre", "chebyshev", "power"}, default="legendre"
+        Polynomial family in the argument scaled to ``[-1, 1]``.
+    alpha : float, default=0.0
+        Ridge penalty on the (scaled) coefficients.
+    extrapolation : {"polynomial", "linear"}, default="polynomial"
+        What a curve does beyond the range of its argument in training: go
+        on as the polynomial, or continue in a straight line with the value
+        and slope it has at the nearer end (a simulation that strays beyond
+        the data then stays tame; fitted by equation error, the curves are
+        the same within the range).
+    param_init : dict, optional
+        Starting values of nonlinear parameters; the others start from a grid.
+    gauge : {"auto", "warn", "raise"}, default="auto"
+        See :class:`CCRegressor`.
+    differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations
+        How measurements without derivatives are used, and output-error
+        fitting: see :class:`CCRegressor`.
+    equation_weights : list of float, optional
+        One weight per equation: see :class:`CCRegressor`.
+    n_bootstrap : int, default=0
+        Refit on this many resamples of the record (blocks of consecutive
+        samples within each experiment, or whole experiments when there are
+        many): ``params_std_``, ``params_interval``, the bands of
+        ``cc_curves`` and ``simulate`` then come from their spread. 0 makes
+        none: the covariance of the least-squares estimate answers then
+        (equation-error fits).
+    n_jobs : int or None, default=None
+        Processes for the refits on resamples (joblib; None is one, -1
+        every core). The result does not depend on it.
+    random_state : int, RandomState or None
+        Seeds the multi-start search when there are three or more nonlinear
+        parameters.
+
+    Attributes
+    ----------
+    coefficients_ : dict
+        Basis coefficients of each curve.
+    nonlinear_params_ : list of str
+        Parameters found by variable projection.
+    cost_ : float
+        Final weighted sum of squared equation residuals.
+    bootstrap_params_ : DataFrame
+        Only with ``n_bootstrap``: the free parameters of each refit on a
+        resample, one row per refit (``bootstrap_`` holds their curves too,
+        and ``bootstrap_method_`` says how the resamples were drawn).
+
+    Examples
+    --------
+    >>> from sklearn_pycc import PolyCCRegressor, datasets
+    >>> df = datasets.make_duffing(n_samples=500)
+    >>> model = PolyCCRegressor(
+    ...     equations=["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
+    ...     constraints=["f1 odd", "f2 odd"], degree=3)
+    >>> _ = model.fit(df[["x1", "x2", "F_ext"]], df[["x1_dot", "x2_dot"]])
+    >>> round(model.score(df[["x1", "x2", "F_ext"]], df[["x1_dot", "x2_dot"]]), 6)
+    1.0
+    """
+
+    _parameter_constraints: dict = {
+        **CCRegressor._parameter_constraints,
+        "degree": [Interval(Integral, 0, None, closed="left"), dict],
+        "basis": [StrOptions(set(BASES))],
+        "alpha": [Interval(Real, 0, None, closed="left")],
+        "extrapolation": [StrOptions({"polynomial", "linear"})],
+        "param_init": [dict, None],
+        "random_state": RANDOM_STATES,
+        **RESAMPLING,
+    }
+
+    def __init__(self, *, equations=None, constraints=None, degree=7, basis: str = "legendre",
+                 alpha: float = 0.0, extrapolation: str = "polynomial",
+                 param_init: Mapping | None = None, gauge: str = "auto",
+                 differentiation="auto", smooth_states: bool = True,
+                 fit_mode: str = "auto", shooting_window: int = 40,
+                 shooting_iterations: int = 30, equation_weights=None,
+                 random_state=None, n_bootstrap: int = 0,
+                 n_jobs: int | None = None) -> None:
+        super().__init__(equations=equations, constraints=constraints, gauge=gauge,
+                         differentiation=differentiation, smooth_states=smooth_states,
+                         fit_mode=fit_mode, shooting_window=shooting_window,
+                         shooting_iterations=shooting_iterations,
+                         equation_weights=equation_weights)
+        self.degree = degree
+        self.basis = basis
+        self.alpha = alpha
+        self.extrapolation = extrapolation
+        self.param_init = param_init
+        self.random_state = random_state
+        self.n_bootstrap = n_bootstrap
+        self.n_jobs = n_jobs
+
+    def _make_backend(self) -> PolyBackend:
+        return PolyBackend(**self._backend_settings(PolyBackend))
 
 def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: np.ndarray,
                 fixed: Mapping[str, float], x: np.ndarray, layout, bases,

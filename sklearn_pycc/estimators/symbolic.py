@@ -25,9 +25,10 @@ from ._symbolic_engines import (
     Candidate,
     make_engine,
 )
+from .backend import Backend
 from .base import RANDOM_STATES, RESAMPLING, CCRegressor
 
-__all__ = ["SymbolicCCRegressor"]
+__all__ = ["SymbolicBackend", "SymbolicCCRegressor", "polish", "refit_params"]
 
 MODEL_SELECTIONS = ("best", "accuracy")
 #: a curve constrained monotone is checked on this many points over its domain
@@ -268,6 +269,222 @@ def choose_candidate(found, template: Template, domain: tuple[float, float],
     return curve, payload, table
 
 
+class SymbolicBackend(Backend):
+    """Curves as analytic expressions found by one-dimensional symbolic regression.
+
+    The settings are :class:`SymbolicCCRegressor`'s, with the same meanings;
+    the operators are checked here, against the engine's tables.
+    """
+
+    def __init__(self, *, engine: str = "operon",
+                 binary_operators: Sequence[str] = ("+", "-", "*"),
+                 unary_operators: Sequence[str] = ("tanh", "sin", "cos"),
+                 maxsize: int = 20, population_size: int = 500, generations: int = 50,
+                 max_iterations: int = 4, tol: float = 1e-3, n_fit_points: int = 200,
+                 model_selection: str = "best", start_degree: int | None = 7,
+                 engine_options: Mapping | None = None, param_init: Mapping | None = None,
+                 random_state=None) -> None:
+        for name, operators, table in (("binary_operators", binary_operators, BINARY_OPERATORS),
+                                       ("unary_operators", unary_operators, UNARY_OPERATORS)):
+            if isinstance(operators, str):
+                raise ValueError(f"{name} must be a list of operators, not the string "
+                                 f"{operators!r}")
+            for k, op in enumerate(operators):
+                if op not in table:
+                    raise ValueError(f"{name}[{k}] is {op!r}, which is not one of "
+                                     f"{sorted(table)}")
+        self.engine = engine
+        self.binary_operators = binary_operators
+        self.unary_operators = unary_operators
+        self.maxsize = maxsize
+        self.population_size = population_size
+        self.generations = generations
+        self.max_iterations = max_iterations
+        self.tol = tol
+        self.n_fit_points = n_fit_points
+        self.model_selection = model_selection
+        self.start_degree = start_degree
+        self.engine_options = engine_options
+        self.param_init = param_init
+        self.random_state = random_state
+
+    # -- fitting -----------------------------------------------------------------
+    def _start(self, problem: Problem) -> tuple[dict, dict]:
+        """Curves and parameters to start from: a polynomial fit when possible."""
+        init = problem.starting_values(self.param_init)
+        low, high = _bounds_of(problem, problem.free_params)
+        params = {a: float(init[a]) if a in init else float(np.clip(1.0, lo, hi))
+                  for a, lo, hi in zip(problem.free_params, low, high)}
+        functions = {f: ZeroCurve() for f in problem.skeleton.functions}
+        if self.start_degree is None:
+            return functions, params
+        from .poly import PolyBackend
+
+        poly = PolyBackend(degree=self.start_degree, param_init=self.param_init)
+        try:  # the polynomial backend, on the same problem
+            start = poly.fit(problem)
+        except SkeletonError:  # a curve enters nonlinearly: start from zero curves
+            return functions, params
+        functions.update(start.functions)
+        params.update({a: float(start.params[a]) for a in problem.free_params
+                       if a in start.params})
+        return functions, params
+
+    def fit(self, problem: Problem) -> FitResult:
+        """Search each curve's expression in turn, then refine every number jointly."""
+        engine = make_engine(self.engine)
+        rng = seeds(self.random_state)
+        residuals = _Residuals(problem)
+        functions, params = self._start(problem)
+        free = problem.free_functions
+        curves: dict[str, _Curve] = {}
+        pareto: dict[str, pd.DataFrame] = {}
+        history = []
+        loss = residuals.loss(functions, params)
+        n_rounds = 0
+        for n_rounds in range(1, int(self.max_iterations) + 1):  # noqa: B007
+            before = loss
+            for name in free:
+                seed = next(rng)
+                chosen = self._search_curve(engine, problem, residuals, name, functions,
+                                            params, seed, pareto)
+                if chosen is None:
+                    continue
+                trial = {**functions, name: chosen.function()}
+                trial_params = refit_params(residuals, problem, trial, params)
+                trial_loss = residuals.loss(trial, trial_params)
+                # the first round replaces the polynomial start whatever it costs
+                if name not in curves or trial_loss <= loss:
+                    curves[name] = chosen
+                    functions, params, loss = trial, trial_params, trial_loss
+            history.append(loss)
+            if not np.isfinite(before) or before - loss <= self.tol * before:
+                break
+        missing = [name for name in free if name not in curves]
+        if missing:
+            raise ValueError(
+                f"no expression was found for {missing[0]}: no sample of the data constrains "
+                "it (its equations do not change when it does), or every candidate of the "
+                "search gave a non-finite residual or broke its monotony")
+        params = polish(residuals, problem, curves, functions, params)
+        out = {name: ZeroCurve() for name in problem.zeroed}
+        for name, curve in curves.items():
+            out[name] = SymbolicCurve(curve.expression(), curve.domain)
+        return FitResult(out, params, {"pareto_": pareto, "n_iterations_": n_rounds,
+                                       "loss_history_": history})
+
+    def _search_curve(self, engine, problem, residuals, name, functions, params, seed,
+                      pareto: dict):
+        x, target, weight = residuals.isolated(name, functions, params)
+        if x.size == 0:
+            return None
+        xb, yb = _binned(x, target, weight, int(self.n_fit_points))
+        parity = problem.parity(name)
+        found = self.search(engine, xb, yb, parity, seed)
+        template = Template(parity, problem.points(name))
+        domain = (float(np.min(x)), float(np.max(x)))
+
+        def score(curve):
+            loss = residuals.loss({**functions, name: curve.function()}, params)
+            return (loss, {"loss": loss}, None) if np.isfinite(loss) else None
+
+        chosen = choose_candidate(found, template, domain, problem.monotone(name), score,
+                                  self.model_selection)
+        if chosen is None:
+            return None
+        curve, _, pareto[name] = chosen
+        return curve
+
+    def search(self, engine, x: np.ndarray, y: np.ndarray, parity: str | None,
+               seed: int) -> list[Candidate]:
+        """Candidates ``y ~ g(x)``, the data mirrored for an odd or even curve."""
+        if parity == "odd":
+            x, y = np.concatenate([x, -x]), np.concatenate([y, -y])
+        elif parity == "even":
+            x, y = np.concatenate([x, -x]), np.concatenate([y, y])
+        return engine.search(x, y, binary=tuple(self.binary_operators),
+                             unary=tuple(self.unary_operators), maxsize=self.maxsize,
+                             population_size=self.population_size,
+                             generations=self.generations,
+                             options=dict(self.engine_options or {}), seed=seed)
+
+    # -- results -------------------------------------------------------------------
+    def attributes_of(self, functions: Mapping, variables: Mapping[str, str]) -> dict:
+        """``expressions_``: each curve as a sympy expression of its argument."""
+        expressions = {}
+        for name, curve in functions.items():
+            expression = curve.to_sympy(sympy.Symbol(variables[name]))
+            expressions[name] = sympy.Integer(0) if expression is None else expression
+        return {"expressions_": expressions}
+
+
+def refit_params(residuals: _Residuals, problem: Problem, functions, params) -> dict:
+    """The free parameters refitted by least squares with the curves held."""
+    names = problem.free_params
+    if not names:
+        return dict(params)
+
+    def fun(theta):
+        r = residuals(functions, dict(zip(names, theta)))
+        return np.where(np.isfinite(r), r, 1e150)
+
+    low, high = _bounds_of(problem, names)
+    start = np.clip([params[a] for a in names], low, high)
+    result = least_squares(fun, start, bounds=(low, high))
+    return dict(zip(names, (float(v) for v in np.clip(result.x, low, high))))
+
+def polish(residuals: _Residuals, problem: Problem, curves: dict, functions,
+            params, effort: int = 200) -> dict:
+    """Refine every number of every expression and every parameter jointly.
+
+    At most ``effort`` residual evaluations per number are spent.
+    """
+    names = problem.free_params
+    sizes = [len(curve.values) for curve in curves.values()]
+    theta0 = np.concatenate([[params[a] for a in names],
+                             *[curve.values for curve in curves.values()]])
+    if theta0.size == 0:
+        return params
+
+    def unpack(theta):
+        values = dict(zip(names, theta[:len(names)]))
+        current, offset = dict(functions), len(names)
+        for (name, curve), size in zip(curves.items(), sizes):
+            current[name] = curve.function(theta[offset:offset + size])
+            offset += size
+        return values, current
+
+    def fun(theta):
+        values, current = unpack(theta)
+        r = residuals(current, values)
+        return np.where(np.isfinite(r), r, 1e150)
+
+    low, high = _bounds_of(problem, names)
+    low = np.concatenate([low, np.full(theta0.size - len(names), -np.inf)])
+    high = np.concatenate([high, np.full(theta0.size - len(names), np.inf)])
+    theta0 = np.clip(theta0, low, high)
+    start = fun(theta0)
+    result = least_squares(fun, theta0, x_scale="jac", bounds=(low, high),
+                           max_nfev=effort * theta0.size)
+    theta = np.clip(result.x, low, high)
+    if result.cost > 0.5 * float(start @ start) or not _monotone_after(
+            curves, unpack(theta)[1], problem):
+        theta = theta0
+    # drop numbers that do nothing (an engine's 1e-9 offsets)
+    base = float(np.mean(fun(theta) ** 2))
+    for k in range(len(names), theta.size):
+        if abs(theta[k]) < 1e-6:
+            trial = theta.copy()
+            trial[k] = 0.0
+            if float(np.mean(fun(trial) ** 2)) <= base * (1 + PRUNE_TOLERANCE) + 1e-300:
+                theta = trial
+    offset = len(names)
+    for (_, curve), size in zip(curves.items(), sizes):
+        curve.values = theta[offset:offset + size]
+        offset += size
+    return {**params, **dict(zip(names, (float(v) for v in theta[:len(names)])))}
+
+
 class SymbolicCCRegressor(CCRegressor):
     """Characteristic curves as analytic expressions (symbolic regression, SymbR-CC).
 
@@ -413,207 +630,5 @@ class SymbolicCCRegressor(CCRegressor):
         self.n_bootstrap = n_bootstrap
         self.n_jobs = n_jobs
 
-    # -- hyperparameter checks -----------------------------------------------------
-    def _check_params(self) -> None:
-        for name in ("maxsize", "population_size", "generations", "max_iterations",
-                     "n_fit_points"):
-            value = getattr(self, name)
-            if not isinstance(value, Integral) or isinstance(value, bool) or value < 1:
-                raise ValueError(f"{name} must be a positive integer, got {value!r}")
-        if not isinstance(self.tol, Real) or not self.tol >= 0:
-            raise ValueError(f"tol must be a non-negative number, got {self.tol!r}")
-        if self.model_selection not in MODEL_SELECTIONS:
-            raise ValueError(f"model_selection must be one of {MODEL_SELECTIONS}, "
-                             f"got {self.model_selection!r}")
-        for name, table in (("binary_operators", BINARY_OPERATORS),
-                            ("unary_operators", UNARY_OPERATORS)):
-            operators = getattr(self, name)
-            if isinstance(operators, str):
-                raise ValueError(f"{name} must be a list of operators, not the string "
-                                 f"{operators!r}")
-            for k, op in enumerate(operators):
-                if op not in table:
-                    raise ValueError(f"{name}[{k}] is {op!r}, which is not one of "
-                                     f"{sorted(table)}")
-        degree = self.start_degree
-        if degree is not None and (not isinstance(degree, Integral) or degree < 0):
-            raise ValueError(f"start_degree must be None or a non-negative integer, "
-                             f"got {degree!r}")
-        if self.engine_options is not None and not isinstance(self.engine_options, Mapping):
-            raise ValueError(f"engine_options must be a dict, got {self.engine_options!r}")
-
-    # -- fitting -----------------------------------------------------------------
-    def _start(self, problem: Problem) -> tuple[dict, dict]:
-        """Curves and parameters to start from: a polynomial fit when possible."""
-        init = problem.starting_values(self.param_init)
-        low, high = _bounds_of(problem, problem.free_params)
-        params = {a: float(init[a]) if a in init else float(np.clip(1.0, lo, hi))
-                  for a, lo, hi in zip(problem.free_params, low, high)}
-        functions = {f: ZeroCurve() for f in problem.skeleton.functions}
-        if self.start_degree is None:
-            return functions, params
-        from .poly import PolyCCRegressor
-
-        poly = PolyCCRegressor(degree=self.start_degree, param_init=self.param_init)
-        try:  # the documented backend hook, on the same problem
-            start = poly._fit_problem(problem)
-        except SkeletonError:  # a curve enters nonlinearly: start from zero curves
-            return functions, params
-        functions.update(start.functions)
-        params.update({a: float(start.params[a]) for a in problem.free_params
-                       if a in start.params})
-        return functions, params
-
-    def _fit_problem(self, problem: Problem):
-        self._check_params()
-        engine = make_engine(self.engine)
-        rng = seeds(self.random_state)
-        residuals = _Residuals(problem)
-        functions, params = self._start(problem)
-        free = problem.free_functions
-        curves: dict[str, _Curve] = {}
-        pareto: dict[str, pd.DataFrame] = {}
-        history = []
-        loss = residuals.loss(functions, params)
-        n_rounds = 0
-        for n_rounds in range(1, int(self.max_iterations) + 1):  # noqa: B007
-            before = loss
-            for name in free:
-                seed = next(rng)
-                chosen = self._search_curve(engine, problem, residuals, name, functions,
-                                            params, seed, pareto)
-                if chosen is None:
-                    continue
-                trial = {**functions, name: chosen.function()}
-                trial_params = self._refit_params(residuals, problem, trial, params)
-                trial_loss = residuals.loss(trial, trial_params)
-                # the first round replaces the polynomial start whatever it costs
-                if name not in curves or trial_loss <= loss:
-                    curves[name] = chosen
-                    functions, params, loss = trial, trial_params, trial_loss
-            history.append(loss)
-            if not np.isfinite(before) or before - loss <= self.tol * before:
-                break
-        missing = [name for name in free if name not in curves]
-        if missing:
-            raise ValueError(
-                f"no expression was found for {missing[0]}: no sample of the data constrains "
-                "it (its equations do not change when it does), or every candidate of the "
-                "search gave a non-finite residual or broke its monotony")
-        params = self._polish(residuals, problem, curves, functions, params)
-        out = {name: ZeroCurve() for name in problem.zeroed}
-        for name, curve in curves.items():
-            out[name] = SymbolicCurve(curve.expression(), curve.domain)
-        return FitResult(out, params, {"pareto_": pareto, "n_iterations_": n_rounds,
-                                       "loss_history_": history})
-
-    def _search_curve(self, engine, problem, residuals, name, functions, params, seed,
-                      pareto: dict):
-        x, target, weight = residuals.isolated(name, functions, params)
-        if x.size == 0:
-            return None
-        xb, yb = _binned(x, target, weight, int(self.n_fit_points))
-        parity = problem.parity(name)
-        found = self._run_engine(engine, xb, yb, parity, seed)
-        template = Template(parity, problem.points(name))
-        domain = (float(np.min(x)), float(np.max(x)))
-
-        def score(curve):
-            loss = residuals.loss({**functions, name: curve.function()}, params)
-            return (loss, {"loss": loss}, None) if np.isfinite(loss) else None
-
-        chosen = choose_candidate(found, template, domain, problem.monotone(name), score,
-                                  self.model_selection)
-        if chosen is None:
-            return None
-        curve, _, pareto[name] = chosen
-        return curve
-
-    def _run_engine(self, engine, x: np.ndarray, y: np.ndarray, parity: str | None,
-                    seed: int) -> list[Candidate]:
-        """Candidates ``y ~ g(x)``, the data mirrored for an odd or even curve."""
-        if parity == "odd":
-            x, y = np.concatenate([x, -x]), np.concatenate([y, -y])
-        elif parity == "even":
-            x, y = np.concatenate([x, -x]), np.concatenate([y, y])
-        return engine.search(x, y, binary=tuple(self.binary_operators),
-                             unary=tuple(self.unary_operators), maxsize=self.maxsize,
-                             population_size=self.population_size,
-                             generations=self.generations,
-                             options=dict(self.engine_options or {}), seed=seed)
-
-    @staticmethod
-    def _refit_params(residuals: _Residuals, problem: Problem, functions, params) -> dict:
-        names = problem.free_params
-        if not names:
-            return dict(params)
-
-        def fun(theta):
-            r = residuals(functions, dict(zip(names, theta)))
-            return np.where(np.isfinite(r), r, 1e150)
-
-        low, high = _bounds_of(problem, names)
-        start = np.clip([params[a] for a in names], low, high)
-        result = least_squares(fun, start, bounds=(low, high))
-        return dict(zip(names, (float(v) for v in np.clip(result.x, low, high))))
-
-    @staticmethod
-    def _polish(residuals: _Residuals, problem: Problem, curves: dict, functions,
-                params, effort: int = 200) -> dict:
-        """Refine every number of every expression and every parameter jointly.
-
-        At most ``effort`` residual evaluations per number are spent.
-        """
-        names = problem.free_params
-        sizes = [len(curve.values) for curve in curves.values()]
-        theta0 = np.concatenate([[params[a] for a in names],
-                                 *[curve.values for curve in curves.values()]])
-        if theta0.size == 0:
-            return params
-
-        def unpack(theta):
-            values = dict(zip(names, theta[:len(names)]))
-            current, offset = dict(functions), len(names)
-            for (name, curve), size in zip(curves.items(), sizes):
-                current[name] = curve.function(theta[offset:offset + size])
-                offset += size
-            return values, current
-
-        def fun(theta):
-            values, current = unpack(theta)
-            r = residuals(current, values)
-            return np.where(np.isfinite(r), r, 1e150)
-
-        low, high = _bounds_of(problem, names)
-        low = np.concatenate([low, np.full(theta0.size - len(names), -np.inf)])
-        high = np.concatenate([high, np.full(theta0.size - len(names), np.inf)])
-        theta0 = np.clip(theta0, low, high)
-        start = fun(theta0)
-        result = least_squares(fun, theta0, x_scale="jac", bounds=(low, high),
-                               max_nfev=effort * theta0.size)
-        theta = np.clip(result.x, low, high)
-        if result.cost > 0.5 * float(start @ start) or not _monotone_after(
-                curves, unpack(theta)[1], problem):
-            theta = theta0
-        # drop numbers that do nothing (an engine's 1e-9 offsets)
-        base = float(np.mean(fun(theta) ** 2))
-        for k in range(len(names), theta.size):
-            if abs(theta[k]) < 1e-6:
-                trial = theta.copy()
-                trial[k] = 0.0
-                if float(np.mean(fun(trial) ** 2)) <= base * (1 + PRUNE_TOLERANCE) + 1e-300:
-                    theta = trial
-        offset = len(names)
-        for (_, curve), size in zip(curves.items(), sizes):
-            curve.values = theta[offset:offset + size]
-            offset += size
-        return {**params, **dict(zip(names, (float(v) for v in theta[:len(names)])))}
-
-    # -- results -------------------------------------------------------------------
-    def _derived_attributes(self) -> dict:
-        expressions = {}
-        for name, curve in self.functions_.items():
-            expression = curve.to_sympy(sympy.Symbol(self._variable(name)))
-            expressions[name] = sympy.Integer(0) if expression is None else expression
-        return {"expressions_": expressions}
-
+    def _make_backend(self) -> SymbolicBackend:
+        return SymbolicBackend(**self._backend_settings(SymbolicBackend))

@@ -9,6 +9,7 @@ from scipy.interpolate import UnivariateSpline
 from scipy.optimize import OptimizeResult
 
 from ..estimators._symbolic_curves import VARIABLE
+from ..estimators.base import set_fitted
 from ..estimators.conversion import from_tables
 from ..estimators.interpolated import INTERPOLATIONS, InterpolatedCurve
 from ..exceptions import SimulationError
@@ -172,7 +173,7 @@ def _estimator(skeleton: Skeleton, method: str, read: Params, functions: dict, v
                         {name: (table.x, table.y) for name, table in tables.items()},
                         values, method=kinds.pop())
     if not read["extrapolate"]:  # the estimator holds its tables as the simulation does
-        model._set_fitted({"functions_": dict(functions)})
+        set_fitted(model, {"functions_": dict(functions)})
     return model
 
 

@@ -41,6 +41,17 @@ def _array_pow(base, exponent):
     return np.power(base, exponent)
 
 
+def _folded(op, left: float, right: float) -> float:
+    """A constant part of an expression, worked out once as numpy would at run time.
+
+    Parameter values may make it infinite or undefined (``a2^a1`` with
+    ``a1 = -1024``, ``a1/a2`` with ``a2 = 0``): it is then inf or nan, for the
+    simulation or the fit to report, not an exception while compiling.
+    """
+    with np.errstate(all="ignore"):
+        return float(op(np.float64(left), np.float64(right)))
+
+
 def _int_power(fn: Compiled, n: int, scalar: bool) -> Compiled:
     if n == 0:
         return lambda env: 1.0
@@ -127,7 +138,7 @@ class _Compiler:
         right, rc = self.compile(node.right)
         if node.op == "^":
             if lc is not None and rc is not None:
-                value = math.pow(lc, rc)
+                value = _folded(np.power, lc, rc)
                 return (lambda env, v=value: v), value
             if rc is not None and float(rc).is_integer() and 0 <= rc <= 64:
                 return _int_power(left, int(rc), self.scalar), None
@@ -137,7 +148,7 @@ class _Compiler:
             return (lambda env: power(left(env), right(env))), None
         op = _BINARY[node.op]
         if lc is not None and rc is not None:
-            value = op(lc, rc)
+            value = _folded(op, lc, rc)
             return (lambda env, v=value: v), value
         if rc is not None:
             if node.op == "*" and rc == 1.0:

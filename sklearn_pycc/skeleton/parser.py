@@ -139,14 +139,11 @@ class _Parser:
                 return node
 
     def unary(self) -> Node:
-        negative, first, count = False, None, 0
+        negative, first = False, None
         while self.is_op("-", "+"):  # a run of signs folds into at most one minus
             op = self.advance()
             first = op.pos if first is None else first
             negative ^= op.text == "-"
-            count += 1
-            if count > MAX_NESTING:
-                raise self.error(f"a run of more than {MAX_NESTING} signs in a row", first)
         node = self.power()
         return Neg(node, pos=first) if negative else node
 

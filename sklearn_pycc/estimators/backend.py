@@ -1,0 +1,159 @@
+"""The backend contract: how one family of curves is fitted to a :class:`Problem`.
+
+An estimator such as :class:`~sklearn_pycc.PolyCCRegressor` reads the data,
+parses the skeleton, fixes the gauge and builds a :class:`Problem`; its
+backend fits the unknown curves and parameters of that problem and hands back
+a :class:`FitResult`; the estimator alone stores it. A new family of curves is
+one subclass of :class:`Backend` plus a thin estimator that builds it (see the
+user guide's page on backends)::
+
+    class MyBackend(Backend):
+        def fit(self, problem):
+            ...
+            return FitResult(functions, params, {"my_attribute_": value})
+
+What a backend can do beyond ``fit`` it declares by class attributes, never
+by the presence of a method: :attr:`Backend.output_error` (it implements
+:meth:`Backend.refine`), :attr:`Backend.uncertainty` (it implements
+:meth:`Backend.curve_sd` and :meth:`Backend.draws` from a covariance).
+"""
+
+from __future__ import annotations
+
+import copy
+import inspect
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
+from typing import ClassVar
+
+import numpy as np
+
+from ..skeleton.curves import as_curve
+from ._setup import FitResult, Problem
+
+__all__ = ["Backend", "FitResult", "Problem"]
+
+
+class Backend(ABC):
+    """How the unknown curves and parameters of a :class:`Problem` are fitted.
+
+    A backend holds its settings (already validated by the estimator that
+    built it) and nothing it learns: :meth:`fit` returns what it found.
+
+    Attributes
+    ----------
+    random_state : int, Generator or None
+        Where the backend's randomness comes from (refits on resamples give
+        each copy its own seed, see :meth:`reseeded`).
+    """
+
+    #: it implements :meth:`refine` (fit_mode="simulation")
+    output_error: ClassVar[bool] = False
+    #: it implements :meth:`curve_sd` and :meth:`draws` for a model it fitted
+    uncertainty: ClassVar[bool] = False
+    #: joblib's ``prefer`` for refits on resamples: "threads" when the work
+    #: releases the GIL (LAPACK), else "processes"
+    resample_in: ClassVar[str] = "processes"
+    #: whether refits on resamples vary beyond the measured range (a curve
+    #: that continues the same straight way in every refit says nothing there)
+    bands_beyond_data: ClassVar[bool] = True
+
+    random_state = None
+
+    @abstractmethod
+    def fit(self, problem: Problem) -> FitResult:
+        """Fit the free curves and parameters of ``problem`` by equation error.
+
+        Parameters
+        ----------
+        problem : Problem
+            The skeleton with its constraints and gauge, the data and the
+            targets (see :class:`Problem`).
+
+        Returns
+        -------
+        FitResult
+            Every curve of the skeleton (``ZeroCurve`` for those the gauge
+            pinned to zero), the free parameters, and the backend's own
+            fitted attributes.
+        """
+
+    def refine(self, problem: Problem, result: FitResult, plan) -> FitResult:
+        """Refine an equation-error fit so that simulations match the states.
+
+        Only for backends with :attr:`output_error`. ``plan`` is a
+        ``ShootingPlan``: the record cut into windows, with its substeps
+        chosen and ``plan.iterations``, the most optimiser iterations. The
+        result carries the stage's summary as the attribute ``shooting_``.
+        """
+        raise ValueError(f"{type(self).__name__} does not support fit_mode='simulation'")
+
+    def estimate(self, problem: Problem, *, shooting_window: int = 40,
+                 shooting_iterations: int = 30) -> FitResult:
+        """:meth:`fit`, then :meth:`refine` when ``problem.fit_mode`` is "simulation".
+
+        Parameters
+        ----------
+        problem : Problem
+            What to fit.
+        shooting_window, shooting_iterations : int
+            Samples per shooting window and most iterations of the
+            output-error stage.
+
+        Returns
+        -------
+        FitResult
+        """
+        plan = None
+        if problem.fit_mode == "simulation":
+            from ._shooting import ShootingPlan, check_iterations
+
+            plan = ShootingPlan(problem, shooting_window)
+            plan.iterations = check_iterations(shooting_iterations)
+        result = self.fit(problem)
+        if plan is not None:
+            start = problem.skeleton.compile(result.functions,
+                                             {**problem.fixed_params, **result.params})
+            plan.choose_substeps(start, dict(problem.data.columns))
+            result = self.refine(problem, result, plan)
+        return result
+
+    def __repr__(self) -> str:
+        accepted = inspect.signature(type(self).__init__).parameters
+        shown = [f"{name}={getattr(self, name)!r}" for name in accepted
+                 if name != "self" and hasattr(self, name)]
+        return f"{type(self).__name__}({', '.join(shown)})"
+
+    def reseeded(self, seed: int) -> Backend:
+        """A copy of this backend that draws its randomness from ``seed``."""
+        twin = copy.copy(self)
+        twin.random_state = seed
+        return twin
+
+    # -- describing a fitted model -------------------------------------------------
+    def n_numbers(self, problem: Problem, result: FitResult, name: str) -> int:
+        """How many numbers were fitted for the curve ``name`` (for information criteria)."""
+        return as_curve(result.functions[name]).n_numbers
+
+    def curve_text(self, curve, variable: str, precision: int) -> str:
+        """A fitted curve written as a function of ``variable``."""
+        return as_curve(curve).text(variable, precision)
+
+    def attributes_of(self, functions: Mapping, variables: Mapping[str, str]) -> dict:
+        """Fitted attributes derived from the curves whenever they change.
+
+        ``variables`` names each curve's argument as the model writes it.
+        """
+        return {}
+
+    # -- uncertainty (backends with ``uncertainty``) --------------------------------
+    def curve_sd(self, model, name: str, x: np.ndarray) -> np.ndarray | None:
+        """Standard deviation of the fitted curve ``name`` of ``model`` at ``x``.
+
+        None when the fit left no estimate of it.
+        """
+        return None
+
+    def draws(self, model, n: int, rng: np.random.Generator) -> list[tuple[dict, dict]] | None:
+        """``n`` models ``(functions, params)`` drawn from the estimate's distribution."""
+        return None
