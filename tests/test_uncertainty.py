@@ -217,3 +217,35 @@ def test_a_network_ensemble_s_curve_bands_hold_the_true_curve(oscillator):
         truth = -curve.x + curve.x**3
         shares.append(np.mean((curve.lower <= truth) & (truth <= curve.upper)))
     assert np.mean(shares) >= 0.90, shares
+
+
+# -- the long-run part is worked out when first read ---------------------------------------
+def test_the_bartlett_sum_by_moving_sums_equals_the_direct_sum():
+    from sklearn_pycc.estimators._uncertainty import _triangle_sum
+
+    rng = np.random.default_rng(3)
+    for m, lag in [(400, 37), (50, 20), (7, 30), (5, 5), (100, 1)]:
+        block = rng.standard_normal((m, 3))
+        weights = 1.0 - np.arange(lag + 1) / (lag + 1.0)
+        direct = block.T @ block
+        for step in range(1, min(lag, m - 1) + 1):
+            product = block[step:].T @ block[:-step]
+            direct += weights[step] * (product + product.T)
+        np.testing.assert_allclose(_triangle_sum(block, lag), direct, rtol=1e-12, atol=1e-10)
+
+
+def test_a_saved_model_carries_its_covariance_table_not_what_makes_it():
+    import pickle
+
+    from sklearn_pycc.estimators._uncertainty import DeferredCovariance
+
+    frame = datasets.make_duffing(n_samples=600)
+    X, y = frame[["x1", "x2", "F_ext"]], frame[["x1_dot", "x2_dot"]]
+    equations = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]
+    model = PolyCCRegressor(equations=equations, degree=3).fit(X, y)
+    assert isinstance(model.__dict__["_covariance"], DeferredCovariance)
+    saved = pickle.loads(pickle.dumps(model))
+    assert isinstance(saved.__dict__["_covariance"], pd.DataFrame)
+    pd.testing.assert_frame_equal(saved.covariance_, model.covariance_)
+    assert model.covariance_ is model.covariance_  # worked out once
+    assert saved.params_std_ == model.params_std_

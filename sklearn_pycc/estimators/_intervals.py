@@ -24,6 +24,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from .._random import seeds
 from ..exceptions import SimulationError
+from ._uncertainty import DeferredCovariance
 
 __all__ = ["IntervalsMixin", "check_level"]
 
@@ -54,6 +55,26 @@ def _quantile(level: float, members: int | None = None) -> float:
 
 class IntervalsMixin:
     """Uncertainty of a fitted characteristic-curve model (its backend in ``backend_``)."""
+
+    @property
+    def covariance_(self) -> pd.DataFrame:
+        """Covariance of the fitted parameters (and curve coefficients) by name.
+
+        Only after a fit that estimated one (equation error, no
+        ``n_bootstrap``); its expensive part, the long-run covariance of the
+        per-sample scores, is worked out when it is first read.
+        """
+        try:
+            value = self.__dict__["_covariance"]
+        except KeyError:
+            raise AttributeError(f"{type(self).__name__} has no covariance_") from None
+        if isinstance(value, DeferredCovariance):
+            value = self.__dict__["_covariance"] = value.resolve()
+        return value
+
+    @covariance_.setter
+    def covariance_(self, value) -> None:
+        self.__dict__["_covariance"] = value
 
     def _no_uncertainty(self, what: str) -> ValueError:
         hint = ("fit it with n_bootstrap=100 (refits on resamples)"

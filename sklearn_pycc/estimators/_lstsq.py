@@ -94,7 +94,8 @@ def _null_space(M: np.ndarray, rank: int) -> np.ndarray:
 def _eliminate(A, b, C, d, overwrite_a: bool):
     """``x = x0 + N z`` over the solutions of ``C x = d``: ``(x0, N, A N, -(b + A x0))``.
 
-    ``x0`` and ``N`` are None without constraints.
+    ``x0`` and ``N`` are None without constraints. ``A N`` is a new array,
+    except without constraints when ``overwrite_a``: it is then ``A`` itself.
     """
     p = A.shape[1]
     if C is None or not len(C):

@@ -8,20 +8,21 @@ by several times. The sandwich ``B^-1 S B^-1``, with ``B = J^T J`` and
 does not assume independent samples. ``S`` is estimated by Newey and West's
 Bartlett-weighted sum of the scores' autocovariances up to a lag chosen from
 the scores' own autocorrelation (Andrews' AR(1) plug-in), never across the
-boundary of two experiments. The weighted sum is one convolution of each
-score column with the Bartlett window, so its cost grows with the record,
-not with the record times the lag.
+boundary of two experiments. The weighted sum is the Gram matrix of the
+scores' moving sums, so its cost grows with the record, not with the record
+times the lag.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 from scipy.linalg import null_space
-from scipy.signal import oaconvolve
 
 from .._blocks import bandwidth, plug_in_lag, segments
 
-__all__ = ["long_run_covariance", "sandwich_covariance"]
+__all__ = ["DeferredCovariance", "Sandwich", "long_run_covariance", "sandwich",
+           "sandwich_covariance"]
 
 #: up to this lag the weighted autocovariances are summed directly; beyond, by convolution
 _DIRECT_LAGS = 16
@@ -128,17 +129,61 @@ def _bartlett(scores: np.ndarray, runs: list[slice], lag: int | None) -> tuple[n
                 product = block[step:].T @ block[:-step]
                 meat += weights[step] * (product + product.T)
             continue
-        # many: one convolution with the Bartlett window
-        window = np.r_[weights[:0:-1], weights]
-        smoothed = oaconvolve(block, window[:, None], mode="same", axes=0)
-        meat += block.T @ smoothed
+        meat += _triangle_sum(block, lag)
     return 0.5 * (meat + meat.T), int(lag)
 
 
-def sandwich_covariance(J: np.ndarray, r: np.ndarray, n_samples: int,
-                        groups: np.ndarray | None = None,
-                        constraints: np.ndarray | None = None) -> tuple[np.ndarray, int]:
-    """Covariance of the least-squares estimate behind ``J`` and ``r``, and the lag used.
+def _triangle_sum(block: np.ndarray, lag: int) -> np.ndarray:
+    """``sum_t sum_s (1 - |t - s| / (lag + 1))_+ b_t b_s^T`` by moving sums.
+
+    Every window of ``lag + 1`` consecutive rows (those that hang over
+    either end included) holds a pair ``t, s`` that far apart
+    ``lag + 1 - |t - s|`` times, so the Bartlett-weighted sum is the Gram
+    matrix of the windows' sums over ``lag + 1``: two passes over the block
+    whatever the lag.
+    """
+    m, p = block.shape
+    running = np.zeros((m + 1, p), order="F")  # column by column: cumsum runs contiguous
+    np.cumsum(block, axis=0, out=running[1:])
+    if lag >= m:  # every window hangs over an end
+        ends = np.arange(m + lag)
+        sums = running[np.minimum(ends + 1, m)] - running[np.maximum(ends - lag, 0)]
+        return (sums.T @ sums) / (lag + 1.0)
+    head = running[1:lag + 1]  # windows that start before the block
+    middle = running[lag + 1:] - running[:m - lag]
+    tail = running[m] - running[m - lag:m]  # windows that end after it
+    gram = head.T @ head + middle.T @ middle + tail.T @ tail
+    return gram / (lag + 1.0)
+
+
+class Sandwich:
+    """The parts of a sandwich covariance known at the estimate; the long-run part on demand.
+
+    The bread ``(J^T J)^-1`` and the per-sample scores are cheap by-products
+    of the fit; the Newey-West estimate of the scores' long-run covariance
+    is the expensive part and is worked out by :meth:`covariance` when a
+    standard error or a band is first asked for.
+    """
+
+    def __init__(self, scores: np.ndarray, bread: np.ndarray, N: np.ndarray | None,
+                 dof: float, groups: np.ndarray | None) -> None:
+        self.scores, self.bread, self.N, self.dof, self.groups = scores, bread, N, dof, groups
+
+    def covariance(self) -> tuple[np.ndarray, int]:
+        """``(cov, lag)``: the covariance of the estimate and the Newey-West lag used."""
+        if self.scores is None:  # the constraints fix every direction
+            p = self.bread.shape[0]
+            return np.zeros((p, p)), 0
+        meat, lag = long_run_covariance(self.scores, self.groups)
+        cov = self.dof * self.bread @ meat @ self.bread
+        if self.N is not None:
+            cov = self.N @ cov @ self.N.T
+        return 0.5 * (cov + cov.T), lag
+
+
+def sandwich(J: np.ndarray, r: np.ndarray, n_samples: int, groups: np.ndarray | None = None,
+             constraints: np.ndarray | None = None) -> Sandwich:
+    """The parts of the covariance of the least-squares estimate behind ``J`` and ``r``.
 
     Parameters
     ----------
@@ -154,28 +199,64 @@ def sandwich_covariance(J: np.ndarray, r: np.ndarray, n_samples: int,
     constraints : ndarray of shape (m, p), optional
         Rows ``c`` with ``c . x`` held fixed by the fit (point values, active
         bounds): the estimate moves only in their null space.
-
-    Returns
-    -------
-    cov : ndarray of shape (p, p)
-    lag : int
     """
     J = np.asarray(J, dtype=float)
     r = np.asarray(r, dtype=float)
     p = J.shape[1]
     k = J.shape[0] // n_samples
     unconstrained = constraints is None or not len(constraints)
-    N = np.eye(p) if unconstrained else null_space(constraints)
-    if N.shape[1] == 0:
-        return np.zeros((p, p)), 0
+    N = None if unconstrained else null_space(constraints)
+    if N is not None and N.shape[1] == 0:
+        return Sandwich(None, np.zeros((p, p)), None, 1.0, groups)
     # per-sample scores, summed over equations, in the free directions
-    weighted = J * r[:, None]
-    if k > 1:
-        weighted = weighted.reshape(k, n_samples, p).sum(axis=0)
-    scores = weighted if unconstrained else weighted @ N
-    meat, lag = long_run_covariance(scores, groups)
-    bread = np.linalg.pinv(N.T @ (J.T @ J) @ N, rcond=1e-12, hermitian=True)
-    dof = n_samples / max(n_samples - N.shape[1], 1)
-    cov_free = dof * bread @ meat @ bread
-    cov = N @ cov_free @ N.T
-    return 0.5 * (cov + cov.T), lag
+    if k > 1:  # (sample, equation, column) views of J and r, whatever their memory order
+        if J.flags.f_contiguous:
+            blocks = J.reshape((n_samples, k, p), order="F")
+            values = r.reshape((n_samples, k), order="F")
+            weighted = np.einsum("tkp,tk->tp", blocks, values)
+        else:
+            weighted = np.einsum("ktp,kt->tp", J.reshape(k, n_samples, p),
+                                 r.reshape(k, n_samples))
+    else:
+        weighted = J * r[:, None]
+    scores = weighted if N is None else weighted @ N
+    gram = J.T @ J if N is None else N.T @ (J.T @ J) @ N
+    bread = np.linalg.pinv(gram, rcond=1e-12, hermitian=True)
+    dof = n_samples / max(n_samples - scores.shape[1], 1)
+    return Sandwich(scores, bread, N, dof, groups)
+
+
+def sandwich_covariance(J: np.ndarray, r: np.ndarray, n_samples: int,
+                        groups: np.ndarray | None = None,
+                        constraints: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+    """Covariance of the least-squares estimate behind ``J`` and ``r``, and the lag used.
+
+    The arguments are :func:`sandwich`'s.
+
+    Returns
+    -------
+    cov : ndarray of shape (p, p)
+    lag : int
+    """
+    return sandwich(J, r, n_samples, groups, constraints).covariance()
+
+
+class DeferredCovariance:
+    """A covariance table, by name, worked out from a :class:`Sandwich` when first read.
+
+    ``transform`` maps the sandwich's coordinates to those named by
+    ``names`` (a basis's coefficients to a power series, say). The table's
+    ``attrs["lag"]`` is the Newey-West lag.
+    """
+
+    def __init__(self, parts: Sandwich, transform: np.ndarray | None, names: list[str]) -> None:
+        self.parts, self.transform, self.names = parts, transform, list(names)
+
+    def resolve(self) -> pd.DataFrame:
+        """The table itself."""
+        cov, lag = self.parts.covariance()
+        if self.transform is not None:
+            cov = self.transform @ cov @ self.transform.T
+        frame = pd.DataFrame(cov, index=self.names, columns=self.names)
+        frame.attrs["lag"] = lag
+        return frame

@@ -46,7 +46,7 @@ FIT_MODES = ("auto", "equation", "simulation")
 AUTO_SIMULATION_SNR_DB = 45.0
 _NEEDS_TIME = "fit_mode='simulation' needs the time column 't' in X"
 #: private fitted state, cleared with the public fitted attributes when fit starts again
-_PRIVATE_STATE = ("_compiled", "_y_1d")
+_PRIVATE_STATE = ("_compiled", "_y_1d", "_covariance")
 #: what ``random_state`` may be: a Generator is honoured like a RandomState
 RANDOM_STATES = [None, Interval(Integral, 0, 2**32 - 1, closed="both"),
                  np.random.RandomState, np.random.Generator]
@@ -258,6 +258,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
     def __getstate__(self) -> dict:
         state = super().__getstate__()
         state.pop("_compiled", None)
+        if "_covariance" in state:  # a saved model carries the table, not what makes it
+            state["_covariance"] = self.covariance_
         return state
 
     # -- fitting ---------------------------------------------------------------

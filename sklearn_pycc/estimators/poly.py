@@ -7,7 +7,6 @@ from collections.abc import Mapping
 from numbers import Integral, Real
 
 import numpy as np
-import pandas as pd
 from scipy.linalg import block_diag, null_space
 from scipy.optimize import least_squares
 from sklearn.utils._param_validation import Interval, StrOptions
@@ -20,7 +19,7 @@ from ._linear import curve_arguments, linearize, split_parameters
 from ._lstsq import bounded_lstsq, constrained_lstsq
 from ._setup import FitResult, Problem, residual_scale
 from ._shooting import ShootingPlan, fit_shooting
-from ._uncertainty import sandwich_covariance
+from ._uncertainty import DeferredCovariance, sandwich
 from .backend import Backend
 from .base import RANDOM_STATES, RESAMPLING, CCRegressor
 
@@ -207,13 +206,15 @@ class PolyBackend(Backend):
         def solve(theta: np.ndarray, keep: list | None = None):
             values = {**fixed, **dict(zip(nonlinear, theta))}
             A, b, C, d, layout, bases = design.assemble(values)
-            if keep is not None:  # the system itself, before the solve scales A in place
-                keep += [A.copy(), b, C]
+            # the system itself is kept for the covariance: the solve then leaves A as it is
+            overwrite = keep is None
+            if keep is not None:
+                keep += [A, b, C]
             G, h = design.inequalities(layout, bases)
             if G is None:
-                result = constrained_lstsq(A, b, C, d, self.alpha, overwrite_a=True)
+                result = constrained_lstsq(A, b, C, d, self.alpha, overwrite_a=overwrite)
             else:
-                result = bounded_lstsq(A, b, C, d, G, h, self.alpha, overwrite_a=True)
+                result = bounded_lstsq(A, b, C, d, G, h, self.alpha, overwrite_a=overwrite)
             return result, layout, bases, values
 
         bounds = problem.bounds
@@ -592,10 +593,13 @@ class PolyCCRegressor(CCRegressor):
 
 def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: np.ndarray,
                 fixed: Mapping[str, float], x: np.ndarray, layout, bases,
-                system: list) -> pd.DataFrame:
+                system: list) -> DeferredCovariance:
     """Covariance of the free parameters and of each curve's power-series coefficients.
 
-    The sandwich with Newey-West scores (:func:`sandwich_covariance`) of the
+    Returned deferred: the Newey-West part is worked out when the table is
+    first read (``covariance_``).
+
+    The sandwich with Newey-West scores (:func:`~._uncertainty.sandwich`) of the
     weighted equation residuals: the linear unknowns' columns are the
     design's, the nonlinear parameters' are central differences. Point
     values, active inequality rows and nonlinear parameters at a bound hold
@@ -631,8 +635,7 @@ def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: 
         if np.isclose(theta[j], low) or np.isclose(theta[j], high):
             rows.append(np.eye(J.shape[1])[j])
     n = problem.data.n_samples
-    cov, lag = sandwich_covariance(J, r, n, problem.data.trajectory,
-                                   np.array(rows) if rows else None)
+    parts = sandwich(J, r, n, problem.data.trajectory, np.array(rows) if rows else None)
     # from basis coefficients to the fitted curves' power series
     names, blocks = list(nonlinear), [np.eye(m)]
     for name, size in layout:
@@ -643,10 +646,7 @@ def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: 
         else:
             blocks.append(np.eye(size))
             names.append(name)
-    T = block_diag(*blocks)
-    frame = pd.DataFrame(T @ cov @ T.T, index=names, columns=names)
-    frame.attrs["lag"] = lag
-    return frame
+    return DeferredCovariance(parts, block_diag(*blocks), names)
 
 
 def _refine(residual, start: np.ndarray, m: int) -> np.ndarray:
