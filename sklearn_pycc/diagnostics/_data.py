@@ -10,6 +10,7 @@ import pandas as pd
 
 from ..measurements import read_record
 from ..measurements.experiments import TIME
+from ..measurements.measurement import Measurement
 
 __all__ = ["Measurements", "check_units", "read_measurements", "thin"]
 
@@ -115,7 +116,7 @@ def read_measurements(skeleton, X, y, differentiation="auto",
     ValueError
         If a column the skeleton needs is missing, or values are not finite.
     """
-    if not isinstance(X, pd.DataFrame):
+    if not isinstance(X, pd.DataFrame | Measurement):
         raise TypeError(f"diagnose needs X as a pandas DataFrame with the columns "
                         f"{skeleton.variables}, got {type(X).__name__}")
     if not skeleton.states:

@@ -156,13 +156,13 @@ def _fit(estimator, data: Measurements, train: np.ndarray, labels: np.ndarray,
     if data.has_time:
         X = X.assign(**{_TRAJECTORY: labels[train]})
     estimator = clone(estimator)
+    mode = "simulation" if output_error else "equation"
+    settings = {"fit_mode": mode} if "fit_mode" in estimator.get_params() else {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        if output_error:
-            return estimator.set_params(fit_mode="simulation").fit(X)
-        return estimator.set_params(**({"fit_mode": "equation"} if "fit_mode" in
-                                       estimator.get_params() else {})).fit(
-            X, data.derivatives[train])
+        # the derivatives the record gave (measured, or estimated once on the whole record)
+        # start an output-error fit too: the fold is not differentiated again
+        return estimator.set_params(**settings).fit(X, data.derivatives[train])
 
 
 def _errors(model, test: Measurements, spreads, horizon: Horizon | None,

@@ -13,6 +13,7 @@ from joblib import Parallel, delayed
 from sklearn.base import clone
 from sklearn.model_selection import cross_val_score
 
+from ..measurements.measurement import Measurement, unwrap
 from ..skeleton import Skeleton
 from ._candidates import rss_floor
 from ._data import check_units, read_measurements
@@ -108,7 +109,13 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
                                or n_jobs == 0):
         raise ValueError(f"n_jobs must be None or a non-zero integer, got {n_jobs!r}")
     base = PolyCCRegressor() if estimator is None else estimator
-    options = dict(X=X, y=y, cv=cv, simulate=simulate, held_out=held_out)
+    # read once: every skeleton of the same states reuses the derivatives estimated for the first
+    if isinstance(X, pd.DataFrame):
+        X, y = Measurement(X, y), None
+    X, y, record = unwrap(X, y, who="compare_skeletons")
+    if record is not None and units is None:
+        units = record.units or None
+    options = dict(X=X, y=y, record=record, cv=cv, simulate=simulate, held_out=held_out)
     items = list(named.values())
     unit_map = check_units(units, X, items[0] if isinstance(items[0], Skeleton)
                            else Skeleton(items[0]))
@@ -129,7 +136,7 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
     return table
 
 
-def _row(skeleton, base, *, X, y, cv, simulate: bool, horizon, held_out: bool):
+def _row(skeleton, base, *, X, y, record, cv, simulate: bool, horizon, held_out: bool):
     """One skeleton fitted and judged: its row, the horizon and the held-out split in words.
 
     ``horizon`` is a :class:`Horizon` already chosen, or what
@@ -143,12 +150,13 @@ def _row(skeleton, base, *, X, y, cv, simulate: bool, horizon, held_out: bool):
     spec = (skeleton if isinstance(skeleton, Skeleton)
             else Skeleton(skeleton, model.get_params().get("constraints")))
     params = model.get_params()
-    data = read_measurements(spec, X, y, params.get("differentiation", "auto"),
+    source, given = (X, y) if record is None else (record, None)
+    data = read_measurements(spec, source, given, params.get("differentiation", "auto"),
                              bool(params.get("smooth_states", True)))
     target = data.derivatives
     start = time.perf_counter()
-    if data.estimated:  # the model estimates them as read_measurements did
-        model.fit(X)
+    if data.estimated:  # the model estimates them as read_measurements did (kept: reused)
+        model.fit(source)
     else:
         model.fit(data.X, target)
     fit_time = time.perf_counter() - start

@@ -12,6 +12,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from .._random import check_seed_source
 from ..exceptions import SkeletonError
+from ..measurements.measurement import unwrap
 from ..skeleton import Bound, Skeleton
 from ._candidates import (
     Candidate,
@@ -657,9 +658,14 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
             raise ValueError(f"{name} must be True or False, got {flag!r}")
     check_is_fitted(model, "skeleton_")
     skeleton = model.skeleton_
+    record = X  # a Measurement keeps the derivatives it has estimated for the next use
+    X, y, measurement = unwrap(X, y, who="diagnose")
+    if measurement is not None and units is None:
+        units = measurement.units or None
     units = check_units(units, X, skeleton)
     settings = model.get_params()
-    data = read_measurements(skeleton, X, y, settings.get("differentiation", "auto"),
+    data = read_measurements(skeleton, record, None if measurement is not None else y,
+                             settings.get("differentiation", "auto"),
                              bool(settings.get("smooth_states", True)))
     states, derivs = skeleton.states, skeleton.derivatives
     notes = []

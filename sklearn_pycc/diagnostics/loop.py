@@ -11,6 +11,7 @@ import pandas as pd
 from sklearn.base import clone
 
 from ..exceptions import SimulationError
+from ..measurements.measurement import Measurement
 from ..skeleton import Skeleton
 from ..skeleton.nodes import Param, rename, signed_terms, walk
 from ..skeleton.printer import to_text
@@ -109,10 +110,11 @@ class HypothesisLoop:
     estimator : CCRegressor
         A backend with the starting skeleton as ``equations``; it is cloned,
         never fitted itself.
-    X : DataFrame
+    X : DataFrame or Measurement
         The measurements, as for ``fit`` and ``diagnose``.
     y : DataFrame or array, optional
-        Measured derivatives; estimated from ``X`` when None.
+        Measured derivatives; estimated from ``X`` when None (and given
+        inside ``X`` when it is a Measurement).
     **diagnose_options
         Passed to :func:`~sklearn_pycc.diagnose` (``horizon``,
         ``n_refit``, ``min_improvement``, ``bic_threshold``, ``held_out``,
@@ -121,6 +123,9 @@ class HypothesisLoop:
 
     Attributes
     ----------
+    measurement : Measurement
+        The record, read once: every round's fit and diagnosis reuses the
+        derivatives estimated for the first.
     rounds : list of Round
         Every round so far, the starting skeleton first.
     stopped : bool
@@ -147,7 +152,11 @@ class HypothesisLoop:
         if not hasattr(estimator, "get_params") or "equations" not in estimator.get_params():
             raise TypeError("estimator must be a CCRegressor backend with the starting "
                             f"skeleton as equations, got {type(estimator).__name__}")
-        if not isinstance(X, pd.DataFrame):
+        if isinstance(X, Measurement):
+            if y is not None:
+                raise ValueError("HypothesisLoop got y beside a Measurement: give y to the "
+                                 "Measurement (Measurement(X, y))")
+        elif not isinstance(X, pd.DataFrame):
             raise TypeError(f"X must be a pandas DataFrame, got {type(X).__name__}")
         if "horizon" in diagnose_options and diagnose_options["horizon"] is not None:
             horizon = diagnose_options["horizon"]
@@ -156,6 +165,9 @@ class HypothesisLoop:
         self.estimator = estimator
         self.X = X
         self.y = y
+        # read once: every round's fit and diagnosis reuses the derivatives estimated for the
+        # first (the skeletons keep their states)
+        self.measurement = X if isinstance(X, Measurement) else Measurement(X, y)
         self.diagnose_options = dict(diagnose_options)
         self.rounds: list[Round] = []
         self.refinement: Refinement | None = None
@@ -208,8 +220,8 @@ class HypothesisLoop:
         if self.stopped:
             return None
         self.refinement = None  # a refinement judges the last round only
-        model = self._next_model().fit(self.X, self.y)
-        report = diagnose(model, self.X, self.y, **self._options())
+        model = self._next_model().fit(self.measurement)
+        report = diagnose(model, self.measurement, **self._options())
         best = report.best
         seen = None if best is None else next(
             (r.index for r in self.rounds
@@ -296,7 +308,7 @@ class HypothesisLoop:
         settings = {"fit_mode": "simulation"}
         if "param_init" in model.get_params():
             settings["param_init"] = dict(model.params_)
-        refined = clone(model).set_params(**settings).fit(self.X, self.y)
+        refined = clone(model).set_params(**settings).fit(self.measurement)
         horizon = self.rounds[0].diagnosis.horizon
         equations = [k for k, d in enumerate(model.skeleton_.derivatives)
                      if d in last.diagnosis.maps] or list(range(len(model.skeleton_.states)))

@@ -10,6 +10,7 @@ measured.
 
 from .differentiation import DIFFERENTIATION_METHODS, Differentiator, resolve_differentiation
 from .experiments import Experiment, split_experiments
+from .measurement import Measurement
 from .reconstruct import Estimate, estimate_states, kinematic_chains
 from .record import Record, read_record
 
@@ -18,6 +19,7 @@ __all__ = [
     "Differentiator",
     "Estimate",
     "Experiment",
+    "Measurement",
     "Record",
     "estimate_states",
     "kinematic_chains",

@@ -10,6 +10,7 @@ import pandas as pd
 from sklearn.utils.validation import check_array, validate_data
 
 from .experiments import TIME, TRAJECTORY
+from .measurement import Measurement
 
 __all__ = ["TIME", "TRAJECTORY", "FitData", "read_X", "read_y"]
 
@@ -86,8 +87,11 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X",
     skeleton does not use are left alone.
     ``t`` and ``trajectory`` are read when present. Names in ``optional``
     may be missing. With ``estimator=None`` nothing is recorded about ``X``
-    (``validate_data`` is for estimators learning their input).
+    (``validate_data`` is for estimators learning their input). A
+    :class:`~sklearn_pycc.measurements.Measurement` is read as its frame.
     """
+    if isinstance(X, Measurement):
+        X = X.X
     named = isinstance(X, pd.DataFrame) and all(isinstance(c, str) for c in X.columns)
     if named:
         fitted_names = getattr(estimator, "feature_names_in_", None)

@@ -8,6 +8,7 @@ derivatives for the same data and settings.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,6 +17,7 @@ import pandas as pd
 from .columns import FitData, read_X, read_y
 from .differentiation import resolve_differentiation
 from .experiments import TIME, TRAJECTORY, Experiment, split_experiments
+from .measurement import unwrap
 from .reconstruct import estimate_states, kinematic_chains
 
 __all__ = ["Record", "read_record", "targets_in_y"]
@@ -171,6 +173,10 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
         Leave out the rows whose estimated derivatives cannot be trusted
         (else they are only marked, in :attr:`Record.trusted`).
 
+    ``X`` may be a :class:`~sklearn_pycc.measurements.Measurement` (with
+    ``y`` inside it): derivatives it has estimated before for the same
+    states, kinematic equations, inputs and settings are reused.
+
     Raises
     ------
     ValueError
@@ -178,6 +184,7 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
         grid, or a state that can be neither read nor reconstructed; the
         message names the column, the row or the experiment.
     """
+    X, y, measurement = unwrap(X, y, who=who or "fit")
     states = skeleton.states
     outputs = list(getattr(skeleton, "outputs", []))
     in_y = targets_in_y(y, skeleton) if y is not None else []
@@ -218,9 +225,19 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
         smoothed, source = dict(measured), MEASURED if n_derivatives else STATIC
     else:
         observed = {name: columns[name] for name in outputs}
-        estimate = estimate_states(skeleton, measured, experiments,
+
+        def estimated():
+            return estimate_states(skeleton, measured, experiments,
                                    resolve_differentiation(differentiation),
                                    smooth=bool(smooth), inputs={**signals, **observed})
+
+        if measurement is None:
+            estimate = estimated()
+        else:
+            key = (tuple(states), tuple(sorted(kinematic_chains(skeleton).items())),
+                   tuple(measured), tuple(signals), tuple(observed),
+                   _setting_key(differentiation, measurement), bool(smooth))
+            estimate = measurement.estimated(key, estimated)
         derivatives, ndim = estimate.derivatives, 2
         columns.update(estimate.states)
         columns.update(estimate.inputs)
@@ -232,6 +249,17 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
                     None if given else estimate.trusted,
                     None if given else estimate.snr_db)
     return record.keep() if trim else record
+
+
+def _setting_key(differentiation, measurement) -> tuple:
+    """A differentiation setting as part of a key: by value, or by identity for an object."""
+    if isinstance(differentiation, str):
+        return ("name", differentiation)
+    if isinstance(differentiation, Mapping):
+        return ("options", repr(sorted((str(k), repr(v)) for k, v in differentiation.items())))
+    # an object or a callable: by identity, kept alive with the record so the id stays its own
+    measurement.keep_alive(differentiation)
+    return ("object", id(differentiation))
 
 
 def _check_twice_given(X, outputs: list[str], values: np.ndarray) -> None:

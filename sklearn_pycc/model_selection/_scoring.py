@@ -11,6 +11,7 @@ from sklearn.utils.validation import check_is_fitted
 from ..exceptions import SimulationError
 from ..measurements import read_record
 from ..measurements.experiments import TIME
+from ..measurements.measurement import Measurement
 from ..windows import choose_horizon, simulate_windows
 
 __all__ = ["SimulationScorer", "make_simulation_scorer"]
@@ -52,17 +53,19 @@ class SimulationScorer:
         """
         check_is_fitted(estimator, "skeleton_")
         skeleton = estimator.skeleton_
-        if not isinstance(X, pd.DataFrame):
+        source = X  # a Measurement keeps the derivatives it has estimated
+        given = X.X if isinstance(X, Measurement) else X
+        if not isinstance(given, pd.DataFrame):
             raise TypeError("the simulation scorer needs X as a DataFrame with a 't' column "
                             f"and the measured states, got {type(X).__name__}")
-        if TIME not in X.columns:
+        if TIME not in given.columns:
             raise ValueError("the simulation scorer needs the time column 't' in X")
-        compared = self._compared(skeleton, X)
+        compared = self._compared(skeleton, given)
         spec = self.differentiation
         settings = estimator.get_params()
         if spec is None:
             spec = settings.get("differentiation", "auto")
-        record = read_record(skeleton, X, None, differentiation=spec,
+        record = read_record(skeleton, source, None, differentiation=spec,
                              smooth=bool(settings.get("smooth_states", True)),
                              need_time="the simulation scorer needs the time column 't' in X")
         measured, starts, experiments = record.measured, record.smoothed, record.experiments

@@ -1,0 +1,140 @@
+"""One record, read once: the object every fit, diagnosis and comparison on it can share."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Hashable, Mapping
+
+import numpy as np
+import pandas as pd
+
+from .experiments import TIME, TRAJECTORY
+
+__all__ = ["Measurement"]
+
+
+class Measurement:
+    """A record, and the derivatives estimated from it, kept for every use.
+
+    ``fit``, :func:`~sklearn_pycc.diagnose`, :func:`~sklearn_pycc.compare_skeletons`
+    and :class:`~sklearn_pycc.HypothesisLoop` take a Measurement wherever they
+    take ``X`` (with ``y`` inside it). The derivatives a fit estimates from
+    the record (what ``differentiation="auto"`` chose, and why) are kept,
+    per differentiation setting and per structure of the skeleton (its
+    states and kinematic equations): every other skeleton of the same states
+    fitted or diagnosed on it reuses them, so a loop over candidate
+    skeletons differentiates the record once.
+
+    Parameters
+    ----------
+    X : DataFrame
+        States and inputs by name, ``t`` and ``trajectory`` optional, as for
+        ``fit``. It is copied: later changes to the frame do not reach the
+        Measurement.
+    y : DataFrame or array, optional
+        Measured derivatives, as for ``fit`` (copied too).
+    units : dict, optional
+        Unit of each column, ``{"x1": "m", "F": "N"}``; by default those of
+        ``X.attrs["units"]``.
+
+    Attributes
+    ----------
+    X : DataFrame
+        The record.
+    y : DataFrame, array or None
+        The measured derivatives, when given.
+    units : dict
+        Unit of each column that has one.
+
+    Examples
+    --------
+    >>> from sklearn_pycc import PolyCCRegressor, datasets
+    >>> from sklearn_pycc.measurements import Measurement
+    >>> frame = datasets.make_oscillator(hidden=["cubic_stiffness"])
+    >>> record = Measurement(frame[["t", "x1", "F_ext"]])
+    >>> linear = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"])
+    >>> cubic = PolyCCRegressor(
+    ...     equations=["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 - a3 x1^3"])
+    >>> _ = linear.fit(record), cubic.fit(record)   # differentiated once
+    >>> len(record.derivative_sources)
+    1
+    """
+
+    def __init__(self, X, y=None, *, units: Mapping[str, str] | None = None) -> None:
+        if isinstance(X, Measurement):
+            raise TypeError("X is a Measurement already: use it as it is")
+        if not isinstance(X, pd.DataFrame):
+            raise TypeError(f"a Measurement reads X as a pandas DataFrame with named columns, "
+                            f"got {type(X).__name__}")
+        self.X = X.copy()
+        self.y = None if y is None else (y.copy() if hasattr(y, "copy") else np.array(y))
+        given = X.attrs.get("units") if units is None else units
+        if given is not None and not isinstance(given, Mapping):
+            raise TypeError(f"units must be a dict of column -> unit, got {type(given).__name__}")
+        self.units = dict(given or {})
+        self._estimates: dict[Hashable, object] = {}
+        self._held: list = []
+
+    # -- what it is --------------------------------------------------------------------
+    @property
+    def n_samples(self) -> int:
+        """Number of rows."""
+        return len(self.X)
+
+    @property
+    def columns(self) -> list[str]:
+        """The record's column names."""
+        return [str(c) for c in self.X.columns]
+
+    @property
+    def n_experiments(self) -> int:
+        """Number of experiments (``trajectory`` labels; 1 without that column)."""
+        if TRAJECTORY not in self.X.columns:
+            return 1
+        return int(self.X[TRAJECTORY].nunique(dropna=False))
+
+    @property
+    def derivative_sources(self) -> list[str]:
+        """How the derivatives kept so far were estimated, in words (one per setting)."""
+        return [estimate.description for estimate in self._estimates.values()]
+
+    def __len__(self) -> int:
+        return self.n_samples
+
+    def __repr__(self) -> str:
+        columns = ", ".join(self.columns[:8]) + (", ..." if len(self.columns) > 8 else "")
+        time = "" if TIME in self.X.columns else ", no time column"
+        return (f"<Measurement: {self.n_samples} samples in {self.n_experiments} "
+                f"experiment{'s' if self.n_experiments != 1 else ''} ({columns}){time}>")
+
+    # -- kept estimates ------------------------------------------------------------------
+    def estimated(self, key: Hashable, estimate: Callable[[], object]) -> object:
+        """The estimate kept under ``key``, made by ``estimate()`` the first time.
+
+        ``key`` names everything the estimate depends on besides the record
+        (the skeleton's states and kinematic equations, the inputs, the
+        differentiation and smoothing settings).
+        """
+        if key not in self._estimates:
+            self._estimates[key] = estimate()
+        return self._estimates[key]
+
+    def keep_alive(self, setting: object) -> None:
+        """Hold ``setting`` (a differentiator object) as long as estimates keyed by its id."""
+        if not any(held is setting for held in self._held):
+            self._held.append(setting)
+
+
+def unwrap(X, y=None, *, who: str = "fit"):
+    """``(X, y, measurement)``: the frame and targets of ``X``, and ``X`` if it is a Measurement.
+
+    Raises
+    ------
+    ValueError
+        If ``y`` is given beside a Measurement (it belongs inside it).
+    """
+    if not isinstance(X, Measurement):
+        return X, y, None
+    if y is not None:
+        raise ValueError(f"{who} got y beside a Measurement: give y to the Measurement "
+                         "(Measurement(X, y))")
+    return X.X, X.y, X
