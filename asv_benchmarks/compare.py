@@ -73,6 +73,11 @@ t.    ``PolyCCRegressor.fit`` of the stick-slip functional skeleton (10,000
 u.    ``PolyCCRegressor(n_bootstrap=100, n_jobs=2)`` on the same record: the
       fit and 100 refits on block resamples. Goal: under 5 s.
 
+v.    ``NeuralCCRegressor`` with its defaults on 100,000 rows of the stick-slip
+      example (functional skeleton, exact derivatives), with the same fit on
+      the default 2,000 rows beside it; the checks give each fit's curve
+      errors. Goal: under 10 s at 100,000.
+
 p.    Position-only ``PolyCCRegressor.fit`` plus ``diagnose`` (horizon
       "auto") of the linear skeleton on 100,000 samples of the resonator
       (60 dB). Goal: under 3 s.
@@ -557,6 +562,26 @@ def case_neural_simulate(frame, truth) -> Case:
                 "solve_ivp LSODA, numpy rhs", 3.0, check)
 
 
+def _neural_scale_timings() -> list:
+    """Defaults on a long record, with the same fit on the default 2,000 rows beside it."""
+    from sklearn_pycc import NeuralCCRegressor
+
+    lines = []
+    for n_samples, goal in ((2_000, None), (100_000, 10_000.0)):
+        frame, truth = datasets.make_stick_slip(n_samples=n_samples, return_truth=True)
+        X, y = frame[X_COLUMNS], frame[Y_COLUMNS]
+
+        def fit(X=X, y=y):
+            return NeuralCCRegressor(equations=FUNCTIONAL, constraints=["f1 odd", "f2 odd"],
+                                     random_state=0).fit(X, y)
+
+        model = fit()
+        e1, e2 = _curve_errors(frame, truth)(lambda name, x, m=model: m.functions_[name](x))
+        lines.append(Timing(f"v. NN-CC stick-slip defaults, n={n_samples}", fit, goal,
+                            f"{model.n_epochs_} epochs, curve RMSE f1 {e1:.4f}, f2 {e2:.4f}"))
+    return lines
+
+
 # -- symbolic backend and post-SR -----------------------------------------------------
 def _duffing_rhs(t, y):
     return [y[1], 0.5 * np.cos(1.2 * t) - 0.3 * y[1] + 1.05 * y[0] - 1.02 * y[0] ** 3]
@@ -856,6 +881,7 @@ def main(argv=None) -> int:
         timings = []
         builders = [("g", _loop_timing), ("h", _diagnose_timing), ("p", _fit_diagnose_timing),
                     ("q", _axis_loop_timings), ("u", _bootstrap_timing),
+                    ("v", _neural_scale_timings),
                     ("k", _symbolic_fit_timing),
                     ("lm", _post_sr_timings)]
         for key, build in builders:

@@ -63,6 +63,28 @@ def test_stick_slip_functional_recovers_both_curves(stick_slip, stick_slip_model
     assert float(np.sqrt(np.mean((sim["x1"] - frame["x1"]) ** 2))) <= 3e-3
 
 
+def test_a_long_record_starts_on_evenly_spread_rows(stick_slip, monkeypatch):
+    import sklearn_pycc.estimators.neural as neural
+    from sklearn_pycc.estimators._skorch_net import SkeletonNet
+
+    frame, truth = stick_slip
+    seen = []
+    original = SkeletonNet.partial_fit
+
+    def partial_fit(self, X, y=None, **kwargs):
+        seen.append(X.shape[0])
+        return original(self, X, y, **kwargs)
+
+    monkeypatch.setattr(neural, "COARSE_ROWS", len(frame) // 4)
+    monkeypatch.setattr(SkeletonNet, "partial_fit", partial_fit)
+    model = NeuralCCRegressor(equations=STICK_SLIP_FUNCTIONAL, constraints=["f1 odd", "f2 odd"],
+                              random_state=0).fit(frame[X_COLUMNS], frame[Y_COLUMNS])
+    assert seen == [len(frame) // 4, len(frame)]  # a quarter of the rows, then every row
+    assert model.n_epochs_ <= model.max_epochs
+    assert curve_rmse(model, truth, "f1") <= 1e-2
+    assert curve_rmse(model, truth, "f2") <= 5e-3
+
+
 def test_hybrid_skeleton_recovers_parameters(stick_slip):
     frame, truth = stick_slip
     model = NeuralCCRegressor(
