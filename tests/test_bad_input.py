@@ -309,3 +309,27 @@ def test_skeleton_names_that_break_latex_are_drawn_as_given(record):
         assert [label.get_text() for label in fig.axes[0].get_xticklabels()] == names
     finally:
         plt.close(fig)
+
+
+# -- the public functions check their arguments as scikit-learn's do ------------------------
+def test_public_functions_name_the_argument_they_refuse(record):
+    from sklearn.utils._param_validation import InvalidParameterError
+
+    from sklearn_pycc import compare_skeletons, from_tables, to_symbolic
+    from sklearn_pycc.model_selection import make_simulation_scorer
+
+    X, truth = record
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X)
+    cases = [
+        (lambda: make_simulation_scorer(rtol="tight"), "'rtol' parameter of make_simulation"),
+        (lambda: make_simulation_scorer(horizon=-1.0), "'horizon' parameter"),
+        (lambda: diagnose(model, X, min_improvement=1.5), "'min_improvement' parameter of diag"),
+        (lambda: diagnose(model, X, held_out="yes"), "'held_out' parameter of diagnose"),
+        (lambda: compare_skeletons([truth.base_equations], X, estimator="poly"),
+         "'estimator' parameter of compare_skeletons"),
+        (lambda: to_symbolic(model, maxsize=0), "'maxsize' parameter of to_symbolic"),
+        (lambda: from_tables(truth.base_equations, [1, 2]), "'curves' parameter of from_tabl"),
+    ]
+    for call, message in cases:
+        with pytest.raises(InvalidParameterError, match=message):
+            call()

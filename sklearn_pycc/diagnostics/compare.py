@@ -12,6 +12,7 @@ import pandas as pd
 from joblib import Parallel, delayed
 from sklearn.base import clone
 from sklearn.model_selection import cross_val_score
+from sklearn.utils._param_validation import HasMethods, validate_params
 
 from ..measurements.measurement import Measurement, unwrap
 from ..skeleton import Skeleton
@@ -41,6 +42,14 @@ def _named(skeletons) -> dict[str, object]:
     return named
 
 
+@validate_params({  # the skeletons are checked by _named, which says what a single one lacks
+    "estimator": [HasMethods(["fit", "get_params"]), None],
+    "cv": ["cv_object"],
+    "simulate": ["boolean"],
+    "held_out": ["boolean"],
+    "n_jobs": [Integral, None],
+    "units": [dict, None],
+}, prefer_skip_nested_validation=False)  # the estimator's fits validate its settings
 def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
                       simulate: bool = True, horizon="auto",
                       held_out: bool = True, n_jobs: int | None = None,

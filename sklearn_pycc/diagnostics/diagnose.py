@@ -8,6 +8,7 @@ from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
+from sklearn.utils._param_validation import Interval, validate_params
 from sklearn.utils.validation import check_is_fitted
 
 from .._random import check_seed_source
@@ -492,17 +493,18 @@ class Diagnosis:
         return plot_diagnosis(self)
 
 
-def _check_options(n_refit, min_improvement, bic_threshold, max_steps) -> None:
-    if not isinstance(n_refit, Integral) or isinstance(n_refit, bool) or n_refit < 0:
-        raise ValueError(f"n_refit must be a non-negative integer, got {n_refit!r}")
-    if not isinstance(min_improvement, Real) or not 0 <= min_improvement < 1:
-        raise ValueError(f"min_improvement must be in [0, 1), got {min_improvement!r}")
-    if not isinstance(bic_threshold, Real) or not math.isfinite(bic_threshold):
-        raise ValueError(f"bic_threshold must be a finite number, got {bic_threshold!r}")
-    if max_steps is not None and (not isinstance(max_steps, Integral) or max_steps < 1):
-        raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
-
-
+@validate_params({
+    "n_refit": [Interval(Integral, 0, None, closed="left")],
+    "min_improvement": [Interval(Real, 0, 1, closed="left")],
+    "bic_threshold": [Real],
+    "simulate": ["boolean"],
+    "max_steps": [Interval(Integral, 1, None, closed="left"), None],
+    "held_out": ["boolean"],
+    "n_bootstrap": [Integral],
+    "n_jobs": [Integral, None],
+    "units": [dict, None],
+    "open_curves": ["boolean"],
+}, prefer_skip_nested_validation=False)  # the model's refits validate their own settings
 def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1,
              bic_threshold: float = 10.0, simulate: bool = True,
              max_steps: int | None = None, horizon="auto",
@@ -644,18 +646,16 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     >>> report.best.effect, report.best.equation
     ('cubic_stiffness', 'x2_dot')
     """
-    _check_options(n_refit, min_improvement, bic_threshold, max_steps)
-    if isinstance(n_bootstrap, bool) or not isinstance(n_bootstrap, Integral) \
-            or n_bootstrap < 0 or n_bootstrap == 1 or n_bootstrap > MAX_RESAMPLES:
+    # the types and ranges are checked by validate_params; what it cannot say, here
+    if not math.isfinite(bic_threshold):
+        raise ValueError(f"bic_threshold must be a finite number, got {bic_threshold!r}")
+    if isinstance(n_bootstrap, bool) or n_bootstrap < 0 or n_bootstrap == 1 \
+            or n_bootstrap > MAX_RESAMPLES:
         raise ValueError("n_bootstrap must be 0 (no resamples) or an integer from 2 to "
                          f"{MAX_RESAMPLES:,}, got {n_bootstrap!r}")
     check_seed_source(random_state)
-    if n_jobs is not None and (isinstance(n_jobs, bool) or not isinstance(n_jobs, Integral)
-                               or n_jobs == 0):
+    if n_jobs == 0 or isinstance(n_jobs, bool):
         raise ValueError(f"n_jobs must be None or a non-zero integer, got {n_jobs!r}")
-    for name, flag in (("held_out", held_out), ("open_curves", open_curves)):
-        if not isinstance(flag, bool):
-            raise ValueError(f"{name} must be True or False, got {flag!r}")
     check_is_fitted(model, "skeleton_")
     skeleton = model.skeleton_
     record = X  # a Measurement keeps the derivatives it has estimated for the next use

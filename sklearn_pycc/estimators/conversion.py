@@ -4,15 +4,18 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping, Sequence
+from numbers import Integral
 
 import numpy as np
 import pandas as pd
 import sympy
 from sklearn.base import clone
+from sklearn.utils._param_validation import Interval, StrOptions, validate_params
 from sklearn.utils.validation import check_is_fitted
 
 from .._random import seeds
 from ..exceptions import GaugeWarning
+from ..skeleton import Skeleton
 from ._basis import ZeroCurve
 from ._setup import build_skeleton, gauge_skeleton, parity_of, points_of
 from ._symbolic_curves import SymbolicCurve, Template
@@ -26,7 +29,14 @@ from .interpolated import (
     sample_curve,
     tabulate,
 )
-from .symbolic import SymbolicCCRegressor, _Curve, _Residuals, choose_candidate, polish
+from .symbolic import (
+    MODEL_SELECTIONS,
+    SymbolicCCRegressor,
+    _Curve,
+    _Residuals,
+    choose_candidate,
+    polish,
+)
 
 __all__ = ["from_tables", "to_interpolated", "to_symbolic"]
 
@@ -73,6 +83,17 @@ def _rms(values: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(values))))
 
 
+@validate_params({
+    "engine": [str],
+    "binary_operators": [list, tuple],
+    "unary_operators": [list, tuple],
+    "maxsize": [Interval(Integral, 1, None, closed="left")],
+    "population_size": [Interval(Integral, 1, None, closed="left")],
+    "generations": [Interval(Integral, 1, None, closed="left")],
+    "n_points": [Integral],
+    "model_selection": [StrOptions(set(MODEL_SELECTIONS))],
+    "engine_options": [dict, None],
+}, prefer_skip_nested_validation=True)
 def to_symbolic(
     model: CCRegressor,
     X=None,
@@ -238,6 +259,8 @@ def _table(name: str, value) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(x, dtype=float), np.asarray(values, dtype=float)
 
 
+@validate_params({"curves": [dict, None], "n_points": [Integral], "method": [str]},
+                 prefer_skip_nested_validation=True)
 def to_interpolated(model: CCRegressor, curves: Mapping | None = None, *,
                     n_points: int = 200, method: str = "pchip") -> InterpolatedCCRegressor:
     """Replace the curves of a fitted model by interpolated tables (the paper's ``Interp``).
@@ -286,6 +309,9 @@ def to_interpolated(model: CCRegressor, curves: Mapping | None = None, *,
     return adopt(target, model, out, model.params_, n_parameters)
 
 
+@validate_params({"equations": [list, tuple, Skeleton], "curves": [dict],
+                  "params": [dict, None], "constraints": [list, tuple, None], "method": [str]},
+                 prefer_skip_nested_validation=True)
 def from_tables(equations, curves: Mapping, params: Mapping | None = None, constraints=None,
                 *, method: str = "pchip") -> InterpolatedCCRegressor:
     """A fitted model whose curves are the given tables (no data needed).

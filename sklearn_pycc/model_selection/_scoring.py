@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
+from sklearn.utils._param_validation import HasMethods, Interval, StrOptions, validate_params
 from sklearn.utils.validation import check_is_fitted
 
 from ..exceptions import SimulationError
 from ..measurements import read_record
+from ..measurements.differentiation import DIFFERENTIATION_METHODS, Differentiator
 from ..measurements.experiments import TIME
 from ..measurements.measurement import Measurement
 from ..windows import choose_horizon, simulate_windows
@@ -135,6 +138,15 @@ class SimulationScorer:
         return list(self.states)
 
 
+@validate_params({
+    "states": [list, tuple, None],
+    "differentiation": [StrOptions(set(DIFFERENTIATION_METHODS)), dict, Differentiator,
+                        HasMethods(["d"]), callable, None],
+    "rtol": [Interval(Real, 0, None, closed="neither")],
+    "atol": [Interval(Real, 0, None, closed="neither")],
+    "max_steps": [Interval(Integral, 1, None, closed="left")],
+    "horizon": [StrOptions({"auto"}), Interval(Real, 0, None, closed="neither"), None],
+}, prefer_skip_nested_validation=True)
 def make_simulation_scorer(states: Sequence[str] | None = None, *, differentiation=None,
                            rtol: float = 1e-6, atol: float = 1e-8,
                            max_steps: int = 200_000, horizon="auto") -> SimulationScorer:
