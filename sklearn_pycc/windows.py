@@ -11,16 +11,20 @@ per step.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from numbers import Real
 
 import numpy as np
 
+from .exceptions import SimulationError
 from .simulation import InputSignals
 
-__all__ = ["Horizon", "Windows", "choose_horizon", "jacobian_eigenvalues", "simulate_windows"]
+__all__ = ["Horizon", "Stop", "Windows", "choose_horizon", "jacobian_eigenvalues", "simulate_rows",
+           "simulate_windows"]
 
 #: the fourth-order Runge-Kutta scheme is stable for h * |lambda| below about 2.8
 RK4_STABLE = 2.5
@@ -373,3 +377,92 @@ def simulate_windows(system, states: Sequence[str], inputs: Sequence[str], uses_
                           float(windows.times[first, windows.steps[first]]), len(mine),
                           int(np.count_nonzero(windows.segment_experiment == e)))
     return simulated, report
+
+
+@dataclass(frozen=True)
+class Stop:
+    """A simulation of an experiment that did not reach its end, or whose windows escaped."""
+
+    label: object
+    t_reached: float
+    t_end: float
+    reason: str
+
+
+def simulate_rows(model, columns: Mapping[str, np.ndarray], signals: Mapping[str, np.ndarray],
+                  experiments: Sequence[tuple[object, np.ndarray, np.ndarray]],
+                  horizon: Horizon, n_samples: int, *, max_steps: int, rtol: float = 1e-6,
+                  atol: float = 1e-8,
+                  capture_warnings: bool = True) -> tuple[np.ndarray, list[Stop], list[str]]:
+    """A fitted model simulated against a record, on every row.
+
+    The one loop behind the simulation scorer and the diagnosis: whole
+    experiments from their first state (``horizon.samples`` None), or
+    windows of the horizon each restarted from the state at its first row
+    (:func:`simulate_windows`).
+
+    Parameters
+    ----------
+    model : CCRegressor
+        Fitted.
+    columns : dict
+        The states (measured, smoothed or reconstructed: where simulations
+        start), the inputs as the equations read them, and ``t``.
+    signals : dict
+        The inputs as measured, which drive the simulations.
+    experiments : list of (label, rows, t)
+    horizon : Horizon
+    n_samples : int
+        Rows of the record.
+    max_steps, rtol, atol
+        Solver settings for whole experiments.
+    capture_warnings : bool, default=True
+        Collect the simulations' warnings into ``warned`` rather than let
+        them reach the caller.
+
+    Returns
+    -------
+    simulated : ndarray of shape (n_samples, n_states)
+        NaN after a divergence.
+    stops : list of Stop
+        Experiments whose simulation stopped early or whose windows escaped.
+    warned : list of str
+        Warnings the whole-experiment simulations raised, once each.
+    """
+    skeleton = model.skeleton_
+    states = list(skeleton.states)
+    inputs = [name for name in skeleton.inputs if name != "t"]
+    drive = {name: signals.get(name, columns[name]) for name in inputs}
+    if horizon.samples is not None:
+        system = skeleton.compile(model.functions_, model.params_)
+        simulated, escaped = simulate_windows(
+            system, states, inputs, "t" in skeleton.variables, columns, drive,
+            [(rows, t) for _, rows, t in experiments], horizon, n_samples)
+        stops = [Stop(experiments[e][0], start, end,
+                      f"{count} of {total} windows of the horizon left the states' range")
+                 for e, (start, end, count, total) in escaped.items()]
+        return simulated, stops, []
+    simulated = np.full((n_samples, len(states)), np.nan)
+    stops, warned = [], []
+    for label, rows, t in experiments:
+        if len(t) < 2:
+            simulated[rows] = np.column_stack([columns[s][rows] for s in states])
+            continue
+        y0 = [float(columns[s][rows[0]]) for s in states]
+        with warnings.catch_warnings(record=True) if capture_warnings \
+                else contextlib.nullcontext([]) as caught:
+            if capture_warnings:
+                warnings.simplefilter("always")
+            try:
+                frame = model.simulate(t, y0, {name: v[rows] for name, v in drive.items()},
+                                       rtol=rtol, atol=atol, max_steps=max_steps)
+            except SimulationError as exc:
+                frame = exc.partial
+                stops.append(Stop(label, float(exc.t_reached), float(t[-1]),
+                                  str(exc.args[0]) if exc.args else str(exc)))
+        for item in caught:
+            if str(item.message) not in warned:
+                warned.append(str(item.message))
+        if frame is not None and len(frame):
+            simulated[rows[:len(frame)]] = frame[states].to_numpy(dtype=float)
+    return simulated, stops, warned

@@ -5,23 +5,20 @@ oscillator's phase slips and a chaotic trajectory separates, however good
 the model: their error says little about the dynamics. Windows of a
 horizon, each restarted from the measured (estimated) state, test the
 dynamics over the time they act, and pool the errors
-(:func:`simulate_horizon`; ``horizon="auto"`` chooses it from the model and
+(:func:`simulate_against`; ``horizon="auto"`` chooses it from the model and
 the record, :func:`horizon_of`).
 """
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..exceptions import SimulationError
-from ..windows import Horizon, choose_horizon, simulate_windows
+from ..windows import Horizon, choose_horizon, simulate_rows
 from ._data import TIME, Measurements
 
-__all__ = ["Divergence", "Horizon", "horizon_of", "simulate_against", "simulate_experiments",
-           "simulate_horizon"]
+__all__ = ["Divergence", "Horizon", "horizon_of", "simulate_against"]
 
 
 @dataclass(frozen=True)
@@ -37,50 +34,6 @@ class Divergence:
         where = "" if self.trajectory is None else f" (trajectory {self.trajectory!r})"
         return (f"the simulation stopped at t={self.t_reached:.4g} of {self.t_end:.4g}"
                 f"{where}: {self.reason}")
-
-
-def simulate_experiments(model, data: Measurements, *, max_steps: int,
-                         rtol: float = 1e-6, atol: float = 1e-8):
-    """Simulated states on every measured row.
-
-    Returns
-    -------
-    simulated : ndarray of shape (n_samples, n_states)
-        NaN after a divergence.
-    divergences : list of Divergence
-    warned : list of str
-        Warnings the simulations raised (extrapolation beyond the training
-        range, for instance), once each.
-    """
-    states = model.skeleton_.states
-    inputs = model.skeleton_.inputs
-    simulated = np.full((data.n_samples, len(states)), np.nan)
-    divergences: list[Divergence] = []
-    warned: list[str] = []
-    for label, rows in data.groups:
-        t = data.columns[TIME][rows]
-        if len(t) < 2:
-            simulated[rows] = np.column_stack([data.columns[s][rows] for s in states])
-            continue
-        y0 = [float(data.columns[s][rows[0]]) for s in states]
-        signals = {name: data.signals.get(name, data.columns[name])[rows] for name in inputs}
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            try:
-                frame = model.simulate(t, y0, signals, rtol=rtol, atol=atol,
-                                       max_steps=max_steps)
-            except SimulationError as exc:
-                frame = exc.partial
-                divergences.append(Divergence(label, float(exc.t_reached), float(t[-1]),
-                                              str(exc.args[0]) if exc.args else str(exc)))
-        for item in caught:
-            text = str(item.message)
-            if text not in warned:
-                warned.append(text)
-        if frame is not None and len(frame):
-            k = len(frame)
-            simulated[rows[:k]] = frame[states].to_numpy(dtype=float)
-    return simulated, divergences, warned
 
 
 def _columns(model, data: Measurements) -> dict[str, np.ndarray]:
@@ -104,34 +57,26 @@ def horizon_of(model, data: Measurements, horizon="auto") -> Horizon:
                           _experiments(data), horizon)
 
 
-def simulate_horizon(model, data: Measurements, horizon: Horizon):
-    """Simulated states on every row, each window restarted from the measured state.
+def simulate_against(model, data: Measurements, horizon: Horizon, *, max_steps: int):
+    """Simulated states on every row: whole experiments, or windows of ``horizon``.
+
+    The loop the simulation scorer runs too (:func:`~sklearn_pycc.windows.simulate_rows`).
 
     Returns
     -------
     simulated : ndarray of shape (n_samples, n_states)
+        NaN after a divergence.
     divergences : list of Divergence
-        One per experiment with windows that left the states' range.
     warned : list of str
-        Always empty (kept to match :func:`simulate_experiments`).
+        Warnings the simulations raised (extrapolation beyond the training
+        range, for instance), once each.
     """
     skeleton = model.skeleton_
     inputs = [n for n in skeleton.inputs if n != TIME]
-    system = skeleton.compile(model.functions_, model.params_)
-    signals = {name: data.signals.get(name, data.columns[name]) for name in inputs}
-    simulated, escaped = simulate_windows(
-        system, skeleton.states, inputs, TIME in skeleton.variables, _columns(model, data),
-        signals, _experiments(data), horizon, data.n_samples)
-    labels = [label for label, _ in data.groups]
-    divergences = [Divergence(labels[e], start, end,
-                              f"{count} of {total} windows of the horizon left the states' "
-                              "range")
-                   for e, (start, end, count, total) in escaped.items()]
-    return simulated, divergences, []
-
-
-def simulate_against(model, data: Measurements, horizon: Horizon, *, max_steps: int):
-    """:func:`simulate_horizon`, or :func:`simulate_experiments` for whole experiments."""
-    if horizon.samples is None:
-        return simulate_experiments(model, data, max_steps=max_steps)
-    return simulate_horizon(model, data, horizon)
+    columns = {**{s: data.columns[s] for s in skeleton.states},
+               **{name: data.columns[name] for name in inputs}, TIME: data.columns[TIME]}
+    experiments = [(label, rows, data.columns[TIME][rows]) for label, rows in data.groups]
+    simulated, stops, warned = simulate_rows(model, columns, data.signals, experiments, horizon,
+                                             data.n_samples, max_steps=max_steps)
+    divergences = [Divergence(s.label, s.t_reached, s.t_end, s.reason) for s in stops]
+    return simulated, divergences, warned

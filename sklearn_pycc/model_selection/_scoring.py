@@ -10,12 +10,11 @@ import pandas as pd
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions, validate_params
 from sklearn.utils.validation import check_is_fitted
 
-from ..exceptions import SimulationError
 from ..measurements import read_record
 from ..measurements.differentiation import DIFFERENTIATION_METHODS, Differentiator
 from ..measurements.experiments import TIME
 from ..measurements.measurement import Measurement
-from ..windows import choose_horizon, simulate_windows
+from ..windows import Horizon, choose_horizon, simulate_rows
 
 __all__ = ["SimulationScorer", "make_simulation_scorer"]
 
@@ -71,57 +70,42 @@ class SimulationScorer:
         record = read_record(skeleton, source, None, differentiation=spec,
                              smooth=bool(settings.get("smooth_states", True)),
                              need_time="the simulation scorer needs the time column 't' in X")
-        measured, starts, experiments = record.measured, record.smoothed, record.experiments
-        simulated = self._windows(estimator, record)
+        simulated = self._simulated(estimator, record)
+        if simulated is None:  # a simulation diverged, or windows of the horizon escaped
+            return float("inf")
         total, count = 0.0, 0
-        for experiment in experiments:
+        for experiment in record.experiments:
             rows = experiment.rows
             if len(rows) < 2:
                 continue
-            if simulated is None:
-                y0 = [float(starts[s][rows[0]]) for s in skeleton.states]
-                signals = {name: values[rows] for name, values in record.signals.items()}
-                try:
-                    frame = estimator.simulate(experiment.t, y0, signals, rtol=self.rtol,
-                                               atol=self.atol, max_steps=self.max_steps)
-                except SimulationError:
-                    return float("inf")
-            elif simulated is False:
-                return float("inf")
             for state in compared:
-                truth = measured[state][rows]
+                truth = record.measured[state][rows]
                 spread = float(np.std(truth)) or 1.0
-                ours = (frame[state].to_numpy() if simulated is None
-                        else simulated[rows, skeleton.states.index(state)])
-                err = (ours - truth) / spread
+                err = (simulated[rows, skeleton.states.index(state)] - truth) / spread
                 total += float(err @ err)
                 count += len(err)
         if count == 0:
             raise ValueError("no experiment in X has two samples to simulate")
         return float(np.sqrt(total / count))
 
-    def _windows(self, estimator, record):
-        """Horizon-limited simulations on every row; None for whole experiments.
-
-        False when a window diverged.
-        """
+    def _simulated(self, estimator, record) -> np.ndarray | None:
+        """The model simulated on every row (the diagnosis's loop); None if it diverged."""
         skeleton = estimator.skeleton_
-        if self.horizon is None:
-            return None
-        experiments = [(e.rows, e.t) for e in record.experiments]
-        system = skeleton.compile(estimator.functions_, estimator.params_)
         inputs = [name for name in skeleton.inputs if name != TIME]
         columns = {**{s: record.smoothed[s] for s in skeleton.states},
                    **{name: record.columns[name] for name in inputs},
                    TIME: record.columns[TIME]}
-        horizon = choose_horizon(system, skeleton.states, columns, experiments, self.horizon)
-        if horizon.samples is None:
-            return None
-        simulated, escaped = simulate_windows(system, skeleton.states, inputs,
-                                              TIME in skeleton.variables, columns,
-                                              record.signals, experiments, horizon,
-                                              record.n_samples)
-        return False if escaped else simulated
+        experiments = [(e.label, e.rows, e.t) for e in record.experiments]
+        horizon = Horizon(None, None, "whole experiments")
+        if self.horizon is not None:
+            system = skeleton.compile(estimator.functions_, estimator.params_)
+            horizon = choose_horizon(system, skeleton.states, columns,
+                                     [(rows, t) for _, rows, t in experiments], self.horizon)
+        simulated, stops, _ = simulate_rows(estimator, columns, record.signals, experiments,
+                                            horizon, record.n_samples, max_steps=self.max_steps,
+                                            rtol=self.rtol, atol=self.atol,
+                                            capture_warnings=False)
+        return None if stops else simulated
 
     def _compared(self, skeleton, X) -> list[str]:
         if self.states is None:
