@@ -121,9 +121,7 @@ from scipy.integrate import solve_ivp
 
 import sklearn_pycc
 from sklearn_pycc import PolyCCRegressor, datasets
-from sklearn_pycc.estimators._linear import split_parameters
 from sklearn_pycc.estimators.base import backend_of, make_problem
-from sklearn_pycc.estimators.poly import _Design
 
 FUNCTIONAL = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]
 X_COLUMNS = ["t", "x1", "x2", "F_ext"]
@@ -209,15 +207,7 @@ def _stick_slip_model() -> PolyCCRegressor:
 
 def _design(model: PolyCCRegressor, X, y):
     """The weighted design ``A, b`` the estimator solves (``min ||A x + b||``), and ``C``."""
-    problem = make_problem(model, X, y)
-    degrees = backend_of(model)._degrees(problem.free_functions)
-    residuals = [(eq.index, eq.text, eq.residual) for eq in problem.equations]
-    linear, nonlinear = split_parameters(residuals, problem.free_params, "PolyCCRegressor")
-    if nonlinear:
-        raise RuntimeError("the design of a skeleton with nonlinear parameters is not fixed")
-    design = _Design(problem, linear, nonlinear, degrees, model.basis)
-    A, b, C, _d, _layout, _bases = design.assemble(dict(problem.fixed_params))
-    return A, b, C
+    return backend_of(model).design(make_problem(model, X, y))
 
 
 def case_lstsq(frame, label: str) -> Case:

@@ -194,12 +194,35 @@ class PolyBackend(Backend):
         """The fitted curves' policy beyond their domain (None: the polynomial)."""
         return None if self.extrapolation == "polynomial" else self.extrapolation
 
-    def fit(self, problem: Problem) -> FitResult:
-        """One constrained least-squares fit of every curve and linear parameter."""
+    def _design(self, problem: Problem) -> tuple[_Design, list[str]]:
         degrees = self._degrees(problem.free_functions)
         residuals = [(eq.index, eq.text, eq.fit_residual) for eq in problem.equations]
         linear, nonlinear = split_parameters(residuals, problem.free_params, type(self).__name__)
-        design = _Design(problem, linear, nonlinear, degrees, self.basis)
+        return _Design(problem, linear, nonlinear, degrees, self.basis), nonlinear
+
+    def design(self, problem: Problem, values: Mapping[str, float] | None = None):
+        """The weighted linear system the fit solves: ``min ||A x + b||`` with ``C x = d``.
+
+        ``values`` gives the parameters that enter nonlinearly (none are
+        needed when every parameter enters linearly).
+
+        Returns
+        -------
+        A : ndarray of shape (n_samples * n_equations, n_unknowns)
+        b : ndarray of shape (n_samples * n_equations,)
+        C : ndarray of shape (n_constraints, n_unknowns) or None
+        """
+        design, nonlinear = self._design(problem)
+        missing = [a for a in nonlinear if a not in (values or {})]
+        if missing:
+            raise ValueError(f"the design depends on {', '.join(missing)}, which enter "
+                             "nonlinearly: give their values")
+        A, b, C, *_ = design.assemble({**problem.fixed_params, **dict(values or {})})
+        return A, b, C
+
+    def fit(self, problem: Problem) -> FitResult:
+        """One constrained least-squares fit of every curve and linear parameter."""
+        design, nonlinear = self._design(problem)
         fixed = dict(problem.fixed_params)
         init = problem.starting_values(self.param_init)
 
