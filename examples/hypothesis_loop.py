@@ -57,7 +57,7 @@ while not loop.stopped and len(loop.rounds) < 4:
     print("=" * 78)
     print(f"Round {current.index}: {'; '.join(current.skeleton.equations)}")
     print(current.diagnosis.summary())
-    save(current.diagnosis.plot(), f"round{current.index + 1}")
+    save(current.diagnosis.plot(), f"round{current.index}")
 skeletons = {"linear": loop.rounds[0].skeleton}
 skeletons.update({f"+{r.added.effect}": r.added.equations for r in loop.rounds if r.added})
 model = loop.model

@@ -2,7 +2,27 @@
 
 Write a structural skeleton as text, with unknown one-dimensional curves
 ``f1, f2, ...`` and scalars ``a1, a2, ...``, and fit it with a scikit-learn
-estimator.
+estimator; then let the loop compare the model with the measurements, name
+the physical effect that is missing, add it and fit again::
+
+    from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets
+
+    frame = datasets.make_oscillator(hidden=["cubic_stiffness"])   # t, x1, x2, F_ext
+    start = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"])
+    loop = HypothesisLoop(start, frame[["t", "x1", "F_ext"]]).run()
+    print(loop.summary())            # what was found, round by round
+    loop.to_html("report.html")      # the whole story, with its figures
+
+Where to look next:
+
+- ``PolyCCRegressor``, ``NeuralCCRegressor``, ``SymbolicCCRegressor``: the
+  backends (``help(PolyCCRegressor)`` for the hyperparameters);
+- ``diagnose(model, X)``: one comparison with its suggestion, ``report.summary()``;
+- ``compare_skeletons``: candidate skeletons side by side;
+- ``sklearn_pycc.datasets``: generated records to try things on;
+- ``sklearn_pycc.pycc``: the published PyCC package's functions and ``params``.
+
+The documentation's getting-started page walks through all of it.
 """
 
 from . import datasets, effects, pycc

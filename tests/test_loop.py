@@ -165,7 +165,8 @@ def test_the_loop_steps_one_round_at_a_time_and_never_touches_the_estimator():
     assert second.skeleton.equations[1].endswith("a3*x1^3")
     table = loop.table()
     assert list(table.index) == [0, 1]
-    assert table.loc[0, "added"] == "cubic_stiffness"
+    assert table.loc[0, "suggests"] == "cubic_stiffness" and pd.isna(table.loc[0, "adds"])
+    assert table.loc[1, "adds"] == "cubic_stiffness" and pd.isna(table.loc[1, "suggests"])
     assert table.loc[1, "simulation_rmse"] < 1e-2 * table.loc[0, "simulation_rmse"]
     text = loop.summary()
     assert "Round 1" in text and "stop: nothing is missing" in text

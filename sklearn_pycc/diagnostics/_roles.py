@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from ..skeleton import Skeleton
 from ..skeleton.nodes import Symbol
 
-__all__ = ["EquationRoles", "equation_roles"]
+__all__ = ["EquationRoles", "equation_roles", "kinematic_states"]
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ class EquationRoles:
     second_order: bool
 
 
-def _kinematic(skeleton: Skeleton) -> dict[str, str]:
+def kinematic_states(skeleton: Skeleton) -> dict[str, str]:
     """``velocity -> position`` for every equation ``position_dot = velocity``."""
     out = {}
     for eq in skeleton.parsed:
@@ -55,7 +55,7 @@ def equation_roles(skeleton: Skeleton) -> list[EquationRoles]:
 
     Kinematic equations (``x1_dot = x2``) define a velocity and are left out.
     """
-    position_of = _kinematic(skeleton)
+    position_of = kinematic_states(skeleton)
     positions = set(position_of.values())
     acceleration_of = {}
     for eq in skeleton.parsed:

@@ -34,7 +34,7 @@ from ._held_out import HeldOut, held_out_check
 from ._metrics import error_table_row, rmse
 from ._open_curves import OpenCurve, formula_candidates, open_candidates, probes
 from ._physics import Implausibility, implausible_terms
-from ._roles import EquationRoles, equation_roles
+from ._roles import EquationRoles, equation_roles, kinematic_states
 from ._stability import Stability, selection_stability
 from ._trajectories import Divergence, Horizon, horizon_of, simulate_against
 
@@ -254,6 +254,11 @@ class Diagnosis:
     variable_values : dict
         Equation -> ``{label: values}`` of the variables that explain its
         residual (the figures' axes).
+    left_out : int
+        Samples of ``X`` the diagnosis did not judge: at the ends of each
+        experiment, where estimated derivatives cannot be trusted while the
+        differentiation filter settles (0 with measured derivatives). The
+        summary's first line says so.
     """
 
     model: object
@@ -278,6 +283,7 @@ class Diagnosis:
     record: Measurements | None = field(default=None, repr=False)
     variable_values: dict = field(default_factory=dict, repr=False)
     _stability: Stability | None = field(default=None, repr=False)
+    left_out: int = 0
 
     def __repr__(self) -> str:
         best = "nothing missing" if self.best is None else str(self.best)
@@ -290,16 +296,27 @@ class Diagnosis:
         model = self.model
         n = len(self.residuals)
         experiments = 1 if self.record is None else len(self.record.groups)
+        ends = ""
+        if self.left_out:
+            ends = (f" ({self.left_out} more at the ends of the experiments left out: their "
+                    "estimated derivatives cannot be trusted while the filter settles)")
         lines.append(f"Model ({type(model).__name__}, {model.n_parameters_} fitted numbers) "
                      f"against {n} samples in {experiments} experiment"
-                     f"{'s' if experiments != 1 else ''}:")
+                     f"{'s' if experiments != 1 else ''}{ends}:")
         for text in model.equations():
             lines.append(f"    {text}")
         for item in self.implausible:
             lines.append(f"    IMPLAUSIBLE: {item}")
         lines.append("")
         lines.append("Derivatives:")
+        defined = {f"{position}_dot": velocity
+                   for velocity, position in kinematic_states(model.skeleton_).items()}
+        reconstructed = bool(self.record is not None and self.record.estimated)
         for name, row in self.derivatives.iterrows():
+            if name in defined and reconstructed and row.rmse == 0:
+                lines.append(f"    {name}: holds by construction ({defined[name]} was "
+                             f"reconstructed as the derivative of {name[:-4]})")
+                continue
             lines.append(f"    {name}: R2 {row.r2:.4f}, RMSE {row.rmse:.4g} "
                          f"(NRMSE {row.nrmse:.3g})")
         if not self.trajectories.empty:
@@ -409,6 +426,9 @@ class Diagnosis:
                          "for the output-error fit, not its result; fit with n_bootstrap for "
                          "intervals): " + ", ".join(f"{a} = {best.param_init[a]:.4g}"
                                                     for a in added) + ".")
+        acting = _as_fitted(best)
+        if acting:
+            lines.append(f"    As fitted, the new term acts as '{acting}' in {best.equation}.")
         if best.held_out is not None:
             lines.append(f"    Decided on data each fit did not see: {best.held_out}.")
         lines.extend(self._stability_words())
@@ -789,7 +809,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
                      pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
                      maps, ranking, best, simulation_rmse, notes, window, implausible,
                      units, [s for s in states if s in X.columns], tried, candidates, data,
-                     variables, stability)
+                     variables, stability, len(X) - data.n_samples)
 
 
 def _refitted(model, candidate: Candidate, data: Measurements, residuals: np.ndarray,
@@ -1097,6 +1117,20 @@ def _formula(chosen: Candidate, skeleton: Skeleton, model, data: Measurements,
                                           max_steps=steps, output_error=output_error,
                                           n_jobs=n_jobs, cache=cache)
     return formula
+
+
+def _as_fitted(best: Suggestion) -> str:
+    """``"+ 1.341*x1^3"`` for ``"- a3*x1^3"`` with ``a3 = -1.341``: the sign worked out.
+
+    Empty when the term is not one parameter times the rest.
+    """
+    head, _, rest = best.term.partition("*")
+    value = best.param_init.get(head)
+    if not rest or value is None or not head.startswith("a") or not head[1:].isdigit() \
+            or any(f"a{k}" in rest for k in range(10)):
+        return ""
+    acting = -float(value)
+    return f"{'+' if acting >= 0 else '-'} {abs(acting):.4g}*{rest}"
 
 
 def _adopted(formula: Candidate | None) -> bool:

@@ -35,10 +35,12 @@ class Round:
     diagnosis : Diagnosis
         The model compared with the measurements.
     decision : str
-        What the loop decided, in words (the effect it adds next, or why it
-        stops).
+        What the loop decided from this round's diagnosis, in words (the
+        effect the next round adds, or why it stops).
     added : Suggestion or None
-        The effect the next round adds; None when the loop stops here.
+        This round's diagnosis's suggestion, which the next round adds (its
+        model ``adds`` it in :meth:`HypothesisLoop.table`); None when the
+        loop stops here.
     """
 
     index: int
@@ -330,11 +332,16 @@ class HypothesisLoop:
 
     # -- reading -------------------------------------------------------------------------
     def table(self) -> pd.DataFrame:
-        """One row per round: size, errors over the common horizon, held-out change, decision.
+        """One row per round's model: size, errors, what its diagnosis suggested, the decision.
 
-        Besides ``simulation_rmse`` (every state pooled, whatever their
-        units), each measured state has its own ``NAME_rmse`` and
-        ``NAME_nrmse`` (simulated over the common horizon);
+        Rounds are numbered as :attr:`rounds` (0: the starting skeleton).
+        ``adds`` is the effect this round's model has that the previous
+        round's lacked (None for round 0); ``suggests`` and ``move`` what this
+        round's diagnosis found missing (the next round ``adds`` it), with
+        ``held_out_change``, its change of the held-out error; ``decision``
+        says it in words. Besides ``simulation_rmse`` (every state pooled,
+        whatever their units), each measured state has its own
+        ``NAME_rmse`` and ``NAME_nrmse`` (simulated over the common horizon);
         ``table.attrs["units"]`` gives their units.
         """
         if not self.rounds:
@@ -353,8 +360,10 @@ class HypothesisLoop:
                 if state in d.trajectories.index:
                     row[f"{state}_rmse"] = float(d.trajectories.loc[state, "rmse"])
                     row[f"{state}_nrmse"] = float(d.trajectories.loc[state, "nrmse"])
+            before = self.rounds[r.index - 1].added if r.index else None
             row.update({
-                "added": None if r.added is None else r.added.effect,
+                "adds": None if before is None else before.effect,
+                "suggests": None if r.added is None else r.added.effect,
                 "move": None if r.added is None else r.added.move,
                 "held_out_change": math.nan if held is None else held.change(),
                 "implausible": len(d.implausible),
@@ -411,6 +420,12 @@ class HypothesisLoop:
                  f"{'s' if len(self.rounds) != 1 else ''}"
                  + (f"; simulations over {horizon}" if horizon and horizon.time else "")
                  + ":"]
+        left_out = self.rounds[0].diagnosis.left_out
+        if left_out:
+            judged = len(self.rounds[0].diagnosis.residuals)
+            lines.append(f"(judged on {judged} samples: {left_out} at the ends of the "
+                         "experiments were left out, where the estimated derivatives cannot "
+                         "be trusted while the filter settles)")
         for r in self.rounds:
             d = r.diagnosis
             errors = [f"{s} RMSE {d.trajectories.loc[s, 'rmse']:.4g}"

@@ -1,0 +1,51 @@
+"""What a newcomer reads first says plainly what happened."""
+
+import pydoc
+import warnings
+
+import pytest
+
+import sklearn_pycc
+from sklearn_pycc import PolyCCRegressor, datasets, diagnose
+
+
+@pytest.fixture(scope="module")
+def pendulum_report():
+    frame = datasets.make_pendulum(random_state=0)[["t", "x1"]]
+    model = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = - a1 x2 - a2 x1"]).fit(frame)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return diagnose(model, frame, n_bootstrap=0), len(frame)
+
+
+def test_the_first_line_says_which_samples_were_left_out(pendulum_report):
+    report, n_given = pendulum_report
+    assert report.left_out > 0
+    assert report.left_out + len(report.residuals) == n_given
+    first = report.summary().splitlines()[0]
+    assert f"against {len(report.residuals)} samples" in first
+    assert f"({report.left_out} more at the ends of the experiments left out" in first
+
+
+def test_a_kinematic_identity_is_not_reported_as_a_perfect_fit(pendulum_report):
+    report, _ = pendulum_report
+    text = report.summary()
+    assert "x1_dot: holds by construction (x2 was reconstructed as the derivative of x1)" \
+        in text
+    assert "x1_dot: R2 1.0000" not in text
+
+
+def test_the_suggested_term_is_printed_as_it_acts():
+    frame, truth = datasets.make_oscillator(hidden=["cubic_stiffness"], return_truth=True)
+    X = frame[["t", "x1", "F_ext"]]
+    model = PolyCCRegressor(equations=truth.base_equations).fit(X)
+    report = diagnose(model, X, n_bootstrap=0)
+    value = report.best.param_init["a3"]
+    sign = "-" if value > 0 else "+"
+    assert f"acts as '{sign} {abs(value):.4g}*x1^3' in x2_dot" in report.summary()
+
+
+def test_help_points_to_the_loop():
+    text = pydoc.render_doc(sklearn_pycc, renderer=pydoc.plaintext)
+    head = text[:3000]
+    assert "HypothesisLoop" in head and "loop.summary()" in head and "diagnose" in head
