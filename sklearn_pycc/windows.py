@@ -316,7 +316,7 @@ def choose_horizon(system, states: Sequence[str], columns: Mapping[str, np.ndarr
                              f"({2 * step:.4g}): a window must hold at least one step to "
                              "simulate; give a longer time, 'auto' or None")
         samples = round(span / step) if math.isfinite(span) else longest
-        why = "as given"
+        why = "the time given"
     else:
         raise ValueError(f"horizon must be 'auto', None or a positive time, got {horizon!r}")
     if samples >= longest:

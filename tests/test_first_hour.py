@@ -49,3 +49,18 @@ def test_help_points_to_the_loop():
     text = pydoc.render_doc(sklearn_pycc, renderer=pydoc.plaintext)
     head = text[:3000]
     assert "HypothesisLoop" in head and "loop.summary()" in head and "diagnose" in head
+
+
+def test_later_rounds_say_whose_horizon_they_keep_and_runners_up_are_compared():
+    from sklearn_pycc import HypothesisLoop
+
+    frame, truth = datasets.make_oscillator(hidden=["cubic_stiffness"], return_truth=True)
+    loop = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations),
+                          frame[["t", "x1", "F_ext"]], n_bootstrap=0).run(max_rounds=2,
+                                                                          refine=False)
+    first, second = (r.diagnosis.horizon for r in loop.rounds)
+    assert second.time == first.time and second.why == f"round 0's: {first.why}"
+    assert "as given" not in loop.rounds[1].diagnosis.summary()
+    best = loop.rounds[0].diagnosis.best
+    assert f"Runners-up (the winner scores {-best.delta_bic:.1f})" in \
+        loop.rounds[0].diagnosis.summary()

@@ -434,10 +434,13 @@ class Diagnosis:
         lines.extend(self._stability_words())
         runners = self.ranking.iloc[1:4]
         if len(runners):
-            lines.append("    Runners-up: " + "; ".join(
+            lead = -best.delta_bic
+            lines.append(f"    Runners-up (the winner scores {lead:.1f}): " + "; ".join(
                 f"{r.effect} in {r.equation} (score {r.score:.1f}"
                 + ("" if not r.refit or r.plausible else ", implausible")
-                + ("" if r.refit else ", screened only") + ")"
+                + ("" if r.refit else ", screened only")
+                + (_why_below(r, lead) if r.refit and r.plausible and r.score > lead else "")
+                + ")"
                 for r in runners.itertuples()) + ".")
         rejected = self.ranking[(self.ranking.refit) & (~self.ranking.plausible.astype(bool))]
         for r in rejected.head(2).itertuples():
@@ -1117,6 +1120,14 @@ def _formula(chosen: Candidate, skeleton: Skeleton, model, data: Measurements,
                                           max_steps=steps, output_error=output_error,
                                           n_jobs=n_jobs, cache=cache)
     return formula
+
+
+def _why_below(row, lead: float) -> str:
+    """Why a plausible runner-up that scores higher than the winner ranks below it."""
+    if row.score - lead <= max(TIE[0] * abs(row.score), TIE[1]):
+        return (f", a tie within {100 * TIE[0]:g} % that goes to the winner's fewer "
+                "parameters")
+    return ", but the data each fit did not see preferred the winner"
 
 
 def _as_fitted(best: Suggestion) -> str:

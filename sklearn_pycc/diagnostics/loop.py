@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from numbers import Integral
 
 import numpy as np
@@ -224,6 +224,11 @@ class HypothesisLoop:
         self.refinement = None  # a refinement judges the last round only
         model = self._next_model().fit(self.measurement)
         report = diagnose(model, self.measurement, **self._options())
+        first = self.rounds[0].diagnosis.horizon if self.rounds else None
+        if first is not None and report.horizon is not None and report.horizon.time is not None \
+                and "horizon" not in self.diagnose_options:
+            # the same windows every round, so that their errors compare: say where they came from
+            report.horizon = replace(report.horizon, why=f"round 0's: {first.why}")
         best = report.best
         seen = None if best is None else next(
             (r.index for r in self.rounds
