@@ -221,19 +221,25 @@ def _residual_figure(plt, report):
         values = known.get(variable)
         if values is None:
             values, variable = np.arange(residual.size), "sample"
-        ax.plot(values, residual, ".", ms=2, color="0.5", label="residual")
         shift = _effect_shift(report, name)
-        if shift is not None:
-            # an open move's refit drawn here is the free curve's
-            term = best.curve_term if best.move == "open" else best.term
-            if best.move == "remove":
-                change = f"without {best.term}"
-            elif best.replaces:
-                change = f"with - {term} in place of {' + '.join(best.replaces)}"
-            else:
-                change = f"with - {term}"
-            ax.plot(values, shift, ".", ms=1.5, color="C3",
-                    label=f"change of the model refitted {change}")
+        # an open move's refit drawn here is the free curve's
+        term = None if best is None else best.curve_term if best.move == "open" else best.term
+        acting = None
+        if shift is not None and best.move != "remove":
+            acting = _term_values(report, name, term)
+        if acting is not None:
+            # the new term alone, against what it has to explain: the residual with the
+            # refit's changes to the other terms (a gain, a damping) taken off
+            ax.plot(values, residual - shift + acting, ".", ms=2, color="0.5",
+                    label="residual, the other terms as refitted")
+            where = f" in place of {' + '.join(best.replaces)}" if best.replaces else ""
+            ax.plot(values, acting, ".", ms=1.5, color="C3",
+                    label=f"- {term}{where}, as refitted")
+        else:
+            ax.plot(values, residual, ".", ms=2, color="0.5", label="residual")
+            if shift is not None:
+                ax.plot(values, shift, ".", ms=1.5, color="C3",
+                        label=f"change of the model refitted without {best.term}")
         ax.axhline(0.0, color="k", lw=0.6)
         ax.legend(fontsize="small", markerscale=4, loc="best")
         unit = getattr(report, "units", {}).get(variable)
@@ -246,6 +252,31 @@ def _residual_figure(plt, report):
         fig.suptitle(f"Residuals and the suggested effect ({best.effect})")
     fig.tight_layout()
     return fig
+
+
+def _term_values(report, equation: str, term: str):
+    """``- term`` of the suggestion's refit on the diagnosis's rows (None if it cannot say)."""
+    from .skeleton.compiler import compile_expression
+    from .skeleton.parser import parse_expression
+
+    refit = next((c.refit for c in report.candidates
+                  if c.effect.name == report.best.effect and c.roles.derivative == equation
+                  and c.variable == report.best.variable and c.move == report.best.move
+                  and c.refit is not None), None)
+    if refit is None or report.record is None or not term:
+        return None
+    columns = report.record.columns
+    names = list(columns)
+    try:
+        node = parse_expression(term)
+        with np.errstate(all="ignore"):
+            value = compile_expression(node, {n: i for i, n in enumerate(names)},
+                                       refit.params_, refit.functions_)(
+                [columns[n] for n in names])
+    except (KeyError, ValueError, TypeError):
+        return None
+    value = np.broadcast_to(np.asarray(value, dtype=float), (report.record.n_samples,))
+    return -value if np.isfinite(value).all() else None
 
 
 def _effect_shift(report, equation: str):
@@ -319,7 +350,8 @@ def plot_comparison(table: pd.DataFrame):
         of each skeleton, on data its fit did not see.
     """
     plt = _pyplot()
-    measures = [c for c in ("derivative_rmse", "derivative_nrmse", "simulation_rmse")
+    measures = [c for c in ("derivative_rmse", "derivative_nrmse", "simulation_rmse",
+                            "simulation_nrmse")
                 if c in table.columns and np.isfinite(table[c].to_numpy(dtype=float)).any()]
 
     def present(column):
@@ -334,7 +366,8 @@ def plot_comparison(table: pd.DataFrame):
     labels = [str(i) for i in table.index]
     positions = np.arange(len(labels))
     ax = axes[0, 0]
-    markers = {"derivative_rmse": "o", "derivative_nrmse": "o", "simulation_rmse": "s"}
+    markers = {"derivative_rmse": "o", "derivative_nrmse": "o", "simulation_rmse": "s",
+               "simulation_nrmse": "s"}
     for k, column in enumerate(measures):
         values = table[column].to_numpy(dtype=float)
         shown = np.where(np.isfinite(values) & (values > 0), values, np.nan)
@@ -353,7 +386,9 @@ def plot_comparison(table: pd.DataFrame):
             ax.annotate(f"{int(n_params)} fitted\nnumbers", (x, finite.max()),
                         xytext=(0, 8), textcoords="offset points", ha="center",
                         va="bottom", fontsize="x-small", color="0.3")
-    ax.set_ylabel("error on the whole record (log scale)")
+    normalised = bool(measures) and all(c.endswith("nrmse") for c in measures)
+    ax.set_ylabel("normalised error, on the whole record (log scale)" if normalised
+                  else "error on the whole record (log scale)")
     ax.set_title("In sample")
     ax.legend(fontsize="small", loc="lower left")
     if held:
@@ -386,13 +421,17 @@ def plot_loop(loop):
     Returns
     -------
     matplotlib.figure.Figure
-        Each round's simulation RMSE and largest derivative NRMSE, points
-        joined by lines on a log axis (see :func:`plot_comparison`).
+        Each round's largest derivative NRMSE and largest simulation NRMSE of
+        a measured state, both without units, points joined by lines on a
+        log axis (see :func:`plot_comparison`).
     """
     table = loop.table()
+    states = [c for c in table.columns if c.endswith("_nrmse") and c != "derivative_nrmse"]
+    simulated = (table[states].max(axis=1).to_numpy(dtype=float) if states
+                 else np.full(len(table), np.nan))
     frame = pd.DataFrame({
         "derivative_nrmse": table["derivative_nrmse"].to_numpy(),
-        "simulation_rmse": table["simulation_rmse"].to_numpy(),
+        "simulation_nrmse": simulated,
         "n_params": table["n_parameters"].to_numpy()},
         index=[f"round {r.index}" + ("" if r.index == 0 else
                                      f": {_move_label(loop.rounds[r.index - 1].added)}")

@@ -82,8 +82,8 @@ def test_the_diagnosis_figures_say_what_they_show(loop):
     assert [ax.get_ylabel() for ax in trajectories.axes] == ["x1", "x2"]
     residual = figures["residual"]
     assert "suggested effect (cubic_stiffness)" in residual._suptitle.get_text()
-    assert legend_texts(residual.axes[0]) == ["residual",
-                                              "change of the model refitted with - a3*x1^3"]
+    assert legend_texts(residual.axes[0]) == ["residual, the other terms as refitted",
+                                              "- a3*x1^3, as refitted"]
     assert residual.axes[0].get_xlabel() == "x1"
     residual_map = figures["map"]
     ax = residual_map.axes[0]

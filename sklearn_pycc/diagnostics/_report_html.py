@@ -75,8 +75,9 @@ def loop_page(loop, title: str = "Hypothesis loop") -> str:
         body.append("<p>The loop has not run yet.</p>")
         return page(title, "\n".join(body))
     body.append("<h2>The error, round by round</h2>")
-    body.append(figure_html(plot_loop(loop), "Simulation RMSE and the largest derivative "
-                                             "NRMSE of each round's model."))
+    body.append(figure_html(plot_loop(loop), "The largest simulation and derivative NRMSE "
+                                             "of each round's model (no units: each error "
+                                             "over its state's spread)."))
     body.append(table_html(loop.table()))
     body.append(preformatted(loop.summary()))
     for r in loop.rounds:
