@@ -159,8 +159,14 @@ def _trajectory_figure(plt, report):
 
     frame = report.simulation
     states = report.model.skeleton_.states
-    fig, axes = plt.subplots(len(states), 1, figsize=(9, 2.4 * len(states) + 0.8),
-                             sharex=True, squeeze=False)
+    zoom = _zoom_span(report) if len(frame) > LONG_RECORD else None
+    if zoom is None:
+        fig, axes = plt.subplots(len(states), 1, figsize=(9, 2.4 * len(states) + 0.8),
+                                 sharex=True, squeeze=False)
+    else:  # a long record: the overview, and the worst stretch beside it where lines read
+        fig, axes = plt.subplots(len(states), 2, figsize=(12, 2.4 * len(states) + 0.8),
+                                 sharex="col", squeeze=False,
+                                 gridspec_kw={"width_ratios": [2, 1]})
     groups = (list(frame.groupby("trajectory", sort=False)) if "trajectory" in frame.columns
               else [(None, frame)])
     horizon = report.horizon
@@ -183,9 +189,23 @@ def _trajectory_figure(plt, report):
                            alpha=0.15, lw=0)
         unit = getattr(report, "units", {}).get(state)
         ax.set_ylabel(f"{state} [{unit}]" if unit else state)
+    if zoom is not None:
+        start, end = zoom
+        inside = (frame["t"] >= start) & (frame["t"] <= end)
+        part = frame[inside]
+        for row, state in enumerate(states):
+            axes[row, 0].axvspan(start, end, color="C0", alpha=0.25, lw=0)
+            ax = axes[row, 1]
+            ax.plot(part["t"], part[state], color="0.35", lw=1.0)
+            ax.plot(part["t"], part[f"{state}_sim"], color="C3", lw=1.0, ls="--")
+            for t in restarts:
+                if start <= t <= end:
+                    ax.axvline(t, color="0.6", lw=0.6, ls=":")
+        axes[0, 1].set_title(f"zoom: t {start:.4g} to {end:.4g} (shaded on the left)",
+                             fontsize="small")
     handles = [Line2D([], [], color="0.35", lw=1.0, label="measured"),
                Line2D([], [], color="C3", lw=1.0, ls="--", label="simulated")]
-    if show_restarts:
+    if show_restarts or (zoom is not None and restarts):
         handles.append(Line2D([], [], color="0.6", lw=0.6, ls=":",
                               label=f"restart from the measured state (every {horizon.time:.3g})"))
     if show_windows:
@@ -193,7 +213,8 @@ def _trajectory_figure(plt, report):
         if (report.windows.note != "").any():
             handles.append(Patch(color="C3", alpha=0.3, label="divergence"))
     time_unit = getattr(report, "units", {}).get("t")
-    axes[-1, 0].set_xlabel(f"t [{time_unit}]" if time_unit else "t")
+    for ax in axes[-1]:
+        ax.set_xlabel(f"t [{time_unit}]" if time_unit else "t")
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize="small",
                frameon=False)
     title = "Measured and simulated states"
@@ -204,6 +225,30 @@ def _trajectory_figure(plt, report):
     fig.suptitle(title)
     fig.tight_layout(rect=(0, 0.07, 1, 1))
     return fig
+
+
+#: records longer than this many samples get a zoom beside their overview
+LONG_RECORD = 5_000
+#: a zoom shows this many windows of the horizon, within these many samples
+ZOOM_WINDOWS, ZOOM_SAMPLES = 8, (100, 600)
+
+
+def _zoom_span(report) -> tuple[float, float] | None:
+    """The stretch of a long record to show closely: where the errors are largest."""
+    t = report.simulation["t"].to_numpy()
+    if t.size < 2:
+        return None
+    step = float(np.median(np.diff(t)))
+    windows = report.windows[report.windows.note == ""] if not report.windows.empty \
+        else report.windows
+    horizon = report.horizon
+    samples = ZOOM_SAMPLES[1] if horizon is None or not horizon.samples else int(
+        np.clip(ZOOM_WINDOWS * horizon.samples, *ZOOM_SAMPLES))
+    half = samples * step / 2
+    centre = (float(windows.start.iloc[0] + windows.end.iloc[0]) / 2 if not windows.empty
+              else float(t[0]) + half)
+    start = max(float(t[0]), centre - half)
+    return start, min(float(t[-1]), start + 2 * half)
 
 
 def _residual_figure(plt, report):

@@ -12,7 +12,7 @@ import pytest
 from matplotlib.colors import TwoSlopeNorm
 from matplotlib.patches import Rectangle
 
-from sklearn_pycc import HypothesisLoop, PolyCCRegressor, compare_skeletons, datasets
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, compare_skeletons, datasets, diagnose
 from sklearn_pycc.plotting import plot_comparison, plot_loop
 
 
@@ -188,3 +188,22 @@ def test_the_report_renders_in_headless_chromium_without_a_network(loop, tmp_pat
          "--dump-dom", path.as_uri()], check=True, capture_output=True, timeout=120,
         text=True).stdout
     assert dom.count("<img") == 1 + 3 * len(loop.rounds) and "<math" in dom
+
+
+def test_a_long_record_is_drawn_with_a_zoom_beside_its_overview():
+    from sklearn_pycc.plotting import LONG_RECORD
+
+    frame = datasets.make_resonator(n_samples=LONG_RECORD + 1000, random_state=0)
+    X = frame[["t", "x1", "u"]]
+    model = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = a1 u - a2 x2 - a3 x1"]).fit(X)
+    figures = diagnose(model, X, n_bootstrap=0, held_out=False).plot()
+    try:
+        axes = figures["trajectories"].axes
+        assert len(axes) == 4  # x1 and x2: overview and zoom
+        zoom = axes[1]
+        start, end = zoom.get_xlim()
+        samples = (end - start) / float(np.median(np.diff(X["t"])))
+        assert 100 <= samples <= 700 and zoom.get_title().startswith("zoom: t ")
+    finally:
+        for fig in figures.values():
+            plt.close(fig)
