@@ -258,9 +258,12 @@ def _residual_figure(plt, report):
     best = report.best
     for ax, name in zip(axes[0], equations):
         part = report.explained[report.explained.equation == name]
+        known = report.variable_values.get(name, {})
+        if best is None:  # nothing to explain: the axis a physicist reads, a state or an input
+            plain = set(report.model.skeleton_.variables)
+            part = part[part.variable.isin(plain)]
         variable = part.variable.iloc[0] if not part.empty else None
         residual = report.residuals[name].to_numpy()
-        known = report.variable_values.get(name, {})
         if best is not None and best.equation == name and best.variable in known:
             variable = best.variable
         values = known.get(variable)
