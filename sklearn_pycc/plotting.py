@@ -392,15 +392,18 @@ def plot_comparison(table: pd.DataFrame):
     Returns
     -------
     matplotlib.figure.Figure
-        Left: the derivative and simulation RMSE of each skeleton, points
-        joined by lines on a log axis, each marked with how many numbers
-        were fitted. Right (when the table has one): the held-out score
-        of each skeleton, on data its fit did not see.
+        Left: the derivative and simulation NRMSE of each skeleton (RMSE
+        when the table has no NRMSE), points joined by lines on a log axis,
+        each marked with how many numbers were fitted. Right (when the
+        table has one): the held-out score of each skeleton, on data its
+        fit did not see.
     """
     plt = _pyplot()
     measures = [c for c in ("derivative_rmse", "derivative_nrmse", "simulation_rmse",
                             "simulation_nrmse")
                 if c in table.columns and np.isfinite(table[c].to_numpy(dtype=float)).any()]
+    if any(c.endswith("nrmse") for c in measures):  # errors without units share one axis
+        measures = [c for c in measures if c.endswith("nrmse")]
 
     def present(column):
         return column in table.columns and np.isfinite(

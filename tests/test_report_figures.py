@@ -53,7 +53,8 @@ def test_the_error_falls_as_points_on_a_log_axis_with_the_held_out_error_beside(
         assert len(ax.get_lines()) == 2 and all(len(line.get_xdata()) == 2
                                                  for line in ax.get_lines())
         assert [t.get_text() for t in ax.get_xticklabels()] == ["linear", "+cubic"]
-    assert legend_texts(in_sample) == ["derivative RMSE", "simulation RMSE"]
+    assert legend_texts(in_sample) == ["derivative NRMSE", "simulation NRMSE"]
+    assert in_sample.get_ylabel().startswith("normalised error")
     assert legend_texts(held_out) == ["derivatives", "simulation"]
     assert held_out.get_title() == "Held out: 3 folds of 4 interleaved blocks in time"
     notes = [t.get_text() for t in in_sample.texts]

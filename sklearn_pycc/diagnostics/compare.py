@@ -105,7 +105,10 @@ def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
         ``derivative_rmse`` (over the non-kinematic equations),
         ``simulation_rmse`` (over the states; inf when the simulation
         diverges), ``n_params`` (numbers fitted), ``bic`` (Bayesian
-        information criterion of the derivative residual), the held-out
+        information criterion of the derivative residual),
+        ``derivative_nrmse`` and ``simulation_nrmse`` (the largest of an
+        equation's or a measured state's RMSE over its spread: no units, so
+        they share the figure's axis), the held-out
         errors (when ``held_out``), ``cv_score`` (when ``cv`` is given) and
         ``fit_time`` in seconds. ``table.attrs["horizon"]`` says what
         horizon the simulations ran over, ``table.attrs["held_out"]`` how
@@ -176,10 +179,15 @@ def _row(skeleton, base, *, X, y, record, cv, simulate: bool, horizon, held_out:
     rss = np.maximum(np.sum(residual[:, active] ** 2, axis=0),
                      rss_floor(data.derivatives)[active])
     bic = float(np.sum(n * np.log(rss / n)) + model.n_parameters_ * math.log(n))
+    spread = np.std(data.derivatives[:, active], axis=0)
+    spread[spread == 0] = 1.0
     row = {"equations": "; ".join(model.skeleton_.equations),
            "derivative_rmse": rmse(np.zeros_like(residual[:, active]), residual[:, active]),
            "simulation_rmse": math.nan, "n_params": int(model.n_parameters_),
-           "bic": bic}
+           "bic": bic,
+           "derivative_nrmse": float(np.max(np.sqrt(np.mean(residual[:, active] ** 2, axis=0))
+                                            / spread)),
+           "simulation_nrmse": math.nan}
     window, held_out_text = None, None
     if simulate and data.has_time:
         window = horizon if isinstance(horizon, Horizon) else horizon_of(model, data, horizon)
@@ -187,10 +195,14 @@ def _row(skeleton, base, *, X, y, record, cv, simulate: bool, horizon, held_out:
                                                      max_steps=50 * n + 10_000)
         states = np.column_stack([data.columns[s] for s in model.skeleton_.states])
         row["simulation_rmse"] = math.inf if divergences else rmse(states, simulated)
+        worst = 0.0
         for j, state in enumerate(model.skeleton_.states):  # each measured state alone
             if state in X.columns:
                 row[f"{state}_simulation_rmse"] = math.inf if divergences else rmse(
                     states[:, j], simulated[:, j])
+                scale = float(np.std(states[:, j])) or 1.0
+                worst = max(worst, row[f"{state}_simulation_rmse"] / scale)
+        row["simulation_nrmse"] = worst if worst > 0 else math.nan
     if held_out:
         held_out_text, errors = _held_out_errors(model, data, active,
                                                  window if simulate else None,
