@@ -40,3 +40,16 @@ def test_a_backend_is_one_method_and_the_base_does_the_rest():
 def test_fitted_attributes_must_end_in_an_underscore():
     with pytest.raises(ValueError, match="end in '_'"):
         FitResult({}, {}, {"slope": 1.0})
+
+
+def test_a_backend_takes_exactly_its_settings():
+    from sklearn_pycc import PolyCCRegressor
+    from sklearn_pycc.estimators.poly import PolyBackend
+
+    backend = PolyCCRegressor(degree=3)._make_backend()
+    assert isinstance(backend, PolyBackend) and backend.degree == 3
+    assert repr(backend).startswith("PolyBackend(degree=3, basis='legendre'")
+    with pytest.raises(TypeError, match=r"missing \['basis'"):
+        PolyBackend(degree=3)
+    with pytest.raises(TypeError, match=r"unknown \['n_jobs'\]"):
+        PolyBackend(**PolyCCRegressor()._backend_settings(PolyBackend), n_jobs=2)

@@ -21,7 +21,6 @@ by the presence of a method: :attr:`Backend.output_error` (it implements
 from __future__ import annotations
 
 import copy
-import inspect
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from typing import ClassVar
@@ -39,6 +38,9 @@ class Backend(ABC):
 
     A backend holds its settings (already validated by the estimator that
     built it) and nothing it learns: :meth:`fit` returns what it found.
+    Its settings are the names in :attr:`settings`, each given by keyword
+    and kept as an attribute of that name; an estimator passes its
+    hyperparameters of those names (``PolyBackend(degree=7, basis=...)``).
 
     Attributes
     ----------
@@ -46,6 +48,9 @@ class Backend(ABC):
         Where the backend's randomness comes from (refits on resamples give
         each copy its own seed, see :meth:`reseeded`).
     """
+
+    #: the names of its settings, every one required
+    settings: ClassVar[tuple[str, ...]] = ()
 
     #: it implements :meth:`refine` (fit_mode="simulation")
     output_error: ClassVar[bool] = False
@@ -59,6 +64,17 @@ class Backend(ABC):
     bands_beyond_data: ClassVar[bool] = True
 
     random_state = None
+
+    def __init__(self, **settings) -> None:
+        missing = [name for name in self.settings if name not in settings]
+        unknown = [name for name in settings if name not in self.settings]
+        if missing or unknown:
+            problems = ([f"missing {missing}"] if missing else []) + (
+                [f"unknown {unknown}"] if unknown else [])
+            raise TypeError(f"{type(self).__name__} takes the settings {list(self.settings)}: "
+                            + "; ".join(problems))
+        for name in self.settings:
+            setattr(self, name, settings[name])
 
     @abstractmethod
     def fit(self, problem: Problem) -> FitResult:
@@ -119,9 +135,7 @@ class Backend(ABC):
         return result
 
     def __repr__(self) -> str:
-        accepted = inspect.signature(type(self).__init__).parameters
-        shown = [f"{name}={getattr(self, name)!r}" for name in accepted
-                 if name != "self" and hasattr(self, name)]
+        shown = [f"{name}={getattr(self, name)!r}" for name in self.settings]
         return f"{type(self).__name__}({', '.join(shown)})"
 
     def reseeded(self, seed: int) -> Backend:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import copy
-import inspect
 import warnings
 from abc import ABCMeta, abstractmethod
 from collections.abc import Mapping
@@ -236,10 +235,9 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         """The backend these hyperparameters describe (checked already by ``fit``)."""
 
     def _backend_settings(self, backend: type[Backend]) -> dict:
-        """The hyperparameters that ``backend``'s constructor takes, by name."""
-        accepted = inspect.signature(backend.__init__).parameters
+        """The hyperparameters that are ``backend``'s settings, by name."""
         params = self.get_params(deep=False)
-        return {name: params[name] for name in accepted if name in params}
+        return {name: params[name] for name in backend.settings}
 
     # -- scikit-learn plumbing -------------------------------------------------
     def __sklearn_tags__(self):

@@ -181,16 +181,13 @@ class TableBackend(Backend):
     ----------
     inner : Backend
         The backend that fits the curves first.
-    n_points : int, default=200
+    n_points : int
         Points of each table.
-    method : {"pchip", "akima", "cubic", "linear"}, default="pchip"
+    method : {"pchip", "akima", "cubic", "linear"}
         How a table is interpolated (see :class:`InterpolatedCurve`).
     """
 
-    def __init__(self, *, inner: Backend, n_points: int = 200, method: str = "pchip") -> None:
-        self.inner = inner
-        self.n_points = n_points
-        self.method = method
+    settings = ("inner", "n_points", "method")
 
     def reseeded(self, seed: int) -> TableBackend:
         """A copy whose inner backend draws its randomness from ``seed``."""
@@ -310,9 +307,9 @@ class InterpolatedCCRegressor(CCRegressor):
 
     def _make_backend(self) -> TableBackend:
         if self.estimator is None:
-            from .poly import PolyBackend
+            from .poly import PolyCCRegressor
 
-            inner = PolyBackend()
+            inner = backend_of(PolyCCRegressor())
         else:
             inner = backend_of(self.estimator)
         return TableBackend(inner=inner, n_points=self.n_points, method=self.method)

@@ -30,20 +30,16 @@ class LeastSquaresBackend(Backend):
 
     Parameters
     ----------
-    degree : int, default=3
+    degree : int
         Degree of every curve's power series.
-    param_init : dict, optional
+    param_init : dict or None
         Starting values of parameters (the others start from 1, moved
         within their bounds).
-    max_nfev : int, default=2000
+    max_nfev : int
         Most residual evaluations.
     """
 
-    def __init__(self, *, degree: int = 3, param_init: Mapping | None = None,
-                 max_nfev: int = 2000) -> None:
-        self.degree = degree
-        self.param_init = param_init
-        self.max_nfev = max_nfev
+    settings = ("degree", "param_init", "max_nfev")
 
     def fit(self, problem: Problem) -> FitResult:
         """One least-squares problem over every coefficient and free parameter."""

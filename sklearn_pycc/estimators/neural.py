@@ -74,38 +74,11 @@ class NeuralBackend(Backend):
     #: curvature pairs L-BFGS keeps (torch's default)
     lbfgs_history = 100
 
-    def __init__(self, *, hidden_layer_sizes=(16, 16), activation: str = "tanh",
-                 optimizer="lbfgs", lr: float | None = None, max_epochs: int = 100,
-                 batch_size: int | None = None, early_stopping: bool = True,
-                 patience: int = 5, tol: float = 1e-4, curve_tol: float = 1e-3,
-                 validation_fraction: float | None = None, constraint_mode: str = "exact",
-                 constraint_weight: float = 1.0, param_init: Mapping | None = None,
-                 extrapolation: str = "linear", dtype: str = "float32", device: str = "cpu",
-                 n_threads: int | None = 1, callbacks: Sequence | None = None,
-                 shooting_start_epochs: int | None = 10, random_state=None,
-                 verbose: int = 0) -> None:
-        self.hidden_layer_sizes = hidden_layer_sizes
-        self.activation = activation
-        self.optimizer = optimizer
-        self.lr = lr
-        self.max_epochs = max_epochs
-        self.batch_size = batch_size
-        self.early_stopping = early_stopping
-        self.patience = patience
-        self.tol = tol
-        self.curve_tol = curve_tol
-        self.validation_fraction = validation_fraction
-        self.constraint_mode = constraint_mode
-        self.constraint_weight = constraint_weight
-        self.param_init = param_init
-        self.extrapolation = extrapolation
-        self.dtype = dtype
-        self.device = device
-        self.n_threads = n_threads
-        self.callbacks = callbacks
-        self.shooting_start_epochs = shooting_start_epochs
-        self.random_state = random_state
-        self.verbose = verbose
+    settings = ("hidden_layer_sizes", "activation", "optimizer", "lr", "max_epochs",
+                "batch_size", "early_stopping", "patience", "tol", "curve_tol",
+                "validation_fraction", "constraint_mode", "constraint_weight", "param_init",
+                "extrapolation", "dtype", "device", "n_threads", "callbacks",
+                "shooting_start_epochs", "random_state", "verbose")
 
     # -- hyperparameter checks -----------------------------------------------------
     def _hidden(self) -> tuple[int, ...]:

@@ -158,16 +158,8 @@ class PolyBackend(Backend):
     #: the refits' least squares run in LAPACK, which releases the GIL
     resample_in = "threads"
 
-    def __init__(self, *, degree=7, basis: str = "legendre", alpha: float = 0.0,
-                 extrapolation: str = "polynomial", param_init: Mapping | None = None,
-                 random_state=None, gauge: str = "auto") -> None:
-        self.degree = degree
-        self.basis = basis
-        self.alpha = alpha
-        self.extrapolation = extrapolation
-        self.param_init = param_init
-        self.random_state = random_state
-        self.gauge = gauge
+    settings = ("degree", "basis", "alpha", "extrapolation", "param_init", "random_state",
+                "gauge")
 
     def _degrees(self, functions: list[str]) -> dict[str, int]:
         def check(value, name) -> int:

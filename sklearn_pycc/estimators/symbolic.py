@@ -26,7 +26,7 @@ from ._symbolic_engines import (
     make_engine,
 )
 from .backend import Backend
-from .base import RANDOM_STATES, RESAMPLING, CCRegressor
+from .base import RANDOM_STATES, RESAMPLING, CCRegressor, backend_of
 
 __all__ = ["SymbolicBackend", "SymbolicCCRegressor", "polish", "refit_params"]
 
@@ -276,16 +276,15 @@ class SymbolicBackend(Backend):
     the operators are checked here, against the engine's tables.
     """
 
-    def __init__(self, *, engine: str = "operon",
-                 binary_operators: Sequence[str] = ("+", "-", "*"),
-                 unary_operators: Sequence[str] = ("tanh", "sin", "cos"),
-                 maxsize: int = 20, population_size: int = 500, generations: int = 50,
-                 max_iterations: int = 4, tol: float = 1e-3, n_fit_points: int = 200,
-                 model_selection: str = "best", start_degree: int | None = 7,
-                 engine_options: Mapping | None = None, param_init: Mapping | None = None,
-                 random_state=None) -> None:
-        for name, operators, table in (("binary_operators", binary_operators, BINARY_OPERATORS),
-                                       ("unary_operators", unary_operators, UNARY_OPERATORS)):
+    settings = ("engine", "binary_operators", "unary_operators", "maxsize", "population_size",
+                "generations", "max_iterations", "tol", "n_fit_points", "model_selection",
+                "start_degree", "engine_options", "param_init", "random_state")
+
+    def __init__(self, **settings) -> None:
+        super().__init__(**settings)
+        for name, table in (("binary_operators", BINARY_OPERATORS),
+                            ("unary_operators", UNARY_OPERATORS)):
+            operators = getattr(self, name)
             if isinstance(operators, str):
                 raise ValueError(f"{name} must be a list of operators, not the string "
                                  f"{operators!r}")
@@ -293,20 +292,6 @@ class SymbolicBackend(Backend):
                 if op not in table:
                     raise ValueError(f"{name}[{k}] is {op!r}, which is not one of "
                                      f"{sorted(table)}")
-        self.engine = engine
-        self.binary_operators = binary_operators
-        self.unary_operators = unary_operators
-        self.maxsize = maxsize
-        self.population_size = population_size
-        self.generations = generations
-        self.max_iterations = max_iterations
-        self.tol = tol
-        self.n_fit_points = n_fit_points
-        self.model_selection = model_selection
-        self.start_degree = start_degree
-        self.engine_options = engine_options
-        self.param_init = param_init
-        self.random_state = random_state
 
     # -- fitting -----------------------------------------------------------------
     def _start(self, problem: Problem) -> tuple[dict, dict]:
@@ -318,9 +303,9 @@ class SymbolicBackend(Backend):
         functions = {f: ZeroCurve() for f in problem.skeleton.functions}
         if self.start_degree is None:
             return functions, params
-        from .poly import PolyBackend
+        from .poly import PolyCCRegressor
 
-        poly = PolyBackend(degree=self.start_degree, param_init=self.param_init)
+        poly = backend_of(PolyCCRegressor(degree=self.start_degree, param_init=self.param_init))
         try:  # the polynomial backend, on the same problem
             start = poly.fit(problem)
         except SkeletonError:  # a curve enters nonlinearly: start from zero curves
