@@ -8,6 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from .skeleton.compiler import compile_expression
+from .skeleton.parser import parse_expression
+
 __all__ = ["plot_comparison", "plot_curves", "plot_diagnosis", "plot_loop"]
 
 
@@ -304,9 +307,6 @@ def _residual_figure(plt, report):
 
 def _term_values(report, equation: str, term: str):
     """``- term`` of the suggestion's refit on the diagnosis's rows (None if it cannot say)."""
-    from .skeleton.compiler import compile_expression
-    from .skeleton.parser import parse_expression
-
     refit = next((c.refit for c in report.candidates
                   if c.effect.name == report.best.effect and c.roles.derivative == equation
                   and c.variable == report.best.variable and c.move == report.best.move

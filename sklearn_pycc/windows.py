@@ -23,8 +23,8 @@ import numpy as np
 from .exceptions import SimulationError
 from .simulation import InputSignals
 
-__all__ = ["Horizon", "Stop", "Windows", "choose_horizon", "jacobian_eigenvalues", "simulate_rows",
-           "simulate_windows"]
+__all__ = ["Divergence", "Horizon", "Windows", "choose_horizon", "jacobian_eigenvalues",
+           "simulate_rows", "simulate_windows"]
 
 #: the fourth-order Runge-Kutta scheme is stable for h * |lambda| below about 2.8
 RK4_STABLE = 2.5
@@ -380,20 +380,25 @@ def simulate_windows(system, states: Sequence[str], inputs: Sequence[str], uses_
 
 
 @dataclass(frozen=True)
-class Stop:
-    """A simulation of an experiment that did not reach its end, or whose windows escaped."""
+class Divergence:
+    """A simulation that stopped before the end of its experiment (or whose windows escaped)."""
 
-    label: object
+    trajectory: object
     t_reached: float
     t_end: float
     reason: str
+
+    def __str__(self) -> str:
+        where = "" if self.trajectory is None else f" (trajectory {self.trajectory!r})"
+        return (f"the simulation stopped at t={self.t_reached:.4g} of {self.t_end:.4g}"
+                f"{where}: {self.reason}")
 
 
 def simulate_rows(model, columns: Mapping[str, np.ndarray], signals: Mapping[str, np.ndarray],
                   experiments: Sequence[tuple[object, np.ndarray, np.ndarray]],
                   horizon: Horizon, n_samples: int, *, max_steps: int, rtol: float = 1e-6,
                   atol: float = 1e-8,
-                  capture_warnings: bool = True) -> tuple[np.ndarray, list[Stop], list[str]]:
+                  capture_warnings: bool = True) -> tuple[np.ndarray, list[Divergence], list[str]]:
     """A fitted model simulated against a record, on every row.
 
     The one loop behind the simulation scorer and the diagnosis: whole
@@ -424,7 +429,7 @@ def simulate_rows(model, columns: Mapping[str, np.ndarray], signals: Mapping[str
     -------
     simulated : ndarray of shape (n_samples, n_states)
         NaN after a divergence.
-    stops : list of Stop
+    stops : list of Divergence
         Experiments whose simulation stopped early or whose windows escaped.
     warned : list of str
         Warnings the whole-experiment simulations raised, once each.
@@ -438,7 +443,7 @@ def simulate_rows(model, columns: Mapping[str, np.ndarray], signals: Mapping[str
         simulated, escaped = simulate_windows(
             system, states, inputs, "t" in skeleton.variables, columns, drive,
             [(rows, t) for _, rows, t in experiments], horizon, n_samples)
-        stops = [Stop(experiments[e][0], start, end,
+        stops = [Divergence(experiments[e][0], start, end,
                       f"{count} of {total} windows of the horizon left the states' range")
                  for e, (start, end, count, total) in escaped.items()]
         return simulated, stops, []
@@ -458,7 +463,7 @@ def simulate_rows(model, columns: Mapping[str, np.ndarray], signals: Mapping[str
                                        rtol=rtol, atol=atol, max_steps=max_steps)
             except SimulationError as exc:
                 frame = exc.partial
-                stops.append(Stop(label, float(exc.t_reached), float(t[-1]),
+                stops.append(Divergence(label, float(exc.t_reached), float(t[-1]),
                                   str(exc.args[0]) if exc.args else str(exc)))
         for item in caught:
             if str(item.message) not in warned:

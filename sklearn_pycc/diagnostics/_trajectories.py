@@ -11,29 +11,12 @@ the record, :func:`horizon_of`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from ..windows import Horizon, choose_horizon, simulate_rows
+from ..windows import Divergence, Horizon, choose_horizon, simulate_rows
 from ._data import TIME, Measurements
 
 __all__ = ["Divergence", "Horizon", "horizon_of", "simulate_against"]
-
-
-@dataclass(frozen=True)
-class Divergence:
-    """A simulation that stopped before the end of its experiment."""
-
-    trajectory: object
-    t_reached: float
-    t_end: float
-    reason: str
-
-    def __str__(self) -> str:
-        where = "" if self.trajectory is None else f" (trajectory {self.trajectory!r})"
-        return (f"the simulation stopped at t={self.t_reached:.4g} of {self.t_end:.4g}"
-                f"{where}: {self.reason}")
 
 
 def _columns(model, data: Measurements) -> dict[str, np.ndarray]:
@@ -76,7 +59,5 @@ def simulate_against(model, data: Measurements, horizon: Horizon, *, max_steps: 
     columns = {**{s: data.columns[s] for s in skeleton.states},
                **{name: data.columns[name] for name in inputs}, TIME: data.columns[TIME]}
     experiments = [(label, rows, data.columns[TIME][rows]) for label, rows in data.groups]
-    simulated, stops, warned = simulate_rows(model, columns, data.signals, experiments, horizon,
-                                             data.n_samples, max_steps=max_steps)
-    divergences = [Divergence(s.label, s.t_reached, s.t_end, s.reason) for s in stops]
-    return simulated, divergences, warned
+    return simulate_rows(model, columns, data.signals, experiments, horizon, data.n_samples,
+                         max_steps=max_steps)

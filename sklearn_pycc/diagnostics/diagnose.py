@@ -15,6 +15,9 @@ from .._random import check_seed_source
 from ..exceptions import SkeletonError
 from ..measurements.measurement import unwrap
 from ..skeleton import Bound, Skeleton
+from ..skeleton.nodes import BinOp, Param, walk
+from ..skeleton.parser import parse_expression
+from ..skeleton.printer import to_text
 from ._candidates import (
     Candidate,
     enumerate_candidates,
@@ -1135,13 +1138,13 @@ def _as_fitted(best: Suggestion) -> str:
 
     Empty when the term is not one parameter times the rest.
     """
-    head, _, rest = best.term.partition("*")
-    value = best.param_init.get(head)
-    if not rest or value is None or not head.startswith("a") or not head[1:].isdigit() \
-            or any(f"a{k}" in rest for k in range(10)):
+    node = parse_expression(best.term)
+    if not (isinstance(node, BinOp) and node.op == "*" and isinstance(node.left, Param)) \
+            or node.left.name not in best.param_init \
+            or any(isinstance(n, Param) for n in walk(node.right)):
         return ""
-    acting = -float(value)
-    return f"{'+' if acting >= 0 else '-'} {abs(acting):.4g}*{rest}"
+    acting = -float(best.param_init[node.left.name])
+    return f"{'+' if acting >= 0 else '-'} {abs(acting):.4g}*{to_text(node.right)}"
 
 
 def _adopted(formula: Candidate | None) -> bool:

@@ -13,7 +13,7 @@ from sklearn.utils.validation import check_is_fitted
 from ..measurements import read_record
 from ..measurements.differentiation import DIFFERENTIATION_METHODS, Differentiator
 from ..measurements.experiments import TIME
-from ..measurements.measurement import Measurement
+from ..measurements.measurement import unwrap
 from ..windows import Horizon, choose_horizon, simulate_rows
 
 __all__ = ["SimulationScorer", "make_simulation_scorer"]
@@ -56,7 +56,7 @@ class SimulationScorer:
         check_is_fitted(estimator, "skeleton_")
         skeleton = estimator.skeleton_
         source = X  # a Measurement keeps the derivatives it has estimated
-        given = X.X if isinstance(X, Measurement) else X
+        given, _, _ = unwrap(X, who="the simulation scorer")
         if not isinstance(given, pd.DataFrame):
             raise TypeError("the simulation scorer needs X as a DataFrame with a 't' column "
                             f"and the measured states, got {type(X).__name__}")
