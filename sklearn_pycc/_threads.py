@@ -15,6 +15,7 @@ overlap).
 
 from __future__ import annotations
 
+import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -47,10 +48,18 @@ class _SharedLimit:
                     restore()
 
 
+#: the BLAS libraries found, and how many modules were imported when they were looked for:
+#: finding them reads the process's memory map (milliseconds, more than a small fit's
+#: solve), and only an import can load a new one
+_controller: list = [None, -1]
+
+
 def _limit_blas(n: int) -> Callable[[], None]:
     from threadpoolctl import ThreadpoolController
 
-    limiter = ThreadpoolController().limit(limits=n, user_api="blas")
+    if _controller[1] != len(sys.modules):
+        _controller[:] = [ThreadpoolController(), len(sys.modules)]
+    limiter = _controller[0].limit(limits=n, user_api="blas")
     return limiter.restore_original_limits
 
 

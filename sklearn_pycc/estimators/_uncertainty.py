@@ -159,37 +159,55 @@ def _triangle_sum(block: np.ndarray, lag: int) -> np.ndarray:
 class Sandwich:
     """The parts of a sandwich covariance known at the estimate; the long-run part on demand.
 
-    The bread ``(J^T J)^-1`` and the per-sample scores are cheap by-products
-    of the fit; the Newey-West estimate of the scores' long-run covariance
-    is the expensive part and is worked out by :meth:`covariance` when a
-    standard error or a band is first asked for.
+    The bread ``(J^T J)^-1`` is a cheap by-product of the fit; the per-sample
+    scores and the Newey-West estimate of their long-run covariance are the
+    expensive part, worked out by :meth:`covariance` when a standard error or
+    a band is first asked for (``J`` and ``r`` are kept until then).
     """
 
-    def __init__(self, scores: np.ndarray, bread: np.ndarray, N: np.ndarray | None,
-                 dof: float, groups: np.ndarray | None) -> None:
-        self.scores, self.bread, self.N, self.dof, self.groups = scores, bread, N, dof, groups
+    def __init__(self, J: np.ndarray | None, r: np.ndarray | None, n_samples: int,
+                 bread: np.ndarray, N: np.ndarray | None, groups: np.ndarray | None) -> None:
+        self.J, self.r, self.n_samples = J, r, n_samples
+        self.bread, self.N, self.groups = bread, N, groups
+
+    def scores(self) -> np.ndarray:
+        """Per-sample scores, summed over equations, in the free directions."""
+        J, r, n = self.J, self.r, self.n_samples
+        k, p = J.shape[0] // n, J.shape[1]
+        if k > 1:  # (sample, equation, column) views of J and r, whatever their memory order
+            if J.flags.f_contiguous:
+                weighted = np.einsum("tkp,tk->tp", J.reshape((n, k, p), order="F"),
+                                     r.reshape((n, k), order="F"))
+            else:
+                weighted = np.einsum("ktp,kt->tp", J.reshape(k, n, p), r.reshape(k, n))
+        else:
+            weighted = J * r[:, None]
+        return weighted if self.N is None else weighted @ self.N
 
     def covariance(self) -> tuple[np.ndarray, int]:
         """``(cov, lag)``: the covariance of the estimate and the Newey-West lag used."""
-        if self.scores is None:  # the constraints fix every direction
+        if self.J is None:  # the constraints fix every direction
             p = self.bread.shape[0]
             return np.zeros((p, p)), 0
-        meat, lag = long_run_covariance(self.scores, self.groups)
-        cov = self.dof * self.bread @ meat @ self.bread
+        scores = self.scores()
+        meat, lag = long_run_covariance(scores, self.groups)
+        dof = self.n_samples / max(self.n_samples - scores.shape[1], 1)
+        cov = dof * self.bread @ meat @ self.bread
         if self.N is not None:
             cov = self.N @ cov @ self.N.T
         return 0.5 * (cov + cov.T), lag
 
 
 def sandwich(J: np.ndarray, r: np.ndarray, n_samples: int, groups: np.ndarray | None = None,
-             constraints: np.ndarray | None = None) -> Sandwich:
+             constraints: np.ndarray | None = None, gram: np.ndarray | None = None) -> Sandwich:
     """The parts of the covariance of the least-squares estimate behind ``J`` and ``r``.
 
     Parameters
     ----------
     J : ndarray of shape (k * n_samples, p)
         Jacobian of the (weighted) residuals at the estimate, rows stacked
-        by equation: ``k`` blocks of ``n_samples`` rows in time order.
+        by equation: ``k`` blocks of ``n_samples`` rows in time order. Kept,
+        not copied: it must not change until the covariance is worked out.
     r : ndarray of shape (k * n_samples,)
         The residuals there.
     n_samples : int
@@ -199,31 +217,22 @@ def sandwich(J: np.ndarray, r: np.ndarray, n_samples: int, groups: np.ndarray | 
     constraints : ndarray of shape (m, p), optional
         Rows ``c`` with ``c . x`` held fixed by the fit (point values, active
         bounds): the estimate moves only in their null space.
+    gram : ndarray of shape (p, p), optional
+        ``J^T J`` when the fit has it already.
     """
     J = np.asarray(J, dtype=float)
     r = np.asarray(r, dtype=float)
     p = J.shape[1]
-    k = J.shape[0] // n_samples
     unconstrained = constraints is None or not len(constraints)
     N = None if unconstrained else null_space(constraints)
     if N is not None and N.shape[1] == 0:
-        return Sandwich(None, np.zeros((p, p)), None, 1.0, groups)
-    # per-sample scores, summed over equations, in the free directions
-    if k > 1:  # (sample, equation, column) views of J and r, whatever their memory order
-        if J.flags.f_contiguous:
-            blocks = J.reshape((n_samples, k, p), order="F")
-            values = r.reshape((n_samples, k), order="F")
-            weighted = np.einsum("tkp,tk->tp", blocks, values)
-        else:
-            weighted = np.einsum("ktp,kt->tp", J.reshape(k, n_samples, p),
-                                 r.reshape(k, n_samples))
-    else:
-        weighted = J * r[:, None]
-    scores = weighted if N is None else weighted @ N
-    gram = J.T @ J if N is None else N.T @ (J.T @ J) @ N
+        return Sandwich(None, None, n_samples, np.zeros((p, p)), None, groups)
+    if gram is None:
+        gram = J.T @ J
+    if N is not None:
+        gram = N.T @ gram @ N
     bread = np.linalg.pinv(gram, rcond=1e-12, hermitian=True)
-    dof = n_samples / max(n_samples - scores.shape[1], 1)
-    return Sandwich(scores, bread, N, dof, groups)
+    return Sandwich(J, r, n_samples, bread, N, groups)
 
 
 def sandwich_covariance(J: np.ndarray, r: np.ndarray, n_samples: int,

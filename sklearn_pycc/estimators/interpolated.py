@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import warnings
 from bisect import bisect_right
+from collections.abc import Mapping
 from numbers import Integral
 
 import numpy as np
@@ -25,6 +26,7 @@ from ._basis import ZeroCurve
 from ._setup import gauge_skeleton
 from .backend import Backend, FitResult, Problem
 from .base import CCRegressor, backend_of
+from .poly import PolyCCRegressor
 
 __all__ = ["INTERPOLATIONS", "InterpolatedCCRegressor", "InterpolatedCurve", "TableBackend",
            "sample_curve", "tabulate"]
@@ -195,19 +197,23 @@ class TableBackend(Backend):
         twin.inner = self.inner.reseeded(seed)
         return twin
 
+    def tabulated(self, functions: Mapping, ranges: Mapping[str, tuple[float, float]]) -> dict:
+        """``functions`` with each curve that has a range tabulated over it."""
+        return {name: (tabulate(curve, *ranges[name], self.n_points, self.method, name)
+                       if name in ranges else curve)
+                for name, curve in functions.items()}
+
     def fit(self, problem: Problem) -> FitResult:
         """The inner backend's fit, each curve tabulated where the data put its argument."""
         result = self.inner.fit(problem)
         params = {**problem.fixed_params, **result.params}
-        functions = dict(result.functions)
+        ranges = {}
         for name in problem.free_functions:
-            values = problem.argument_values(name, params, functions)
+            values = problem.argument_values(name, params, result.functions)
             values = values[np.isfinite(values)]
             if values.size:
-                functions[name] = tabulate(functions[name], float(values.min()),
-                                           float(values.max()), self.n_points, self.method,
-                                           name)
-        return FitResult(functions, dict(result.params))
+                ranges[name] = (float(values.min()), float(values.max()))
+        return FitResult(self.tabulated(result.functions, ranges), dict(result.params))
 
 
 class InterpolatedCCRegressor(CCRegressor):
@@ -279,24 +285,15 @@ class InterpolatedCCRegressor(CCRegressor):
             The fitted estimator.
         """
         self._reset_fitted()
-        n_points = check_n_points(self.n_points)
-        check_method(self.method)
-        if self.estimator is None:
-            from .poly import PolyCCRegressor
-
-            fitted = PolyCCRegressor()
-        else:
-            fitted = clone(self.estimator)
+        fitted = PolyCCRegressor() if self.estimator is None else clone(self.estimator)
         fitted.set_params(equations=self.__dict__.get("equations"),
                            constraints=self.constraints, gauge=self.gauge,
                            differentiation=self.differentiation,
                            smooth_states=self.smooth_states,
                            equation_weights=self.equation_weights)
         fitted.fit(X, y)
-        tables = {}
-        for name, curve in fitted.functions_.items():
-            lo, hi = fitted.curve_ranges_[name]
-            tables[name] = tabulate(curve, lo, hi, n_points, self.method, name)
+        backend = self._make_backend()
+        tables = backend.tabulated(fitted.functions_, fitted.curve_ranges_)
         with warnings.catch_warnings():  # the fitted's fit has said it already
             warnings.simplefilter("ignore", GaugeWarning)
             _, fixed, _, _ = gauge_skeleton(fitted.skeleton_, fitted.gauge)
@@ -306,12 +303,7 @@ class InterpolatedCCRegressor(CCRegressor):
         return self
 
     def _make_backend(self) -> TableBackend:
-        if self.estimator is None:
-            from .poly import PolyCCRegressor
-
-            inner = backend_of(PolyCCRegressor())
-        else:
-            inner = backend_of(self.estimator)
+        inner = backend_of(PolyCCRegressor() if self.estimator is None else self.estimator)
         return TableBackend(inner=inner, n_points=self.n_points, method=self.method)
 
     @property

@@ -16,7 +16,7 @@ from .._threads import blas_threads
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
 from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
 from ._linear import curve_arguments, linearize, split_parameters
-from ._lstsq import bounded_lstsq, constrained_lstsq
+from ._lstsq import LstsqResult, bounded_lstsq, constrained_lstsq
 from ._setup import FitResult, Problem, residual_scale
 from ._shooting import ShootingPlan, fit_shooting
 from ._uncertainty import DeferredCovariance, sandwich
@@ -224,7 +224,7 @@ class PolyBackend(Backend):
             # the system itself is kept for the covariance: the solve then leaves A as it is
             overwrite = keep is None
             if keep is not None:
-                keep += [A, b, C]
+                keep += [A, C]
             G, h = design.inequalities(layout, bases)
             if G is None:
                 result = constrained_lstsq(A, b, C, d, self.alpha, overwrite_a=overwrite)
@@ -239,7 +239,7 @@ class PolyBackend(Backend):
             system: list = []
             result, layout, bases, values = solve(theta, keep=system)
             self._report_rank(result, layout)
-            covariance = (_covariance(problem, design, nonlinear, theta, fixed, result.x,
+            covariance = (_covariance(problem, design, nonlinear, theta, fixed, result,
                                       layout, bases, system)
                           if problem.covariance else None)
         params = {a: v for a, v in values.items() if a in nonlinear}
@@ -607,7 +607,7 @@ class PolyCCRegressor(CCRegressor):
         return PolyBackend(**self._backend_settings(PolyBackend))
 
 def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: np.ndarray,
-                fixed: Mapping[str, float], x: np.ndarray, layout, bases,
+                fixed: Mapping[str, float], result: LstsqResult, layout, bases,
                 system: list) -> DeferredCovariance:
     """Covariance of the free parameters and of each curve's power-series coefficients.
 
@@ -618,8 +618,8 @@ def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: 
     weighted equation residuals: the linear unknowns' columns are the
     design's, the nonlinear parameters' are central differences. Point
     values, active inequality rows and nonlinear parameters at a bound hold
-    the estimate; it moves only where they let it. ``system`` is ``[A, b, C]``
-    at the estimate. Indexed ``a1, ...`` and
+    the estimate; it moves only where they let it. ``result`` is the solve at
+    the estimate and ``system`` its ``[A, C]``. Indexed ``a1, ...`` and
     ``f1[k]``: the coefficient of ``u^k`` with ``u = (x - center) / half``
     of the fitted :class:`PolyCurve`.
     """
@@ -627,8 +627,8 @@ def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: 
         A, b, *_ = design.assemble({**fixed, **dict(zip(nonlinear, values_theta))})
         return A, b
 
-    A, b, C = system  # the design at the estimate
-    r = A @ x + b
+    A, C = system  # the design at the estimate
+    x, r = result.x, result.residual
     columns = []
     for j, value in enumerate(theta):
         h = 1e-6 * max(1.0, abs(value))
@@ -650,7 +650,8 @@ def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: 
         if np.isclose(theta[j], low) or np.isclose(theta[j], high):
             rows.append(np.eye(J.shape[1])[j])
     n = problem.data.n_samples
-    parts = sandwich(J, r, n, problem.data.trajectory, np.array(rows) if rows else None)
+    parts = sandwich(J, r, n, problem.data.trajectory, np.array(rows) if rows else None,
+                     gram=None if columns else result.gram)
     # from basis coefficients to the fitted curves' power series
     names, blocks = list(nonlinear), [np.eye(m)]
     for name, size in layout:
