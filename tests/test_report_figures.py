@@ -128,8 +128,15 @@ def test_the_html_report_holds_everything_and_fetches_nothing(loop, tmp_path):
     tables = root.findall(".//table")
     assert len(tables) == 1 + len(loop.rounds)  # the loop's table, each round's ranking
     header = [th.text for th in tables[1].iter("th")]
-    for column in ("effect", "score", "stability", "plausible", "suggested_term"):
+    for column in ("effect", "move", "score", "stability", "plausible", "suggested_term"):
         assert column in header
+    # each heading says the round's decision once, with its verb
+    headings = [h.text for h in root.iter("h2") if h.text.startswith("Round")]
+    assert headings == ["Round 0: cubic_stiffness: add '- a3*x1^3' to x2_dot",
+                        "Round 1: stop: nothing is missing"]
+    captions = [c.text for c in root.iter("figcaption")]
+    assert sum("with the suggested term's fit" in c for c in captions) == 1
+    assert sum("nothing is suggested" in c for c in captions) == 1
     maths = root.findall(".//math")
     final = loop.refinement is not None and loop.refinement.adopted
     assert len(maths) == sum(len(r.model.skeleton_.residual_equations) for r in loop.rounds) \

@@ -11,17 +11,21 @@ from .._html import equations_html, figure_html, page, preformatted, table_html
 __all__ = ["RANKING_NOTE", "diagnosis_html", "loop_page"]
 
 #: the ranking's columns a reader needs, in reading order
-RANKING_SHOWN = ["effect", "equation", "variable", "score", "error_removed",
+RANKING_SHOWN = ["effect", "move", "equation", "variable", "score", "error_removed",
                  "held_out_change", "stability", "plausible", "suggested_term"]
 #: what the ranking's numbers mean
 RANKING_NOTE = (
     "score: minus the change of the Bayesian information criterion of the derivative "
     "residual when the effect is refitted into the model (for an effect only screened, "
     "of its fit to the residual alone); higher is better, and refitted plausible effects "
-    "come first. error_removed: share of the residual the refit removes. held_out_change: "
+    "come first. move: the term added beside the model's, or replacing one of them. "
+    "error_removed: share of the residual the refit removes. held_out_change: "
     "relative change of the error on data the fit did not see (negative helps). "
     "stability: share of resamples of the record in which the effect wins. plausible: "
     "whether the fitted term plays its physical role (blank: only screened).")
+#: the residual figure's caption when the diagnosis suggests nothing
+NOTHING_MISSING_CAPTION = ("The derivative residual against a state or input of the skeleton: "
+                           "nothing is suggested, so no term is drawn over it.")
 #: captions of a diagnosis's figures
 CAPTIONS = {
     "trajectories": "Measured and simulated states (each window restarted from the "
@@ -53,7 +57,10 @@ def diagnosis_html(report, heading: int = 3, figures: bool = True) -> str:
         parts.append(f'<p class="pycc-note">{html.escape(RANKING_NOTE)}</p>')
     if figures:
         for name, fig in report.plot().items():
-            parts.append(figure_html(fig, CAPTIONS.get(name, "")))
+            caption = CAPTIONS.get(name, "")
+            if name == "residual" and report.best is None:
+                caption = NOTHING_MISSING_CAPTION
+            parts.append(figure_html(fig, caption))
     return "\n".join(parts)
 
 
