@@ -343,6 +343,7 @@ def _effect_shift(report, equation: str):
 def _map_figure(plt, report):
     from matplotlib.colors import TwoSlopeNorm
     from matplotlib.patches import Patch
+    from matplotlib.ticker import MaxNLocator
 
     maps = list(report.maps.values())
     fig, axes = plt.subplots(1, len(maps), figsize=(5.2 * len(maps), 4.2), squeeze=False)
@@ -362,6 +363,8 @@ def _map_figure(plt, report):
         ax.set_xlabel(f"{m.x} [{units[m.x]}]" if units.get(m.x) else m.x)
         ax.set_ylabel(f"{m.y} [{units[m.y]}]" if units.get(m.y) else m.y)
         ax.set_title(m.equation)
+        # a map is narrow: few ticks, so that long labels (-0.075, in metres) stay apart
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=5))
         if not finite.all():
             ax.legend(handles=[Patch(facecolor="0.85", hatch="///", edgecolor="0.55",
                                      label="no samples")], loc="upper center",

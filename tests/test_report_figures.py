@@ -2,6 +2,7 @@
 
 import base64
 import io
+import itertools
 import re
 import xml.etree.ElementTree as ET
 
@@ -215,3 +216,29 @@ def test_a_long_record_is_drawn_with_a_zoom_beside_its_overview():
     finally:
         for fig in figures.values():
             plt.close(fig)
+
+
+def test_the_residual_map_keeps_its_tick_labels_apart_on_a_narrow_range():
+    from types import SimpleNamespace
+
+    from sklearn_pycc.plotting import _map_figure
+
+    mean = np.random.default_rng(0).normal(size=(12, 15))
+    mean[0, :3] = np.nan
+    cells = SimpleNamespace(x_edges=np.linspace(-0.0875, 0.0875, 16),
+                            y_edges=np.linspace(-0.65, 0.65, 13), mean=mean,
+                            equation="x2_dot", x="x1", y="x2")
+    report = SimpleNamespace(maps={"x2_dot": cells}, units={"x1": "m"})
+    fig = _map_figure(plt, report)
+    try:
+        fig.canvas.draw()
+        ax = fig.axes[0]
+        renderer = fig.canvas.get_renderer()
+        boxes = [t.get_window_extent(renderer) for t in ax.get_xticklabels()
+                 if t.get_text() and ax.get_xlim()[0] <= t.get_position()[0] <= ax.get_xlim()[1]]
+        assert len(boxes) >= 3
+        for left, right in itertools.pairwise(boxes):
+            assert left.x1 < right.x0  # no label runs into the next
+        assert ax.get_xlabel() == "x1 [m]"
+    finally:
+        plt.close(fig)
