@@ -31,7 +31,7 @@ from ..skeleton.nodes import (
 from ..skeleton.parser import parse_expression
 from ..skeleton.printer import to_text
 from . import effects as catalogue
-from ._data import TIME, Measurements, thin
+from ._data import TIME, DiagnosisData, thin
 from ._physics import implausible_terms
 from ._roles import EquationRoles
 
@@ -367,7 +367,7 @@ def _prefix(states) -> str:
     return prefix
 
 
-def _term_values(model, data: Measurements, equations) -> dict[int, list]:
+def _term_values(model, data: DiagnosisData, equations) -> dict[int, list]:
     """Per equation, ``(term text, fitted values)`` of its terms with fitted numbers."""
     slots, env = _environment(data)
     out = {}
@@ -414,7 +414,7 @@ def extend(skeleton: Skeleton, candidate: Candidate) -> None:
     candidate.new_params = [a for a in extended.params if a not in skeleton.params]
 
 
-def removed_contribution(model, candidate: Candidate, data: Measurements) -> np.ndarray:
+def removed_contribution(model, candidate: Candidate, data: DiagnosisData) -> np.ndarray:
     """What the removed terms add to each equation's prediction, under ``model``'s fit."""
     out = np.zeros_like(data.derivatives)
     slots, env = _environment(data)
@@ -425,7 +425,7 @@ def removed_contribution(model, candidate: Candidate, data: Measurements) -> np.
     return out
 
 
-def screen_candidates(candidates: list[Candidate], data: Measurements, residuals: np.ndarray,
+def screen_candidates(candidates: list[Candidate], data: DiagnosisData, residuals: np.ndarray,
                       states: list[str], max_rows: int = 2000, model=None) -> None:
     """Fit each candidate's term(s) to the residual of its equation(s) alone.
 
@@ -511,12 +511,12 @@ def _delta_bic(before, after, floor, n_new: int, n: int) -> tuple[float, float]:
 
 
 # -- refit of the extended skeleton -------------------------------------------------
-def _environment(data: Measurements) -> tuple[dict[str, int], list[np.ndarray]]:
+def _environment(data: DiagnosisData) -> tuple[dict[str, int], list[np.ndarray]]:
     names = list(data.columns)
     return {name: i for i, name in enumerate(names)}, [data.columns[n] for n in names]
 
 
-def refit_candidate(model, candidate: Candidate, data: Measurements, residuals: np.ndarray,
+def refit_candidate(model, candidate: Candidate, data: DiagnosisData, residuals: np.ndarray,
                     rss_before: np.ndarray, baseline: frozenset = frozenset()) -> None:
     """Fit the extended skeleton with a clone of ``model``; judge the added term.
 
@@ -576,7 +576,7 @@ def refit_candidate(model, candidate: Candidate, data: Measurements, residuals: 
     _judge(candidate, estimator, data, baseline)
 
 
-def _judge(candidate: Candidate, estimator, data: Measurements,
+def _judge(candidate: Candidate, estimator, data: DiagnosisData,
            baseline: frozenset = frozenset()) -> None:
     """Plausibility of the fitted term: energy balance and size."""
     if candidate.redundant:
@@ -639,14 +639,14 @@ def _time_rates(node: Node, params: dict[str, float]) -> list[float]:
 
 
 def _unresolved_oscillation(node: Node, params: dict[str, float],
-                            data: Measurements) -> str:
+                            data: DiagnosisData) -> str:
     """Why a fitted oscillation in time cannot be told from the record ("" when it can)."""
     rates = _time_rates(node, params)
     if not rates or not data.has_time:
         return ""
     t = data.columns[TIME]
-    spans = [float(np.ptp(t[rows])) for _, rows in data.groups if len(rows) > 1]
-    steps = [float(np.median(np.diff(t[rows]))) for _, rows in data.groups if len(rows) > 1]
+    spans = [float(np.ptp(t[rows])) for _, rows in data.experiments if len(rows) > 1]
+    steps = [float(np.median(np.diff(t[rows]))) for _, rows in data.experiments if len(rows) > 1]
     if not spans:
         return ""
     longest, step = max(spans), min(steps)

@@ -1,4 +1,4 @@
-"""Measurements lined up against a fitted model: columns, experiments, derivatives."""
+"""What a diagnosis compares a fitted model with, read from the record as ``fit`` reads it."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from ..measurements import read_record
 from ..measurements.experiments import TIME
 from ..measurements.measurement import Measurement
 
-__all__ = ["Measurements", "check_units", "read_measurements", "thin"]
+__all__ = ["DiagnosisData", "check_units", "read_measurements", "thin"]
 
 #: equation-error refits inside a diagnosis read at most this many rows, evenly spread:
 #: neighbouring samples of a long record carry nearly the same information
@@ -28,8 +28,16 @@ def thin(rows: np.ndarray, limit: int = REFIT_ROWS) -> np.ndarray:
 
 
 @dataclass
-class Measurements:
+class DiagnosisData:
     """The data a diagnosis compares the model with.
+
+    Made by :func:`read_measurements` from the
+    :class:`~sklearn_pycc.measurements.record.Record` that ``fit`` reads too
+    (same columns, experiments and estimated derivatives), laid out for
+    the diagnosis: a frame to predict and refit on, and the rows of each
+    experiment even without a time column. Held-out folds are subsets of
+    it (:func:`~._held_out.subset`), where a fold's gaps split an
+    experiment in two.
 
     Attributes
     ----------
@@ -43,7 +51,7 @@ class Measurements:
         derivatives ``NAME_dot``.
     derivatives : ndarray of shape (n_samples, n_states)
         Measured (or estimated) derivatives, in equation order.
-    groups : list of (label, ndarray of int)
+    experiments : list of (label, ndarray of int)
         Row positions of each experiment, in the order of the data.
     has_time : bool
         Whether a time column is present (needed to simulate).
@@ -58,7 +66,7 @@ class Measurements:
     X: pd.DataFrame
     columns: dict[str, np.ndarray]
     derivatives: np.ndarray
-    groups: list[tuple[object, np.ndarray]]
+    experiments: list[tuple[object, np.ndarray]]
     has_time: bool
     estimated: str = ""
     signals: dict[str, np.ndarray] = field(default_factory=dict)
@@ -100,14 +108,14 @@ def check_units(units, X, skeleton) -> dict[str, str]:
 
 
 def read_measurements(skeleton, X, y, differentiation="auto",
-                      smooth: bool = True) -> Measurements:
+                      smooth: bool = True) -> DiagnosisData:
     """Check ``X`` and ``y`` against a skeleton and line them up.
 
     This is :func:`~sklearn_pycc.measurements.read_record`, the path ``fit``
     takes too: without ``y`` (and without ``NAME_dot`` columns in ``X``) the
     derivatives are estimated by ``differentiation`` per experiment, states
     missing from ``X`` but defined by kinematic equations are reconstructed,
-    and ``Measurements.X`` is a frame of what the model is judged on.
+    and ``DiagnosisData.X`` is a frame of what the model is judged on.
 
     Raises
     ------
@@ -129,11 +137,11 @@ def read_measurements(skeleton, X, y, differentiation="auto",
     if skeleton.uses_time and not has_time:
         raise ValueError("X lacks the time column 't', which the skeleton reads")
     if record.experiments is None:
-        groups = [(None, np.arange(record.n_samples))]
+        experiments = [(None, np.arange(record.n_samples))]
     else:
-        groups = [(e.label, e.rows) for e in record.experiments]
+        experiments = [(e.label, e.rows) for e in record.experiments]
     names = [*skeleton.states, *(n for n in skeleton.inputs if n != TIME), *skeleton.outputs]
     frame = record.frame(names)
     estimated = record.source if record.estimated else ""
-    return Measurements(frame, dict(record.columns), record.derivatives, groups, has_time,
+    return DiagnosisData(frame, dict(record.columns), record.derivatives, experiments, has_time,
                         estimated, record.signals)

@@ -19,7 +19,7 @@ import numpy as np
 from joblib import Parallel, delayed
 from sklearn.base import clone
 
-from ._data import Measurements, thin
+from ._data import DiagnosisData, thin
 from ._trajectories import Horizon, simulate_against
 
 __all__ = ["HeldOut", "held_out_check", "make_folds"]
@@ -94,7 +94,7 @@ class HeldOut:
                 f"{self.n_folds} folds: {verdict} by the {self.criterion} error")
 
 
-def make_folds(data: Measurements) -> tuple[str, list[np.ndarray]]:
+def make_folds(data: DiagnosisData) -> tuple[str, list[np.ndarray]]:
     """Row positions of each held-out fold, and the split in words.
 
     Several experiments are folds of their own (at most :data:`MAX_FOLDS`,
@@ -106,7 +106,7 @@ def make_folds(data: Measurements) -> tuple[str, list[np.ndarray]]:
     judged by extrapolation, while its chunks stay far longer than the
     noise's correlation. Simulation windows end with their chunk.
     """
-    groups = [rows for _, rows in data.groups if len(rows)]
+    groups = [rows for _, rows in data.experiments if len(rows)]
     if len(groups) >= 2:
         bins = np.array_split(np.arange(len(groups)), min(len(groups), MAX_FOLDS))
         folds = [np.concatenate([groups[i] for i in part]) for part in bins]
@@ -120,10 +120,10 @@ def make_folds(data: Measurements) -> tuple[str, list[np.ndarray]]:
     return f"{FOLDS} folds of {per_fold} interleaved blocks in time", folds
 
 
-def _labels(data: Measurements, held: np.ndarray) -> np.ndarray:
+def _labels(data: DiagnosisData, held: np.ndarray) -> np.ndarray:
     """Experiment labels that keep the training rows on either side of a held-out block apart."""
     base = np.empty(data.n_samples, dtype=object)
-    for label, rows in data.groups:
+    for label, rows in data.experiments:
         base[rows] = "" if label is None else str(label)
     gap = np.zeros(data.n_samples, dtype=int)
     gap[held] = 1
@@ -131,24 +131,24 @@ def _labels(data: Measurements, held: np.ndarray) -> np.ndarray:
     return np.array([f"{b}#{p}" for b, p in zip(base, piece)], dtype=object)
 
 
-def subset(data: Measurements, rows: np.ndarray) -> Measurements:
+def subset(data: DiagnosisData, rows: np.ndarray) -> DiagnosisData:
     """The measurements on ``rows`` (in order); each contiguous run is an experiment."""
     position = np.full(data.n_samples, -1)
     position[rows] = np.arange(len(rows))
-    groups = []
-    for label, members in data.groups:
+    experiments = []
+    for label, members in data.experiments:
         inside = position[members]
         inside = inside[inside >= 0]
         if inside.size:
             breaks = np.flatnonzero(np.diff(rows[inside]) != 1) + 1
-            groups.extend((label, run) for run in np.split(inside, breaks))
+            experiments.extend((label, run) for run in np.split(inside, breaks))
     X = data.X.iloc[rows].reset_index(drop=True)
-    return Measurements(X, {k: v[rows] for k, v in data.columns.items()},
-                        data.derivatives[rows], groups, data.has_time, data.estimated,
+    return DiagnosisData(X, {k: v[rows] for k, v in data.columns.items()},
+                        data.derivatives[rows], experiments, data.has_time, data.estimated,
                         {k: v[rows] for k, v in data.signals.items()})
 
 
-def _fit(estimator, data: Measurements, train: np.ndarray, labels: np.ndarray,
+def _fit(estimator, data: DiagnosisData, train: np.ndarray, labels: np.ndarray,
          output_error: bool):
     if not output_error:  # an equation fit needs no neighbours (an output-error one does)
         train = thin(train)
@@ -165,7 +165,7 @@ def _fit(estimator, data: Measurements, train: np.ndarray, labels: np.ndarray,
         return estimator.set_params(**settings).fit(X, data.derivatives[train])
 
 
-def _errors(model, test: Measurements, spreads, horizon: Horizon | None,
+def _errors(model, test: DiagnosisData, spreads, horizon: Horizon | None,
             steps: int, equations) -> dict[str, float]:
     """Normalised mean squared errors of ``model`` on the held-out rows."""
     out = {}
@@ -183,7 +183,7 @@ def _errors(model, test: Measurements, spreads, horizon: Horizon | None,
     return out
 
 
-def _fold_errors(base, extended, data: Measurements, held: np.ndarray, spreads,
+def _fold_errors(base, extended, data: DiagnosisData, held: np.ndarray, spreads,
                  horizon: Horizon | None, max_steps: int, equations, output_error: bool):
     """Held-out errors on one fold of ``base`` and ``extended``, each refitted without it.
 
@@ -205,7 +205,7 @@ def _fold_errors(base, extended, data: Measurements, held: np.ndarray, spreads,
     return tuple(out)
 
 
-def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
+def held_out_check(base, extended, data: DiagnosisData, horizon: Horizon | None,
                    equations: list[int], *, max_steps: int, output_error: bool = False,
                    cache: dict | None = None, rule: str = "gain",
                    n_jobs: int | None = None, gain: float = HELD_OUT_GAIN) -> HeldOut:
@@ -215,7 +215,7 @@ def held_out_check(base, extended, data: Measurements, horizon: Horizon | None,
     ----------
     base, extended : CCRegressor
         Fitted models without and with the effect (cloned, never modified).
-    data : Measurements
+    data : DiagnosisData
     horizon : Horizon or None
         The diagnosis's horizon; None to judge by the derivatives alone.
     equations : list of int

@@ -44,7 +44,7 @@ from ..skeleton.nodes import (
     walk,
 )
 from ..skeleton.printer import to_text
-from ._data import TIME, Measurements
+from ._data import TIME, DiagnosisData
 from ._roles import EquationRoles, equation_roles
 
 __all__ = ["Implausibility", "implausible_terms"]
@@ -123,7 +123,7 @@ def _inertia(eq, params) -> tuple[float, float] | None:
     return fitted, written
 
 
-def implausible_terms(model, data: Measurements,
+def implausible_terms(model, data: DiagnosisData,
                       skip: Collection[tuple[int, Node]] = ()) -> list[Implausibility]:
     """Terms of a fitted model that contradict their physical role on ``data``.
 
@@ -131,7 +131,7 @@ def implausible_terms(model, data: Measurements,
     ----------
     model : CCRegressor
         A fitted model.
-    data : Measurements
+    data : DiagnosisData
         The rows the terms are evaluated on.
     skip : collection of (int, Node)
         ``(equation index, term)`` pairs judged elsewhere (a candidate's
@@ -183,7 +183,7 @@ def implausible_terms(model, data: Measurements,
 
 
 def _check_equation(roles: EquationRoles, derivative: str, terms: list[_Term], skipped,
-                    size: float, data: Measurements, inputs: set[str], params,
+                    size: float, data: DiagnosisData, inputs: set[str], params,
                     slots) -> list[Implausibility]:
     out = []
     significant = SIGNIFICANT * size
@@ -211,7 +211,7 @@ def _check_equation(roles: EquationRoles, derivative: str, terms: list[_Term], s
     return out
 
 
-def _gain(term: _Term, params, slots, data: Measurements) -> str:
+def _gain(term: _Term, params, slots, data: DiagnosisData) -> str:
     if any(isinstance(n, Unknown) for n in walk(term.node)):
         return ""
     ones = {name: 1.0 for name in params}

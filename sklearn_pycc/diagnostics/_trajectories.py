@@ -14,12 +14,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..windows import Divergence, Horizon, choose_horizon, simulate_rows
-from ._data import TIME, Measurements
+from ._data import TIME, DiagnosisData
 
 __all__ = ["Divergence", "Horizon", "horizon_of", "simulate_against"]
 
 
-def _columns(model, data: Measurements) -> dict[str, np.ndarray]:
+def _columns(model, data: DiagnosisData) -> dict[str, np.ndarray]:
     skeleton = model.skeleton_
     names = [*skeleton.states, *(n for n in skeleton.inputs if n != TIME)]
     out = {name: data.columns[name] for name in names}
@@ -27,11 +27,11 @@ def _columns(model, data: Measurements) -> dict[str, np.ndarray]:
     return out
 
 
-def _experiments(data: Measurements) -> list[tuple[np.ndarray, np.ndarray]]:
-    return [(rows, data.columns[TIME][rows]) for _, rows in data.groups]
+def _experiments(data: DiagnosisData) -> list[tuple[np.ndarray, np.ndarray]]:
+    return [(rows, data.columns[TIME][rows]) for _, rows in data.experiments]
 
 
-def horizon_of(model, data: Measurements, horizon="auto") -> Horizon:
+def horizon_of(model, data: DiagnosisData, horizon="auto") -> Horizon:
     """The horizon of a comparison of ``model`` with ``data`` (see :func:`choose_horizon`)."""
     if horizon is None:
         return Horizon(None, None, "whole experiments")
@@ -40,7 +40,7 @@ def horizon_of(model, data: Measurements, horizon="auto") -> Horizon:
                           _experiments(data), horizon)
 
 
-def simulate_against(model, data: Measurements, horizon: Horizon, *, max_steps: int):
+def simulate_against(model, data: DiagnosisData, horizon: Horizon, *, max_steps: int):
     """Simulated states on every row: whole experiments, or windows of ``horizon``.
 
     The loop the simulation scorer runs too (:func:`~sklearn_pycc.windows.simulate_rows`).
@@ -58,6 +58,6 @@ def simulate_against(model, data: Measurements, horizon: Horizon, *, max_steps: 
     inputs = [n for n in skeleton.inputs if n != TIME]
     columns = {**{s: data.columns[s] for s in skeleton.states},
                **{name: data.columns[name] for name in inputs}, TIME: data.columns[TIME]}
-    experiments = [(label, rows, data.columns[TIME][rows]) for label, rows in data.groups]
+    experiments = [(label, rows, data.columns[TIME][rows]) for label, rows in data.experiments]
     return simulate_rows(model, columns, data.signals, experiments, horizon, data.n_samples,
                          max_steps=max_steps)

@@ -26,7 +26,7 @@ from ._candidates import (
     refit_candidate,
     screen_candidates,
 )
-from ._data import TIME, Measurements, check_units, read_measurements
+from ._data import TIME, DiagnosisData, check_units, read_measurements
 from ._failures import (
     ResidualMap,
     explaining_variables,
@@ -251,7 +251,7 @@ class Diagnosis:
     candidates : list of Candidate
         Every term or move tried, with its screens and refits (``ranking``
         is their table).
-    record : Measurements
+    record : DiagnosisData
         The record as the diagnosis read it: experiments, states (measured
         or reconstructed), inputs and derivatives, on the trusted samples.
     variable_values : dict
@@ -283,7 +283,7 @@ class Diagnosis:
     measured: list[str] = field(default_factory=list)
     open_curves: list[OpenCurve] = field(default_factory=list)
     candidates: list[Candidate] = field(default_factory=list, repr=False)
-    record: Measurements | None = field(default=None, repr=False)
+    record: DiagnosisData | None = field(default=None, repr=False)
     variable_values: dict = field(default_factory=dict, repr=False)
     _stability: Stability | None = field(default=None, repr=False)
     left_out: int = 0
@@ -298,7 +298,7 @@ class Diagnosis:
         lines = []
         model = self.model
         n = len(self.residuals)
-        experiments = 1 if self.record is None else len(self.record.groups)
+        experiments = 1 if self.record is None else len(self.record.experiments)
         ends = ""
         if self.left_out:
             ends = (f" ({self.left_out} more at the ends of the experiments left out: their "
@@ -818,13 +818,13 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
                      variables, stability, len(X) - data.n_samples)
 
 
-def _refitted(model, candidate: Candidate, data: Measurements, residuals: np.ndarray,
+def _refitted(model, candidate: Candidate, data: DiagnosisData, residuals: np.ndarray,
               rss_before: np.ndarray, baseline: frozenset) -> Candidate:
     refit_candidate(model, candidate, data, residuals, rss_before, baseline)
     return candidate
 
 
-def _refit_all(candidates: list[Candidate], model, data: Measurements, residuals: np.ndarray,
+def _refit_all(candidates: list[Candidate], model, data: DiagnosisData, residuals: np.ndarray,
                rss_before: np.ndarray, baseline: frozenset, n_jobs: int | None) -> None:
     """Refit ``candidates`` in place, in parallel when ``n_jobs`` asks for it.
 
@@ -870,7 +870,7 @@ def _leaders(screened: list[Candidate], n_refit: int) -> list[Candidate]:
     return out
 
 
-def _stability(ordered: list[Candidate], residuals: np.ndarray, data: Measurements,
+def _stability(ordered: list[Candidate], residuals: np.ndarray, data: DiagnosisData,
                min_improvement: float, bic_threshold: float, simulation_rmse: float,
                n_resamples: int, random_state) -> Stability | None:
     """The choice made again on resamples of the record (None without resamples)."""
@@ -882,7 +882,7 @@ def _stability(ordered: list[Candidate], residuals: np.ndarray, data: Measuremen
                   and (c.move != "open" or c.held_out is not None)]
     better = {c.key for c in contenders if _simulates_better(c, simulation_rmse)}
     return selection_stability(contenders, residuals, data.derivatives,
-                               [rows for _, rows in data.groups],
+                               [rows for _, rows in data.experiments],
                                (bic_threshold, min_improvement), TIE, better, n_resamples,
                                random_state)
 
@@ -892,7 +892,7 @@ def _simulates_better(c: Candidate, simulation_rmse: float) -> bool:
             and c.simulation_rmse <= SIMULATION_GAIN * simulation_rmse)
 
 
-def _map_of(roles: EquationRoles, residuals, data: Measurements, inputs) -> ResidualMap | None:
+def _map_of(roles: EquationRoles, residuals, data: DiagnosisData, inputs) -> ResidualMap | None:
     columns = data.columns
     if roles.second_order:
         x, y = roles.position, roles.velocity
@@ -906,7 +906,7 @@ def _map_of(roles: EquationRoles, residuals, data: Measurements, inputs) -> Resi
                         columns[y])
 
 
-def _simulate_leaders(refitted: list[Candidate], data: Measurements, measured: np.ndarray,
+def _simulate_leaders(refitted: list[Candidate], data: DiagnosisData, measured: np.ndarray,
                       horizon: Horizon, steps: int, base_divergences: list[Divergence],
                       count: int = 3) -> None:
     """Simulate the leading plausible refits; a new divergence makes a candidate implausible."""
@@ -1004,7 +1004,7 @@ def _eligible(ordered: list[Candidate], min_improvement: float, bic_threshold: f
     return out
 
 
-def _decide(eligible: list[Candidate], model, data: Measurements, horizon: Horizon | None,
+def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Horizon | None,
             equations: list[int], steps: int, n_jobs: int | None = None,
             cache: dict | None = None) -> Candidate | None:
     """The first eligible candidate that held-out data confirm, or None.
@@ -1042,7 +1042,7 @@ def _decide(eligible: list[Candidate], model, data: Measurements, horizon: Horiz
     return None
 
 
-def _decide_removal(removals: list[Candidate], model, data: Measurements,
+def _decide_removal(removals: list[Candidate], model, data: DiagnosisData,
                     horizon: Horizon | None, steps: int, held_out: bool,
                     n_jobs: int | None = None) -> Candidate | None:
     """The first superfluous term: its removal lowers the BIC and no held-out error.
@@ -1078,7 +1078,7 @@ OPEN_GAIN = 0.05
 N_OPEN = 2
 
 
-def _decide_open(eligible: list[Candidate], model, data: Measurements,
+def _decide_open(eligible: list[Candidate], model, data: DiagnosisData,
                  horizon: Horizon | None, equations: list[int], steps: int, held_out: bool,
                  n_jobs: int | None = None, cache: dict | None = None) -> Candidate | None:
     """The first free curve that lowers the held-out error clearly, or None."""
@@ -1096,7 +1096,7 @@ def _decide_open(eligible: list[Candidate], model, data: Measurements,
     return None
 
 
-def _formula(chosen: Candidate, skeleton: Skeleton, model, data: Measurements,
+def _formula(chosen: Candidate, skeleton: Skeleton, model, data: DiagnosisData,
              residuals: np.ndarray, rss_before: np.ndarray, baseline: frozenset,
              horizon: Horizon | None, equations: list[int], steps: int, held_out: bool,
              n_jobs: int | None, cache: dict | None = None) -> Candidate | None:
