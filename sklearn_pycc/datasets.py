@@ -58,6 +58,7 @@ from ._generation import (
     _check_t_span,
 )
 from ._lab_records import make_pendulum, make_positioning_axis, make_resonator
+from ._process_records import make_two_tanks
 from .skeleton import Skeleton
 
 __all__ = [
@@ -70,6 +71,7 @@ __all__ = [
     "make_resonator",
     "make_stick_slip",
     "make_two_dof",
+    "make_two_tanks",
     "make_van_der_pol",
 ]
 

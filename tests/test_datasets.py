@@ -549,3 +549,43 @@ def test_the_filmed_pendulum_is_what_a_camera_logs():
         datasets.make_pendulum(pixel=-1)
     with pytest.raises(ValueError, match="drop_fraction"):
         datasets.make_pendulum(drop_fraction=1.5)
+
+
+def test_two_tanks_log_the_lower_level_every_four_seconds_and_both_overflow():
+    frame, truth = datasets.make_two_tanks(random_state=0, return_truth=True)
+    assert list(frame.columns) == ["t", "u", "x2"] and len(frame) == 1024
+    np.testing.assert_allclose(np.diff(frame.t), 4.0)
+    assert frame.u.min() >= 3.0 and frame.u.max() <= 10.0
+    # both tanks overflow now and then, and spend most of the time below their rims
+    for state in ("x1", "x2"):
+        assert 0.01 < truth.overflowing[state] < 0.4
+        assert truth.states[state].max() == pytest.approx(truth.rims[state])
+    # 40 dB on the lower level: the noise is about a hundredth of its RMS
+    noise = frame.x2 - truth.states.x2
+    rms = float(np.sqrt(np.mean(truth.states.x2**2)))
+    assert 0.7e-2 < float(noise.std()) / rms < 1.3e-2
+    # the exact levels follow Torricelli's law away from the rims (the input is held)
+    a = truth.params
+    x1, x2 = truth.states.x1.to_numpy(), truth.states.x2.to_numpy()
+    below = (x1[:-1] < truth.rims["x1"] - 1e-9) & (x1[1:] < truth.rims["x1"] - 1e-9)
+    below &= (x2[:-1] < truth.rims["x2"] - 1e-9) & (x2[1:] < truth.rims["x2"] - 1e-9)
+    slope = np.diff(x2) / 4.0
+    mid = 0.5 * (x1[:-1] + x1[1:]), 0.5 * (x2[:-1] + x2[1:])
+    model = a["a3"] * np.sqrt(mid[0]) - a["a4"] * np.sqrt(mid[1])
+    assert np.median(np.abs(slope - model)[below]) < 0.02 * np.median(np.abs(model)[below]) + 1e-4
+    np.testing.assert_array_equal(truth.input(frame.t.to_numpy() + 2.0), frame.u)
+
+
+def test_two_tanks_settings_are_checked_and_seeded():
+    a = datasets.make_two_tanks(n_samples=50, random_state=3, measured=("x1", "x2"))
+    b = datasets.make_two_tanks(n_samples=50, random_state=3, measured=("x1", "x2"))
+    pd.testing.assert_frame_equal(a, b)
+    assert list(a.columns) == ["t", "u", "x1", "x2"]
+    with pytest.raises(ValueError, match="measured must name some of 'x1' and 'x2'"):
+        datasets.make_two_tanks(measured=("x3",))
+    with pytest.raises(ValueError, match="params names 'a5'"):
+        datasets.make_two_tanks(params={"a5": 1.0})
+    with pytest.raises(ValueError, match="y0 must be two non-negative levels"):
+        datasets.make_two_tanks(y0=(-1.0, 2.0))
+    with pytest.raises(ValueError, match="pump must be"):
+        datasets.make_two_tanks(pump=(5.0, 1.0))

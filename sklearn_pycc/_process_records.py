@@ -1,0 +1,201 @@
+"""Records of the kind a process plant logs: slow, sampled every few seconds, half unmeasured.
+
+A cascade of two tanks is the classic case. A pump fills the upper tank,
+which drains through an orifice into the lower one, which drains out;
+each level follows Torricelli's law, and each tank overflows at its rim.
+The plant logs the pump voltage and the lower level every few seconds; the
+upper level has no sensor.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+from sklearn.utils import Bunch
+
+from ._generation import _add_noise, _check_n_samples, _check_noise, _check_random_state
+from ._lab_records import _multisine, _positive
+
+__all__ = ["HeldInput", "make_two_tanks"]
+
+#: integration substeps per sample (the levels clip at the rims once per substep)
+_SUBSTEPS = 40
+
+
+class HeldInput:
+    """A signal held constant between samples (zero-order hold): picklable, vectorised.
+
+    Parameters
+    ----------
+    t : ndarray
+        The instants at which a new value is applied, increasing.
+    values : ndarray
+        The value applied from each instant until the next.
+    """
+
+    def __init__(self, t: np.ndarray, values: np.ndarray) -> None:
+        self.t = np.asarray(t, dtype=float)
+        self.values = np.asarray(values, dtype=float)
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        k = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 1)
+        out = self.values[k]
+        return out if out.ndim else float(out)
+
+
+def _levels(u: np.ndarray, h: float, y0, a: tuple, rims) -> np.ndarray:
+    """Both levels at the samples: RK4 substeps, each level held within [0, its rim]."""
+    a1, a2, a3, a4 = (float(v) for v in a)
+    top1, top2 = float(rims[0]), float(rims[1])
+    dt = h / _SUBSTEPS
+    sqrt = math.sqrt
+
+    def slope(x1: float, x2: float, v: float) -> tuple[float, float]:
+        r1 = sqrt(x1) if x1 > 0 else 0.0
+        r2 = sqrt(x2) if x2 > 0 else 0.0
+        return a1 * v - a2 * r1, a3 * r1 - a4 * r2
+
+    out = np.empty((len(u), 2))
+    x1, x2 = float(y0[0]), float(y0[1])
+    for k, v in enumerate(np.asarray(u, dtype=float).tolist()):
+        out[k] = x1, x2
+        for _ in range(_SUBSTEPS):
+            p1, q1 = slope(x1, x2, v)
+            p2, q2 = slope(x1 + 0.5 * dt * p1, x2 + 0.5 * dt * q1, v)
+            p3, q3 = slope(x1 + 0.5 * dt * p2, x2 + 0.5 * dt * q2, v)
+            p4, q4 = slope(x1 + dt * p3, x2 + dt * q3, v)
+            # beyond the rim the water spills: the level stays at it
+            x1 = min(max(x1 + dt / 6.0 * (p1 + 2 * p2 + 2 * p3 + p4), 0.0), top1)
+            x2 = min(max(x2 + dt / 6.0 * (q1 + 2 * q2 + 2 * q3 + q4), 0.0), top2)
+    return out
+
+
+def make_two_tanks(
+    n_samples: int = 1024,
+    sample_time: float = 4.0,
+    *,
+    noise: float | None = 40.0,
+    measured=("x2",),
+    y0=None,
+    params=None,
+    rims: tuple[float, float] = (12.0, 13.0),
+    pump: tuple[float, float] = (3.0, 10.0),
+    periods: tuple[float, float] = (60.0, 1200.0),
+    random_state=None,
+    return_truth: bool = False,
+):
+    """A cascade of two tanks logged every few seconds, the upper level unmeasured.
+
+    Torricelli's law for each tank, with the pump voltage ``u`` in::
+
+        x1_dot = a1 u - a2 sqrt(x1)          (upper level, cm)
+        x2_dot = a3 sqrt(x1) - a4 sqrt(x2)   (lower level, cm)
+
+    Each tank overflows at its rim (``rims``, in cm): the level stays there
+    while more flows in than out, the rest spills away. The pump voltage is a
+    random-phase multisine of periods within ``periods`` (seconds), clipped
+    to ``pump`` and held between samples (zero-order hold, as a controller
+    writes it). The time constants are minutes, against a sample every
+    ``sample_time`` seconds. Only the columns ``measured`` are logged, with
+    white noise at ``noise`` dB; the initial levels are drawn at random.
+
+    Parameters
+    ----------
+    n_samples : int, default=1024
+        Samples logged.
+    sample_time : float, default=4.0
+        Seconds between samples.
+    noise : float or None, default=40.0
+        Signal-to-noise ratio in dB of the level sensors; None for none.
+    measured : sequence of str, default=("x2",)
+        The levels logged, among ``x1`` and ``x2``.
+    y0 : tuple of float, optional
+        Initial levels in cm; by default drawn uniformly in [2, 10].
+    params : dict, optional
+        ``a1`` to ``a4``; by default ``a1 = 0.02`` (cm/s per volt), ``a2 =
+        0.04``, ``a3 = 0.05``, ``a4 = 0.045`` (cm^0.5/s): the lower tank has
+        0.8 times the upper one's cross-section.
+    rims : tuple of float, default=(12, 13)
+        Heights at which the upper and the lower tank overflow, in cm.
+    pump : tuple of float, default=(3, 10)
+        Least and largest pump voltage.
+    periods : tuple of float, default=(60, 1200)
+        Shortest and longest period of the multisine, in seconds.
+    random_state : int, Generator or None
+        Seeds the input, the initial levels and the noise.
+    return_truth : bool, default=False
+        Also return a Bunch with the skeleton, its parameters, the rims,
+        the input (a :class:`HeldInput`) and the exact levels.
+
+    Returns
+    -------
+    frame : DataFrame
+        ``t``, ``u`` and the ``measured`` levels.
+    truth : Bunch
+        Only with ``return_truth``: ``equations``, ``params``, ``rims``,
+        ``input``, ``states`` (both levels, exact), ``y0`` and
+        ``overflowing`` (the share of samples at which each tank is at its rim).
+
+    Raises
+    ------
+    ValueError
+        For a setting out of its range, named.
+
+    Examples
+    --------
+    >>> from sklearn_pycc import datasets
+    >>> frame = datasets.make_two_tanks(random_state=0)
+    >>> list(frame.columns), len(frame), float(frame.t[1] - frame.t[0])
+    (['t', 'u', 'x2'], 1024, 4.0)
+    """
+    n = _check_n_samples(n_samples)
+    h = _positive("sample_time", sample_time)
+    noise = _check_noise(noise)
+    measured = list(measured)
+    odd = [name for name in measured if name not in ("x1", "x2")]
+    if odd or not measured or len(set(measured)) != len(measured):
+        raise ValueError(f"measured must name some of 'x1' and 'x2' once each, got {measured!r}")
+    values = {"a1": 0.02, "a2": 0.04, "a3": 0.05, "a4": 0.045}
+    if params is not None:
+        unknown = [name for name in params if name not in values]
+        if unknown:
+            raise ValueError(f"params names {unknown[0]!r}; the tanks have a1, a2, a3 and a4")
+        values.update({name: _positive(name, value) for name, value in params.items()})
+    rim = np.array([_positive("rims[0]", rims[0]), _positive("rims[1]", rims[1])])
+    low, high = float(pump[0]), float(pump[1])
+    if not 0 <= low < high:
+        raise ValueError(f"pump must be (least, largest) voltage with 0 <= least < largest, "
+                         f"got {pump!r}")
+    short, long = _positive("periods[0]", periods[0]), _positive("periods[1]", periods[1])
+    if not short < long:
+        raise ValueError(f"periods must be (shortest, longest), got {periods!r}")
+    rng = _check_random_state(random_state)
+    t = np.arange(n) * h
+    wave = _multisine(rng, (1.0 / long, 1.0 / short), 1.0, max(n * h, long), 32)(t)
+    spread = float(np.max(np.abs(wave))) or 1.0
+    # the multisine's peaks reach a little beyond the pump's range, where it clips
+    u = np.clip(0.5 * (low + high) + 0.6 * (high - low) * wave / spread, low, high)
+    start = (rng.uniform(2.0, 10.0, size=2) if y0 is None
+             else np.array([float(v) for v in y0]))
+    if start.shape != (2,) or not np.all(np.isfinite(start)) or np.any(start < 0):
+        raise ValueError(f"y0 must be two non-negative levels, got {y0!r}")
+    a = (values["a1"], values["a2"], values["a3"], values["a4"])
+    levels = _levels(u, h, np.minimum(start, rim), a, rim)
+    frame = pd.DataFrame({"t": t, "u": u, **{name: levels[:, int(name[1]) - 1]
+                                             for name in measured}})
+    if noise is not None:
+        frame = _add_noise(frame, noise, measured, rng)
+    if not return_truth:
+        return frame
+    at_rim = np.isclose(levels, rim[None, :], rtol=0.0, atol=1e-9)
+    truth = Bunch(equations=["x1_dot = a1 u - a2 sqrt(x1)",
+                             "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"],
+                  params=dict(values), rims={"x1": float(rim[0]), "x2": float(rim[1])},
+                  input=HeldInput(t, u), states=pd.DataFrame(levels, columns=["x1", "x2"]),
+                  y0=tuple(float(v) for v in np.minimum(start, rim)),
+                  overflowing={"x1": float(at_rim[:, 0].mean()),
+                               "x2": float(at_rim[:, 1].mean())})
+    return frame, truth
