@@ -15,7 +15,14 @@ import numpy as np
 import pandas as pd
 from sklearn.utils import Bunch
 
-from ._generation import _add_noise, _check_n_samples, _check_noise, _check_random_state
+from ._generation import (
+    _add_noise,
+    _check_n_samples,
+    _check_noise,
+    _check_noise_columns,
+    _check_random_state,
+    _check_t_span,
+)
 from ._lab_records import _multisine, _positive
 
 __all__ = ["HeldInput", "make_two_tanks"]
@@ -75,9 +82,10 @@ def _levels(u: np.ndarray, h: float, y0, a: tuple, rims) -> np.ndarray:
 
 def make_two_tanks(
     n_samples: int = 1024,
-    sample_time: float = 4.0,
+    t_span: tuple[float, float] | None = None,
     *,
     noise: float | None = 40.0,
+    noise_columns=("x2",),
     measured=("x2",),
     y0=None,
     params=None,
@@ -99,17 +107,21 @@ def make_two_tanks(
     random-phase multisine of periods within ``periods`` (seconds), clipped
     to ``pump`` and held between samples (zero-order hold, as a controller
     writes it). The time constants are minutes, against a sample every
-    ``sample_time`` seconds. Only the columns ``measured`` are logged, with
-    white noise at ``noise`` dB; the initial levels are drawn at random.
+    4 seconds by default. Only the levels ``measured`` are logged, the
+    ``noise_columns`` among them with white noise at ``noise`` dB; the
+    initial levels are drawn at random.
 
     Parameters
     ----------
     n_samples : int, default=1024
         Samples logged.
-    sample_time : float, default=4.0
-        Seconds between samples.
+    t_span : tuple of float, optional
+        Time of the first and the last sample in seconds; by default one
+        sample every 4 s from 0.
     noise : float or None, default=40.0
         Signal-to-noise ratio in dB of the level sensors; None for none.
+    noise_columns : sequence of str, default=("x2",)
+        The noisy columns, among those logged (the levels and ``u``).
     measured : sequence of str, default=("x2",)
         The levels logged, among ``x1`` and ``x2``.
     y0 : tuple of float, optional
@@ -152,12 +164,14 @@ def make_two_tanks(
     (['t', 'u', 'x2'], 1024, 4.0)
     """
     n = _check_n_samples(n_samples)
-    h = _positive("sample_time", sample_time)
+    start_time, end_time = (0.0, 4.0 * (n - 1)) if t_span is None else _check_t_span(t_span)
+    h = (end_time - start_time) / max(n - 1, 1)
     noise = _check_noise(noise)
     measured = list(measured)
     odd = [name for name in measured if name not in ("x1", "x2")]
     if odd or not measured or len(set(measured)) != len(measured):
         raise ValueError(f"measured must name some of 'x1' and 'x2' once each, got {measured!r}")
+    noisy = _check_noise_columns(noise_columns, ["t", "u", *measured], measured)
     values = {"a1": 0.02, "a2": 0.04, "a3": 0.05, "a4": 0.045}
     if params is not None:
         unknown = [name for name in params if name not in values]
@@ -173,7 +187,7 @@ def make_two_tanks(
     if not short < long:
         raise ValueError(f"periods must be (shortest, longest), got {periods!r}")
     rng = _check_random_state(random_state)
-    t = np.arange(n) * h
+    t = start_time + np.arange(n) * h
     wave = _multisine(rng, (1.0 / long, 1.0 / short), 1.0, max(n * h, long), 32)(t)
     spread = float(np.max(np.abs(wave))) or 1.0
     # the multisine's peaks reach a little beyond the pump's range, where it clips
@@ -186,8 +200,8 @@ def make_two_tanks(
     levels = _levels(u, h, np.minimum(start, rim), a, rim)
     frame = pd.DataFrame({"t": t, "u": u, **{name: levels[:, int(name[1]) - 1]
                                              for name in measured}})
-    if noise is not None:
-        frame = _add_noise(frame, noise, measured, rng)
+    if noise is not None and noisy:
+        frame = _add_noise(frame, noise, noisy, rng)
     if not return_truth:
         return frame
     at_rim = np.isclose(levels, rim[None, :], rtol=0.0, atol=1e-9)

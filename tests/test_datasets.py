@@ -453,7 +453,7 @@ def test_public_api():
                                         "make_oscillator", "make_pendulum",
                                         "make_positioning_axis",
                                         "make_resonator", "make_stick_slip", "make_two_dof",
-                                        "make_van_der_pol"]
+                                        "make_two_tanks", "make_van_der_pol"]
     assert datasets.__doc__
     for name in datasets.__all__:
         fn = getattr(datasets, name)
@@ -469,9 +469,9 @@ def test_public_api():
 
 
 def test_module_imports_only_skeleton_and_exceptions():
-    from sklearn_pycc import _generation, _lab_records
+    from sklearn_pycc import _generation, _lab_records, _process_records
 
-    for module in (datasets, _lab_records, _generation):
+    for module in (datasets, _lab_records, _process_records, _generation):
         _check_imports(module)
 
 
@@ -484,7 +484,10 @@ def _check_imports(module):
         if isinstance(node, ast.ImportFrom) and node.level > 0:
             allowed = ("_generation",)
             if module is datasets:
-                allowed += ("skeleton", "exceptions", "diagnostics.effects", "_lab_records")
+                allowed += ("skeleton", "exceptions", "diagnostics.effects", "_lab_records",
+                            "_process_records")
+            if module.__name__.endswith("_process_records"):  # the signals of the lab's
+                allowed += ("_lab_records",)
             assert node.module in allowed, node.module
         if isinstance(node, ast.ImportFrom) and node.module:
             assert "estimators" not in node.module

@@ -108,7 +108,7 @@ def check_units(units, X, skeleton) -> dict[str, str]:
 
 
 def read_measurements(skeleton, X, y, differentiation="auto",
-                      smooth: bool = True) -> DiagnosisData:
+                      smooth: bool = True, who: str = "diagnose") -> DiagnosisData:
     """Check ``X`` and ``y`` against a skeleton and line them up.
 
     This is :func:`~sklearn_pycc.measurements.read_record`, the path ``fit``
@@ -132,7 +132,7 @@ def read_measurements(skeleton, X, y, differentiation="auto",
                          "derivatives and simulated trajectories with the measurements; "
                          "judge a static model by its score")
     record = read_record(skeleton, X, y, differentiation=differentiation, smooth=smooth,
-                         derivatives_from_X=True, split=True)
+                         derivatives_from_X=True, split=True, who=who)
     has_time = TIME in record.data
     if skeleton.uses_time and not has_time:
         raise ValueError("X lacks the time column 't', which the skeleton reads")

@@ -164,7 +164,7 @@ def _row(skeleton, base, *, X, y, record, cv, simulate: bool, horizon, held_out:
     params = model.get_params()
     source, given = (X, y) if record is None else (record, None)
     data = read_measurements(spec, source, given, params.get("differentiation", "auto"),
-                             bool(params.get("smooth_states", True)))
+                             bool(params.get("smooth_states", True)), who="compare_skeletons")
     target = data.derivatives
     start = time.perf_counter()
     if data.estimated:  # the model estimates them as read_measurements did (kept: reused)

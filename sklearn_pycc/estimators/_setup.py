@@ -133,6 +133,9 @@ class Problem:
     covariance : bool
         Whether a backend should estimate the covariance of its estimate
         (not for the refits on resamples).
+    hidden : tuple of str
+        Unmeasured states: no column of the record holds them; they are
+        fitted by output error (``fit_mode`` is then "simulation").
     """
 
     skeleton: Skeleton
@@ -151,6 +154,7 @@ class Problem:
     equation_weights: tuple | None = None
     rows: np.ndarray | None = None
     covariance: bool = True
+    hidden: tuple = ()
 
     @property
     def equations(self) -> list[Equation]:

@@ -12,7 +12,7 @@ record one trajectory.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import numpy as np
 from scipy import sparse
@@ -46,14 +46,20 @@ class ShootingPlan(Windows):
         With ``experiments`` (times), ``measured`` and ``smoothed`` states.
     window : int
         Samples per segment (steps between its first and last sample).
+    hidden : dict, optional
+        Unmeasured state -> a guess of its values on every row of the
+        record, where its segments start from (only their starts are fitted
+        to, by continuity: no measurement of it enters the residuals).
     """
 
-    def __init__(self, problem: Problem, window: int) -> None:
+    def __init__(self, problem: Problem, window: int,
+                 hidden: Mapping[str, np.ndarray] | None = None) -> None:
         if isinstance(window, bool) or int(window) != window or window < 2:
             raise ValueError(f"shooting_window must be an integer of at least 2, got {window!r}")
         skeleton = problem.skeleton
         states = list(skeleton.states)
-        unknown = [s for s in states if s not in problem.smoothed]
+        starts = {**problem.smoothed, **dict(hidden or {})}
+        unknown = [s for s in states if s not in starts]
         if unknown:
             raise ValueError(f"fit_mode='simulation' needs every state's values to start from; "
                              f"X has no column {unknown[0]!r}")
@@ -64,8 +70,12 @@ class ShootingPlan(Windows):
         inputs = [name for name in skeleton.inputs if name != TIME]
         signals = {name: problem.signals[name] for name in inputs}
         super().__init__(states, inputs, TIME in skeleton.variables,
-                         [(e.rows, e.t) for e in problem.experiments], problem.smoothed,
+                         [(e.rows, e.t) for e in problem.experiments], starts,
                          signals, int(window))
+        self._starts, self._inputs = starts, signals
+        self._times = np.zeros(len(next(iter(starts.values()))))
+        for e in problem.experiments:
+            self._times[e.rows] = e.t
         self.measured = [s for s in self.states if s in problem.measured]
         # a segment's last sample is fitted by the next segment's start
         own = self.valid.copy()
@@ -74,6 +84,10 @@ class ShootingPlan(Windows):
         self.measured_index = [self.states.index(s) for s in self.measured]
         self.targets = np.stack([problem.measured[s][self.rows] for s in self.measured],
                                 axis=-1)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Every state (measured, smoothed or guessed), input and ``t`` on every row."""
+        return {**self._starts, **self._inputs, TIME: self._times}
 
     # -- residuals ---------------------------------------------------------------
     def _errors(self, states: np.ndarray) -> np.ndarray:
@@ -168,7 +182,9 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
     info : dict
         ``segments``, ``substeps``, ``iterations``, ``nrmse_before``,
         ``nrmse_after``, ``max_defect`` (largest continuity jump in units of
-        each state's RMS) and ``diverged`` (segments that escaped at the end).
+        each state's RMS), ``diverged`` (segments that escaped at the end)
+        and ``initial_states`` (every state at the start of each experiment,
+        ``(n_experiments, n_states)``).
     """
     p, K, n = len(theta0), plan.n_segments, len(plan.states)
     start0 = plan.initial.copy()
@@ -229,6 +245,8 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
     ends = states[np.arange(K), plan.steps]
     k = np.flatnonzero(plan.successor)
     defect = float(np.max(np.abs(ends[k] - start[k + 1]) / plan.scale)) if k.size else 0.0
+    firsts = [int(np.flatnonzero(plan.segment_experiment == e)[0])
+              for e in range(int(plan.segment_experiment.max()) + 1)]
     info = {
         "segments": K,
         "window": plan.window,
@@ -238,5 +256,6 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
         "nrmse_after": plan.output_nrmse(states),
         "max_defect": defect,
         "diverged": int(escaped.sum()),
+        "initial_states": start[firsts].copy(),
     }
     return theta, info

@@ -54,6 +54,9 @@ class Backend(ABC):
 
     #: it implements :meth:`refine` (fit_mode="simulation")
     output_error: ClassVar[bool] = False
+    #: its :meth:`refine` fits unmeasured states too (``problem.hidden``), starting from
+    #: :meth:`hidden_start`
+    unmeasured_states: ClassVar[bool] = False
     #: it implements :meth:`curve_sd` and :meth:`draws` for a model it fitted
     uncertainty: ClassVar[bool] = False
     #: joblib's ``prefer`` for refits on resamples: "threads" when the work
@@ -120,19 +123,58 @@ class Backend(ABC):
         -------
         FitResult
         """
-        plan = None
-        if problem.fit_mode == "simulation":
-            from ._shooting import ShootingPlan, check_iterations
+        if problem.fit_mode != "simulation":
+            return self.fit(problem)
+        from ._shooting import ShootingPlan, check_iterations
 
-            plan = ShootingPlan(problem, shooting_window)
-            plan.iterations = check_iterations(shooting_iterations)
+        iterations = check_iterations(shooting_iterations)
+        if problem.hidden:
+            return self._estimate_hidden(problem, shooting_window, iterations)
+        plan = ShootingPlan(problem, shooting_window)
+        plan.iterations = iterations
         result = self.fit(problem)
-        if plan is not None:
-            start = problem.skeleton.compile(result.functions,
-                                             {**problem.fixed_params, **result.params})
-            plan.choose_substeps(start, dict(problem.data.columns))
-            result = self.refine(problem, result, plan)
-        return result
+        start = problem.skeleton.compile(result.functions,
+                                         {**problem.fixed_params, **result.params})
+        plan.choose_substeps(start, dict(problem.data.columns))
+        return self.refine(problem, result, plan)
+
+    def _estimate_hidden(self, problem: Problem, window: int, iterations: int) -> FitResult:
+        """Output error from :meth:`hidden_start`, the unmeasured states started by simulation."""
+        from ._hidden import hidden_trajectories, initial_table, single_shooting
+        from ._shooting import ShootingPlan
+
+        result = self.hidden_start(problem)
+        start = problem.skeleton.compile(result.functions,
+                                         {**problem.fixed_params, **result.params})
+        guesses = hidden_trajectories(problem, start)
+        plan = ShootingPlan(problem, window, hidden=guesses)
+        plan.iterations = iterations
+        plan.choose_substeps(start, plan.columns())
+        result = self.refine(problem, result, plan)
+        info = dict(result.attributes["shooting_"])
+        # the windows' joins are soft: a last pass simulates every experiment whole
+        params, first, nrmse = single_shooting(problem, result.params, info["initial_states"],
+                                               plan.substeps, iterations)
+        info.update(initial_states=first, nrmse_whole=nrmse)
+        table = initial_table(problem, first, plan.states)
+        return FitResult(result.functions, params,
+                         {**result.attributes, "shooting_": info, "initial_states_": table},
+                         result.stage)
+
+    def hidden_start(self, problem: Problem) -> FitResult:
+        """Where the output-error fit of a problem with unmeasured states starts.
+
+        The free parameters at the backend's ``param_init``; those it does
+        not give start at 1 times the common factor whose simulation follows
+        the record best (:func:`~._hidden.scaled_start`); the curves pinned
+        to zero by the gauge. Only for backends with :attr:`unmeasured_states`.
+        """
+        from ._basis import ZeroCurve
+        from ._hidden import scaled_start, starting_params
+
+        init = getattr(self, "param_init", None)
+        params = scaled_start(problem, starting_params(problem, init), list(init or {}))
+        return FitResult({name: ZeroCurve() for name in problem.zeroed}, params)
 
     def __repr__(self) -> str:
         shown = [f"{name}={getattr(self, name)!r}" for name in self.settings]

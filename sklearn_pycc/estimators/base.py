@@ -10,13 +10,14 @@ from numbers import Integral
 
 import numpy as np
 import pandas as pd
+from scipy.optimize import least_squares
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.metrics import r2_score
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
 from .._random import seeds
-from ..exceptions import DomainWarning, ExtrapolationWarning
+from ..exceptions import DomainWarning, ExtrapolationWarning, SimulationError
 from ..measurements import read_record
 from ..measurements.columns import read_X, read_y
 from ..measurements.differentiation import (
@@ -32,6 +33,7 @@ from ..skeleton.nodes import Symbol, sum_terms
 from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
+from ._hidden import check_visible
 from ._intervals import N_DRAWS, IntervalsMixin, check_level
 from ._setup import GAUGES, FitResult, Problem, build_skeleton, gauge_skeleton, measured_part
 from .backend import Backend
@@ -271,7 +273,11 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         record = read_record(skeleton, X, y, differentiation=self.differentiation,
                              smooth=bool(self.smooth_states), estimator=self, reset=True,
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
-                             who=type(self).__name__, trim=False)
+                             who=type(self).__name__, trim=False,
+                             hidden_ok=(self.fit_mode != "equation"
+                                        and backend.unmeasured_states))
+        if record.hidden:
+            _check_hidden(skeleton, record.hidden)
         weights = _equation_weights(self.equation_weights, skeleton)
         mode, why = self._resolve_mode(skeleton, record, backend)
         facts = {"fit_mode_": mode, "derivative_source_": record.source + why,
@@ -284,11 +290,17 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                           trusted.derivatives, gauge, record.experiments, record.measured,
                           record.smoothed, record.signals, fit_mode=mode,
                           equation_weights=weights,
-                          rows=None if record.trusted is None else np.flatnonzero(record.trusted))
+                          rows=None if record.trusted is None else np.flatnonzero(record.trusted),
+                          hidden=record.hidden)
         return problem, facts
 
     def _resolve_mode(self, skeleton, record, backend: Backend) -> tuple[str, str]:
         """The fit mode to use, and why ``"auto"`` chose output error (else "")."""
+        if record.hidden:
+            hidden, seen = ", ".join(record.hidden), ", ".join(record.measured)
+            return "simulation", (
+                f"; {hidden} not measured: fitted by output error on {seen}, the value of "
+                f"{hidden} at the start of each experiment a fitted number (initial_states_)")
         if self.fit_mode != "auto":
             return self.fit_mode, ""
         noisy = record.estimated and record.snr_db is not None \
@@ -507,6 +519,85 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         scale = np.max(np.abs(truth), axis=0)
         scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
         return float(r2_score(truth / scale, pred / scale, sample_weight=sample_weight))
+
+    def estimate_initial_state(self, X, *, n_samples: int = 200,
+                               input_hold: str = "bandlimited") -> dict[str, float]:
+        """The full state at the first time of a record: measured states read, others fitted.
+
+        A state that ``X`` holds is read at its first row; a state it does
+        not hold (unmeasured, such as a tank's level no sensor reads) is
+        chosen so that the model, simulated over the first ``n_samples`` rows
+        with ``X``'s inputs, follows the measured states best (least
+        squares, started from rest). The result is ready for
+        :meth:`simulate`'s ``y0``.
+
+        Parameters
+        ----------
+        X : DataFrame
+            A record with ``t``, the model's inputs and some of its states.
+        n_samples : int, default=200
+            Rows simulated to fit the unmeasured states (all of them when
+            ``X`` has fewer).
+        input_hold : str, default="bandlimited"
+            How the inputs are read between samples, as in :meth:`simulate`.
+
+        Returns
+        -------
+        dict
+            State -> value at ``X``'s first time.
+
+        Raises
+        ------
+        ValueError
+            If ``X`` has no time column, lacks an input, or holds no state.
+        """
+        from ._hidden import equilibrium
+
+        check_is_fitted(self, "functions_")
+        skeleton = self.skeleton_
+        if not isinstance(X, pd.DataFrame) or "t" not in X.columns:
+            raise ValueError("estimate_initial_state reads a DataFrame with a time column 't'")
+        if isinstance(n_samples, bool) or not isinstance(n_samples, Integral) or n_samples < 2:
+            raise ValueError(f"n_samples must be an integer of at least 2, got {n_samples!r}")
+        inputs = [name for name in skeleton.inputs if name != "t"]
+        missing = [name for name in inputs if name not in X.columns]
+        if missing:
+            raise ValueError(f"X has no column {missing[0]!r}, an input of the model")
+        stretch = X.iloc[:min(len(X), int(n_samples))]
+        t = stretch["t"].to_numpy(dtype=float)
+        read = [s for s in skeleton.states
+                if s in X.columns and np.isfinite(X[s].to_numpy(dtype=float)[0])]
+        if not read:
+            raise ValueError(f"X holds none of the states {skeleton.states}: there is nothing "
+                             "to fit an initial state to")
+        state = {s: float(X[s].iloc[0]) for s in read}
+        unknown = [s for s in skeleton.states if s not in read]
+        if not unknown:
+            return state
+        system = self._system()
+        drive = {name: stretch[name].to_numpy(dtype=float) for name in inputs}
+        point = {**state, **{name: values[0] for name, values in drive.items()}, "t": t[0]}
+        start = np.array([equilibrium(system, unknown, point)[s] for s in unknown])
+        targets = stretch[read].to_numpy(dtype=float)
+        scale = np.sqrt(np.nanmean(targets ** 2, axis=0))
+        scale[~(scale > 0)] = 1.0
+
+        def residuals(z: np.ndarray) -> np.ndarray:
+            y0 = [state[s] if s in state else z[unknown.index(s)] for s in skeleton.states]
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    frame = simulate_system(system, t, y0, drive, input_hold=input_hold)
+                simulated = frame[read].to_numpy(dtype=float)
+            except (SimulationError, ValueError, ArithmeticError):
+                return np.full(targets.size, 1e3)
+            error = (simulated - targets) / scale
+            return np.where(np.isfinite(error), error, 1e3).ravel()
+
+        solution = least_squares(residuals, start, x_scale="jac", max_nfev=50 * (len(start) + 1))
+        z = solution.x if solution.cost <= 0.5 * float(np.sum(residuals(start) ** 2)) else start
+        return {s: (state[s] if s in state else float(z[unknown.index(s)]))
+                for s in skeleton.states}
 
     def simulate(
         self,
@@ -869,6 +960,19 @@ def _pair(domain) -> tuple[float, float]:
     if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
         raise ValueError(f"domain must run from a lower to a higher finite value, got {domain!r}")
     return lo, hi
+
+
+def _check_hidden(skeleton: Skeleton, hidden) -> None:
+    """Refuse unmeasured states where they cannot be fitted, saying why."""
+    _check_simulable(skeleton)
+    check_visible(skeleton, hidden)
+    if skeleton.functions:
+        raise ValueError(
+            f"X has no column {hidden[0]!r}, which the skeleton uses (or only missing values "
+            f"in it), and no kinematic equation reconstructs it: an unmeasured state is "
+            f"fitted by output error from starting values of the parameters, and the curves "
+            f"({', '.join(skeleton.functions)}) have none: write them as parametric terms "
+            "(a1 x1 + a2 x1^3, a1 tanh(a2 x2), ...) or measure every state")
 
 
 def _check_simulable(skeleton: Skeleton) -> None:

@@ -11,7 +11,7 @@ from ..skeleton.nodes import Symbol
 from .differentiation import Differentiator
 from .experiments import Experiment
 
-__all__ = ["Estimate", "estimate_states", "kinematic_chains"]
+__all__ = ["Estimate", "estimate_states", "kinematic_chains", "unmeasured_states"]
 
 
 def kinematic_chains(skeleton) -> dict[str, tuple[str, int]]:
@@ -99,20 +99,40 @@ def _settled(method: Differentiator, experiment: Experiment) -> np.ndarray:
     return (t >= t[0] + margin) & (t <= t[-1] - margin)
 
 
-def _plan(skeleton, columns: Mapping[str, np.ndarray]) -> dict[str, tuple[str, int]]:
-    """State -> (measured root state, order of the derivative it is)."""
+def _root(state: str, chains: Mapping[str, tuple[str, int]],
+          columns) -> tuple[str | None, int]:
+    """The measured state ``state`` is a derivative of, and its order (None: there is none)."""
+    if state in columns:
+        return state, 0
+    root, order = chains.get(state, (None, 0))
+    # climb past unmeasured intermediate states to a measured one
+    while root is not None and root not in columns and root in chains:
+        up, extra = chains[root]
+        root, order = up, order + extra
+    return (root, order) if root is not None and root in columns else (None, 0)
+
+
+def unmeasured_states(skeleton, columns, reconstruct: bool = True) -> list[str]:
+    """States of ``skeleton`` that ``columns`` neither holds nor lets be reconstructed.
+
+    A state no column holds is reconstructed when a kinematic equation ties
+    it to a measured one (``x1_dot = x2`` with ``x1`` measured), and only
+    when ``reconstruct`` (the derivatives are estimated from the states).
+    """
+    chains = kinematic_chains(skeleton) if reconstruct else {}
+    return [s for s in skeleton.states if _root(s, chains, columns)[0] is None]
+
+
+def _plan(skeleton, columns: Mapping[str, np.ndarray],
+          hidden=()) -> dict[str, tuple[str, int]]:
+    """State -> (measured root state, order of the derivative it is), the ``hidden`` left out."""
     chains = kinematic_chains(skeleton)
     plan: dict[str, tuple[str, int]] = {}
     for state in skeleton.states:
-        if state in columns:
-            plan[state] = (state, 0)
+        if state in hidden:
             continue
-        root, order = chains.get(state, (None, 0))
-        # climb past unmeasured intermediate states to a measured one
-        while root is not None and root not in columns and root in chains:
-            up, extra = chains[root]
-            root, order = up, order + extra
-        if root is None or root not in columns:
+        root, order = _root(state, chains, columns)
+        if root is None:
             raise ValueError(
                 f"X has no column {state!r}, and no kinematic equation (NAME_dot = {state}) "
                 f"ties it to a measured state; measure it, or give y with the derivatives "
@@ -124,7 +144,8 @@ def _plan(skeleton, columns: Mapping[str, np.ndarray]) -> dict[str, tuple[str, i
 def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
                     experiments: Sequence[Experiment], differentiator: Differentiator,
                     *, smooth: bool = True,
-                    inputs: Mapping[str, np.ndarray] | None = None) -> Estimate:
+                    inputs: Mapping[str, np.ndarray] | None = None,
+                    hidden: Sequence[str] = ()) -> Estimate:
     """Estimate every state's derivative, and the states no column holds.
 
     Parameters
@@ -142,6 +163,9 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
     inputs : dict, optional
         Measured inputs by name; a method that low-pass filters the states
         filters these too (see :attr:`Estimate.inputs`).
+    hidden : sequence of str, optional
+        States no column holds nor lets be reconstructed (see
+        :func:`unmeasured_states`): they get no values, and NaN derivatives.
 
     Raises
     ------
@@ -152,7 +176,7 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
         the message names the state, the experiment and the method.
     """
     states = skeleton.states
-    plan = _plan(skeleton, columns)
+    plan = _plan(skeleton, columns, hidden)
     depth: dict[str, int] = {}
     for root, order in plan.values():
         depth[root] = max(depth.get(root, 0), order + 1)
@@ -182,6 +206,9 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
     fitted, smoothed, reconstructed = {}, {}, {}
     derivatives = np.empty((n, len(states)))
     for j, state in enumerate(states):
+        if state in hidden:
+            derivatives[:, j] = np.nan
+            continue
         root, order = plan[state]
         smoothed[state] = series[root][order]
         derivatives[:, j] = series[root][order + 1]
@@ -196,11 +223,13 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
         text += f"; the inputs {', '.join(sorted(touched))} filtered alike"
     if reconstructed:
         text += "; " + ", ".join(f"{s} as the {how}" for s, how in reconstructed.items())
+    if hidden:
+        text += f"; {', '.join(hidden)} unmeasured"
     left_out = int(n - np.count_nonzero(trusted))
     if left_out:
         text += (f"; {left_out} samples at the ends of the experiments left out while the "
                  "filter settles")
-    measured = [s for s in states if s in columns]
+    measured = [s for s in states if s in columns and s not in hidden]
     return Estimate(fitted, smoothed, derivatives, measured, text, reconstructed,
                     {name: filtered[name] for name in touched},
                     None if left_out == 0 else trusted, min(snrs) if snrs else None)

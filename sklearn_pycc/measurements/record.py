@@ -18,7 +18,7 @@ from .columns import FitData, read_X, read_y
 from .differentiation import resolve_differentiation
 from .experiments import TIME, TRAJECTORY, Experiment, split_experiments
 from .measurement import unwrap
-from .reconstruct import estimate_states, kinematic_chains
+from .reconstruct import estimate_states, kinematic_chains, unmeasured_states
 
 __all__ = ["Record", "read_record", "targets_in_y"]
 
@@ -55,6 +55,10 @@ class Record:
     snr_db : float or None
         The lowest signal-to-noise ratio of the states, when the
         differentiation read one from the record.
+    hidden : tuple of str
+        States no column holds (or only holds missing values) and no
+        kinematic equation reconstructs: unmeasured, to be fitted by output
+        error. Read only when the caller allows it (``hidden_ok``).
     source : str
         ``"measured"``, or how the derivatives were obtained, in words.
 
@@ -75,6 +79,7 @@ class Record:
     source: str = MEASURED
     trusted: np.ndarray | None = None
     snr_db: float | None = None
+    hidden: tuple[str, ...] = ()
 
     @property
     def n_samples(self) -> int:
@@ -127,13 +132,13 @@ class Record:
 
         return Record(data, self.derivatives[rows], self.y_ndim, experiments,
                       cut(self.measured), cut(self.smoothed), cut(self.signals), self.source,
-                      None, self.snr_db)
+                      None, self.snr_db, self.hidden)
 
 
 def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = True,
                 estimator=None, reset: bool = False, derivatives_from_X: bool = False,
                 need_time: str | None = None, split: bool = False,
-                who: str | None = None, trim: bool = True) -> Record:
+                who: str | None = None, trim: bool = True, hidden_ok: bool = False) -> Record:
     """Read ``X`` (and ``y``) against a skeleton; estimate what was not measured.
 
     Every state of the skeleton that ``X`` holds is read, whether or not a
@@ -172,6 +177,11 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
     trim : bool, default=True
         Leave out the rows whose estimated derivatives cannot be trusted
         (else they are only marked, in :attr:`Record.trusted`).
+    hidden_ok : bool, default=False
+        Accept states that ``X`` does not hold (or holds only as missing
+        values) and no kinematic equation reconstructs, when the derivatives
+        are estimated: they are :attr:`Record.hidden`. Otherwise such a
+        state is an error.
 
     ``X`` may be a :class:`~sklearn_pycc.measurements.Measurement` (with
     ``y`` inside it): derivatives it has estimated before for the same
@@ -197,6 +207,16 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
     optional = set(states) - set(skeleton.variables)
     if not given:
         optional |= set(kinematic_chains(skeleton))
+    hidden: list[str] = []
+    if not given and isinstance(X, pd.DataFrame):
+        blank = [c for c in X.columns if str(c) in states and X[c].isna().all()]
+        present = {str(c) for c in X.columns} - {str(c) for c in blank}
+        hidden = unmeasured_states(skeleton, present)
+        if hidden and not hidden_ok:
+            raise ValueError(_hidden_message(skeleton, hidden[0], blank, who))
+        if hidden:
+            X = X.drop(columns=[c for c in blank if str(c) in hidden])
+            optional |= set(hidden)
     needed = list(dict.fromkeys([*skeleton.variables, *states,
                                  *(o for o in outputs if o not in in_y)]))
     data = read_X(estimator, X, needed, reset=reset, optional=optional)
@@ -229,13 +249,14 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
         def estimated():
             return estimate_states(skeleton, measured, experiments,
                                    resolve_differentiation(differentiation),
-                                   smooth=bool(smooth), inputs={**signals, **observed})
+                                   smooth=bool(smooth), inputs={**signals, **observed},
+                                   hidden=hidden)
 
         if measurement is None:
             estimate = estimated()
         else:
             key = (tuple(states), tuple(sorted(kinematic_chains(skeleton).items())),
-                   tuple(measured), tuple(signals), tuple(observed),
+                   tuple(measured), tuple(signals), tuple(observed), tuple(hidden),
                    _setting_key(differentiation, measurement), bool(smooth))
             estimate = measurement.estimated(key, estimated)
         derivatives, ndim = estimate.derivatives, 2
@@ -247,7 +268,7 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
     record = Record(FitData(columns, data.n_samples, data.trajectory), derivatives, ndim,
                     experiments, measured, smoothed, signals, source,
                     None if given else estimate.trusted,
-                    None if given else estimate.snr_db)
+                    None if given else estimate.snr_db, tuple(hidden))
     return record.keep() if trim else record
 
 
@@ -302,6 +323,16 @@ def targets_in_y(y, skeleton) -> list[str]:
     if len(shape) == 2 and shape[1] == len(derivatives) + len(outputs):
         return [*derivatives, *outputs]
     return expected
+
+
+def _hidden_message(skeleton, state: str, blank, who: str | None) -> str:
+    """Why an unmeasured state is refused here, and where it would be fitted."""
+    held = (f"X's column {state!r} holds only missing values" if state in map(str, blank)
+            else f"X has no column {state!r}")
+    return (f"{held}, a state of the skeleton, and no kinematic equation (NAME_dot = {state}) "
+            f"ties it to a measured state. An unmeasured state is fitted by output error "
+            f"(PolyCCRegressor with fit_mode='auto' or 'simulation'); {who or 'this call'} "
+            f"reads every state from X")
 
 
 def _no_time_message(skeleton, who: str | None) -> str:

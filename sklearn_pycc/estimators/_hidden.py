@@ -1,0 +1,277 @@
+"""Unmeasured states: whether the measurements can see them, and where to start them.
+
+A state no sensor reads is fitted by output error on the measured states,
+its value at the start of each experiment a fitted number. Before that
+stage it needs a trajectory to start the shooting windows from: the
+starting model is simulated over each experiment from the hidden states'
+equilibrium with the first sample (or from zero when there is none).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import least_squares
+
+from ..skeleton.nodes import Symbol, walk
+from ..windows import Windows
+from ._setup import Problem
+
+__all__ = ["START_FACTORS", "WholeRecord", "check_visible", "equilibrium", "hidden_trajectories",
+           "initial_table", "scaled_start", "single_shooting", "starting_params"]
+
+
+def _reads(skeleton) -> dict[str, set[str]]:
+    """State -> the states its equation's right-hand side reads."""
+    states = set(skeleton.states)
+    return {eq.state: {n.name for n in walk(eq.expression) if isinstance(n, Symbol)} & states
+            for eq in skeleton.parsed}
+
+
+def check_visible(skeleton, hidden: Sequence[str]) -> None:
+    """Refuse an unmeasured state that no measured state depends on, naming it and why.
+
+    A hidden state is seen when a measured state's equation reads it, or
+    reads another hidden state that is seen.
+    """
+    reads = _reads(skeleton)
+    measured = [s for s in skeleton.states if s not in hidden]
+    if not measured:
+        raise ValueError(f"no state of the skeleton is measured ({', '.join(hidden)} have no "
+                         "column in X): there is nothing to fit the model to")
+    seen: set[str] = set()
+    frontier = list(measured)
+    while frontier:
+        state = frontier.pop()
+        for other in reads.get(state, ()):
+            if other in hidden and other not in seen:
+                seen.add(other)
+                frontier.append(other)
+    for state in hidden:
+        if state not in seen:
+            readers = [s for s, r in reads.items() if state in r and s != state]
+            why = (f"only the equations of {', '.join(readers)} read it, and they are "
+                   "unmeasured too" if readers else "no other equation reads it")
+            raise ValueError(
+                f"{state} is not measured and cannot be seen from the measurements: {why}. "
+                f"Nothing measured ({', '.join(measured)}) depends on it, so its equation "
+                "cannot be fitted; measure it, or leave its equation out")
+
+
+def starting_params(problem: Problem, param_init: Mapping[str, float] | None) -> dict:
+    """The free parameters' starting values: ``param_init``, else 1 (moved into the bounds)."""
+    given = problem.starting_values(param_init)
+    out = {}
+    for name in problem.free_params:
+        low, high = problem.bounds.get(name, (-np.inf, np.inf))
+        value = float(given.get(name, 1.0))
+        if not low <= value <= high:
+            value = float(np.clip(value, low, high)) if np.isfinite(low) or np.isfinite(
+                high) else value
+        out[name] = value
+    return out
+
+
+def equilibrium(system, hidden: Sequence[str], values: Mapping[str, float]) -> dict:
+    """Hidden states at rest with the others at ``values`` (least squares; zeros if it fails).
+
+    ``values`` gives every measured state, input and ``t`` at one instant.
+    """
+    states = list(system.states)
+    index = [states.index(s) for s in hidden]
+
+    def rates(z: np.ndarray) -> np.ndarray:
+        point = {name: np.array([float(v)]) for name, v in values.items()}
+        point.update({s: np.array([float(v)]) for s, v in zip(hidden, z)})
+        with np.errstate(all="ignore"):
+            out = np.asarray(system.evaluate(point, 1), dtype=float)[0, index]
+        return np.where(np.isfinite(out), out, 1e6)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            solution = least_squares(rates, np.ones(len(hidden)), max_nfev=200)
+            z = solution.x
+            if np.all(np.isfinite(z)) and np.all(np.abs(rates(z)) < 1e-6 * (1 + np.abs(z))):
+                return dict(zip(hidden, z.tolist()))
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+            pass
+    return dict.fromkeys(hidden, 0.0)
+
+
+def hidden_trajectories(problem: Problem, system) -> dict[str, np.ndarray]:
+    """Each hidden state on every row of the record, simulated by ``system``.
+
+    Every experiment starts at its first sample, the hidden states at
+    :func:`equilibrium` there, and is integrated whole (the measured states
+    run free too: only the hidden ones are kept). Past an escape a value
+    keeps the last finite one.
+    """
+    whole = WholeRecord(problem)
+    first = whole.first_states(system)
+    whole.choose_substeps(system, first)
+    windows = whole.windows
+    with np.errstate(all="ignore"):
+        simulated, _ = windows.simulate(system, first)
+    n = len(next(iter(problem.smoothed.values())))
+    out = {}
+    for s in problem.hidden:
+        q = whole.states.index(s)
+        values = np.zeros(n)
+        for k in range(windows.n_segments):
+            valid = windows.valid[k]
+            path = pd.Series(simulated[k, valid, q]).where(np.isfinite(simulated[k, valid, q]))
+            values[windows.rows[k, valid]] = path.ffill().fillna(first[k, q]).to_numpy()
+        out[s] = values
+    return out
+
+
+def initial_table(problem: Problem, first: np.ndarray, states: Sequence[str]) -> pd.DataFrame:
+    """The hidden states at the start of each experiment, one row per experiment.
+
+    ``first`` holds every state at the start of each experiment, in the
+    order of ``states``.
+    """
+    columns = [list(states).index(s) for s in problem.hidden]
+    index = pd.Index([k if e.label is None else e.label
+                      for k, e in enumerate(problem.experiments)], name="experiment")
+    return pd.DataFrame(np.asarray(first, dtype=float)[:, columns], index=index,
+                        columns=list(problem.hidden))
+
+
+class WholeRecord:
+    """Every experiment simulated whole from its initial state, against the measured states."""
+
+    def __init__(self, problem: Problem) -> None:
+        skeleton = problem.skeleton
+        self.problem = problem
+        self.states = list(skeleton.states)
+        self.inputs = [name for name in skeleton.inputs if name != "t"]
+        measured = [s for s in self.states if s in problem.measured]
+        self.index = [self.states.index(s) for s in measured]
+        n = len(problem.measured[measured[0]])
+        self.windows = Windows(self.states, self.inputs, "t" in skeleton.variables,
+                               [(e.rows, e.t) for e in problem.experiments],
+                               {s: np.zeros(n) for s in self.states},
+                               {name: problem.signals[name] for name in self.inputs},
+                               max(e.n_samples for e in problem.experiments), merge_tail=False)
+        self.targets = np.stack([problem.measured[s][self.windows.rows] for s in measured],
+                                axis=-1)
+        self.scale = np.array([np.sqrt(np.mean(problem.measured[s] ** 2)) or 1.0
+                               for s in measured])
+
+    def errors(self, system, first: np.ndarray) -> np.ndarray:
+        """Scaled errors of the measured states on every row (large where the model escapes)."""
+        with np.errstate(all="ignore"):
+            simulated, _ = self.windows.simulate(system, first)
+        error = ((simulated[:, :, self.index] - self.targets) / self.scale)[self.windows.valid]
+        return np.where(np.isfinite(error), error, 1e3).ravel()
+
+    def first_states(self, system) -> np.ndarray:
+        """Each experiment's first sample, the hidden states at rest with it."""
+        problem = self.problem
+        first = np.empty((len(problem.experiments), len(self.states)))
+        for e, experiment in enumerate(problem.experiments):
+            row = int(experiment.rows[0])
+            point = {s: problem.smoothed[s][row] for s in self.states if s in problem.smoothed}
+            point.update({name: problem.signals[name][row] for name in self.inputs})
+            point["t"] = float(experiment.t[0])
+            point.update(equilibrium(system, list(problem.hidden), point))
+            first[e] = [point[s] for s in self.states]
+        return first
+
+    def choose_substeps(self, system, first: np.ndarray) -> None:
+        """RK4 substeps for ``system`` near the experiments' first states."""
+        columns = {s: np.full(1, first[0, q]) for q, s in enumerate(self.states)}
+        row = int(self.problem.experiments[0].rows[0])
+        columns.update({name: self.problem.signals[name][row:row + 1] for name in self.inputs})
+        columns["t"] = np.array([float(self.problem.experiments[0].t[0])])
+        self.windows.choose_substeps(system, columns)
+
+
+#: common factors of the starting parameters tried before output error (param_init aside)
+START_FACTORS = 10.0 ** np.arange(-4.0, 2.01, 0.5)
+
+
+def scaled_start(problem: Problem, params: Mapping[str, float],
+                 given: Sequence[str]) -> dict[str, float]:
+    """The starting parameters with those not ``given`` scaled by the best common factor.
+
+    An unmeasured state leaves no equation error to start from, and the
+    default start (every parameter 1) may run the model on another time
+    scale than the record's. Each factor of :data:`START_FACTORS` is tried
+    on the parameters ``param_init`` did not give, by simulating every
+    experiment whole from rest; the factor of the smallest error wins.
+    """
+    free = [a for a in params if a not in given]
+    if not free:
+        return dict(params)
+    whole = WholeRecord(problem)
+    functions = _zero_curves(problem)
+    best, best_error = dict(params), np.inf
+    for factor in START_FACTORS:
+        trial = {a: (v * factor if a in free else v) for a, v in params.items()}
+        low_high = [problem.bounds.get(a, (-np.inf, np.inf)) for a in trial]
+        if any(not lo <= v <= hi for v, (lo, hi) in zip(trial.values(), low_high)):
+            continue
+        system = problem.skeleton.compile(functions, {**problem.fixed_params, **trial})
+        first = whole.first_states(system)
+        try:
+            whole.choose_substeps(system, first)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+            continue
+        error = float(np.sqrt(np.mean(whole.errors(system, first) ** 2)))
+        if error < best_error:
+            best, best_error = trial, error
+    return best
+
+
+def single_shooting(problem: Problem, params: Mapping[str, float], first: np.ndarray,
+                    substeps: int, max_iterations: int) -> tuple[dict, np.ndarray, float]:
+    """Polish the parameters and each experiment's initial state by whole-record simulation.
+
+    Multiple shooting (the stage before) joins its windows only up to a
+    weighted defect, which an unmeasured state can use to absorb what the
+    model misses; simulating every experiment whole from its initial state
+    makes the trajectory exact. Only the free parameters and the initial
+    states are unknowns (a skeleton with unmeasured states has no curves).
+
+    Returns
+    -------
+    params : dict
+    first : ndarray of shape (n_experiments, n_states)
+    nrmse : float
+        Normalised RMSE of the measured states along the whole record.
+    """
+    whole = WholeRecord(problem)
+    whole.windows.substeps = int(substeps)
+    names = list(problem.free_params)
+    p = len(names)
+    bounds = problem.bounds
+    low = np.r_[[bounds.get(a, (-np.inf, np.inf))[0] for a in names], np.full(first.size, -np.inf)]
+    high = np.r_[[bounds.get(a, (-np.inf, np.inf))[1] for a in names], np.full(first.size, np.inf)]
+    functions = _zero_curves(problem)
+
+    def residuals(z: np.ndarray) -> np.ndarray:
+        values = {**problem.fixed_params, **dict(zip(names, z[:p]))}
+        return whole.errors(problem.skeleton.compile(functions, values),
+                            z[p:].reshape(first.shape))
+
+    z0 = np.clip(np.r_[[float(params[a]) for a in names], first.ravel()], low, high)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        solution = least_squares(residuals, z0, bounds=(low, high), x_scale="jac",
+                                 max_nfev=int(max_iterations) * (len(z0) + 1))
+    z = solution.x if solution.cost <= 0.5 * float(np.sum(residuals(z0) ** 2)) else z0
+    error = residuals(z)
+    return (dict(zip(names, z[:p].tolist())), z[p:].reshape(first.shape),
+            float(np.sqrt(np.mean(error ** 2))))
+
+
+def _zero_curves(problem: Problem) -> dict:
+    from ._basis import ZeroCurve
+
+    return {name: ZeroCurve() for name in problem.zeroed}

@@ -1,0 +1,93 @@
+"""States no sensor reads: fitted by output error, their initial values fitted numbers."""
+
+import pickle
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.base import clone
+
+from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, datasets, diagnose
+
+#: the cascade with the lower tank's cross-section 0.8 times the upper one's (known): the
+#: upper tank's outflow, a2 sqrt(x1), raises the lower level 1.25 times as fast
+CASCADE = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = 1.25 a2 sqrt(x1) - a3 sqrt(x2)"]
+POSITIVE = ["a1 >= 0", "a2 >= 0", "a3 >= 0"]
+
+
+@pytest.fixture(scope="module")
+def tanks():
+    """Below their rims: 512 samples every 4 s, the lower level only, at 40 dB."""
+    frame, truth = datasets.make_two_tanks(n_samples=512, rims=(100.0, 100.0),
+                                           random_state=0, return_truth=True)
+    model = PolyCCRegressor(equations=CASCADE, constraints=POSITIVE).fit(frame)
+    return frame, truth, model
+
+
+def test_an_unmeasured_state_is_fitted_by_output_error_with_defaults(tanks):
+    frame, truth, model = tanks
+    assert list(frame.columns) == ["t", "u", "x2"]
+    expected = {"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}
+    for name, value in expected.items():
+        assert model.params_[name] == pytest.approx(value, rel=0.05), name
+    assert model.fit_mode_ == "simulation" and model.measured_states_ == ["x2"]
+    assert "x1 not measured: fitted by output error on x2" in model.derivative_source_
+    table = model.initial_states_
+    assert list(table.columns) == ["x1"] and len(table) == 1
+    assert table.x1.iloc[0] == pytest.approx(truth.y0[0], rel=0.1)
+    assert model.shooting_["nrmse_whole"] < 0.02  # the noise is 0.01 of the level's RMS
+
+
+def test_a_new_record_is_simulated_from_its_estimated_initial_state(tanks):
+    _, _, model = tanks
+    new, truth = datasets.make_two_tanks(n_samples=512, rims=(100.0, 100.0), random_state=1,
+                                         return_truth=True)
+    y0 = model.estimate_initial_state(new)
+    assert set(y0) == {"x1", "x2"} and y0["x2"] == new.x2.iloc[0]
+    assert y0["x1"] == pytest.approx(truth.y0[0], rel=0.1)
+    simulated = model.simulate(new.t, y0, inputs={"u": new.u.to_numpy()})
+    noise = float(np.std(new.x2 - truth.states.x2))
+    assert float(np.sqrt(np.mean((simulated.x2 - truth.states.x2) ** 2))) < 0.5 * noise
+    # with every state measured there is nothing to estimate
+    both = new.assign(x1=truth.states.x1)
+    assert model.estimate_initial_state(both) == {"x1": both.x1.iloc[0], "x2": both.x2.iloc[0]}
+    with pytest.raises(ValueError, match="time column 't'"):
+        model.estimate_initial_state(new.drop(columns="t"))
+    with pytest.raises(ValueError, match="holds none of the states"):
+        model.estimate_initial_state(new.drop(columns="x2"))
+
+
+def test_a_model_with_an_unmeasured_state_clones_and_pickles(tanks):
+    model = tanks[2]
+    again = pickle.loads(pickle.dumps(model))
+    assert again.params_ == model.params_
+    pd.testing.assert_frame_equal(again.initial_states_, model.initial_states_)
+    assert clone(model).get_params()["equations"] == CASCADE
+
+
+def test_a_column_of_missing_values_is_an_unmeasured_state(tanks):
+    frame, _, model = tanks
+    blank = frame.assign(x1=np.nan)
+    fitted = PolyCCRegressor(equations=CASCADE, constraints=POSITIVE).fit(blank)
+    assert fitted.measured_states_ == ["x2"]
+    for name, value in model.params_.items():
+        assert fitted.params_[name] == pytest.approx(value, rel=1e-6)
+    assert "x1" in blank.columns and blank.x1.isna().all()  # the user's frame is untouched
+
+
+def test_where_an_unmeasured_state_cannot_be_fitted_the_error_says_why(tanks):
+    frame = tanks[0]
+    with pytest.raises(ValueError, match=r"X has no column 'x1'.*fitted by output error.*"
+                                         r"fit_mode='auto' or 'simulation'"):
+        PolyCCRegressor(equations=CASCADE, fit_mode="equation").fit(frame)
+    with pytest.raises(ValueError, match="x1 is not measured and cannot be seen from the "
+                                         "measurements: no other equation reads it"):
+        PolyCCRegressor(equations=["x1_dot = a1 u - a2 x1", "x2_dot = a3 u - a4 x2"]).fit(frame)
+    with pytest.raises(ValueError, match=r"X has no column 'x1'.*the curves \(f1\) have none"):
+        PolyCCRegressor(equations=["x1_dot = a1 u - f1(x1)",
+                                   "x2_dot = a2 x1 - a3 sqrt(x2)"]).fit(frame)
+    with pytest.raises(ValueError, match=r"X has no column 'x1'.*PolyCCRegressor"):
+        NeuralCCRegressor(equations=CASCADE).fit(frame)
+    model = tanks[2]
+    with pytest.raises(ValueError, match=r"X has no column 'x1'.*diagnose reads every state"):
+        diagnose(model, frame)
