@@ -8,6 +8,7 @@ import pytest
 from sklearn.base import clone
 
 from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, datasets, diagnose
+from sklearn_pycc.exceptions import RankDeficiencyWarning
 
 #: the cascade with the lower tank's cross-section 0.8 times the upper one's (known): the
 #: upper tank's outflow, a2 sqrt(x1), raises the lower level 1.25 times as fast
@@ -91,3 +92,14 @@ def test_where_an_unmeasured_state_cannot_be_fitted_the_error_says_why(tanks):
     model = tanks[2]
     with pytest.raises(ValueError, match=r"X has no column 'x1'.*diagnose reads every state"):
         diagnose(model, frame)
+
+
+def test_a_scale_the_measurements_cannot_see_is_named(tanks):
+    # the skeleton: with a3 free, x1 -> c x1 is absorbed by a1, a2 and a3
+    frame = tanks[0]
+    skeleton = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
+    with pytest.warns(RankDeficiencyWarning, match=r"scaling a1 by c, a2 by c\^0.5, a3 by "
+                                                   r"c\^-0.5 and x1\(0\) by c \(any c > 0\)"):
+        model = PolyCCRegressor(equations=skeleton, constraints=POSITIVE).fit(frame)
+    assert len(model.shooting_["unseen"]) == 1
+    assert tanks[2].shooting_["unseen"] == []  # the identifiable form sees everything

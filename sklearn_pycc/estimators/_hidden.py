@@ -21,7 +21,8 @@ from ..windows import Windows
 from ._setup import Problem
 
 __all__ = ["START_FACTORS", "WholeRecord", "check_visible", "equilibrium", "hidden_trajectories",
-           "initial_table", "scaled_start", "single_shooting", "starting_params"]
+           "initial_table", "scaled_start", "single_shooting", "starting_params",
+           "unseen_directions"]
 
 
 def _reads(skeleton) -> dict[str, set[str]]:
@@ -230,7 +231,8 @@ def scaled_start(problem: Problem, params: Mapping[str, float],
 
 
 def single_shooting(problem: Problem, params: Mapping[str, float], first: np.ndarray,
-                    substeps: int, max_iterations: int) -> tuple[dict, np.ndarray, float]:
+                    substeps: int, max_iterations: int
+                    ) -> tuple[dict, np.ndarray, float, list[str]]:
     """Polish the parameters and each experiment's initial state by whole-record simulation.
 
     Multiple shooting (the stage before) joins its windows only up to a
@@ -245,6 +247,9 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     first : ndarray of shape (n_experiments, n_states)
     nrmse : float
         Normalised RMSE of the measured states along the whole record.
+    unseen : list of str
+        Directions of the parameters and initial states that the
+        measurements do not see (:func:`unseen_directions`), in words.
     """
     whole = WholeRecord(problem)
     whole.windows.substeps = int(substeps)
@@ -267,8 +272,44 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
                                  max_nfev=int(max_iterations) * (len(z0) + 1))
     z = solution.x if solution.cost <= 0.5 * float(np.sum(residuals(z0) ** 2)) else z0
     error = residuals(z)
+    labels = names + [f"{s}(0)" if first.shape[0] == 1 else f"{s}(0) of experiment {e}"
+                      for e in range(first.shape[0]) for s in whole.states]
+    unseen = unseen_directions(solution.jac, z, labels, problem.hidden)
     return (dict(zip(names, z[:p].tolist())), z[p:].reshape(first.shape),
-            float(np.sqrt(np.mean(error ** 2))))
+            float(np.sqrt(np.mean(error ** 2))), unseen)
+
+
+#: a direction of the parameters (in relative terms) along which the measurements change
+#: less than this share of the most they change along any is not seen by them
+UNSEEN = 1e-6
+
+
+def unseen_directions(jacobian: np.ndarray, z: np.ndarray, labels: Sequence[str],
+                      hidden: Sequence[str]) -> list[str]:
+    """Directions of the unknowns that the measured states do not see, in words.
+
+    The Jacobian of the measured states' errors with respect to the
+    unknowns' relative changes ``d z / |z|``: a singular value below
+    :data:`UNSEEN` times the largest is a direction the data cannot fix, such
+    as the scale of an unmeasured state that free parameters absorb.
+    """
+    size = np.maximum(np.abs(z), 1e-12)
+    J = np.asarray(jacobian, dtype=float) * size[None, :]
+    if not np.all(np.isfinite(J)) or J.shape[0] < J.shape[1]:
+        return []
+    _, sigma, Vt = np.linalg.svd(J, full_matrices=False)
+    out = []
+    for k in np.flatnonzero(sigma < UNSEEN * sigma[0]):
+        v = Vt[k]
+        involved = np.flatnonzero(np.abs(v) > 0.05 * np.abs(v).max())
+        anchor = next((j for j in involved
+                       if any(labels[j].startswith(f"{s}(0)") for s in hidden)), involved[0])
+        powers = v / v[anchor]
+        moves = [f"{labels[j]} by " + ("c" if abs(powers[j] - 1) < 1e-3
+                                        else f"c^{powers[j]:.3g}") for j in involved]
+        listed = ", ".join(moves[:-1]) + " and " + moves[-1] if len(moves) > 1 else moves[0]
+        out.append(f"scaling {listed} (any c > 0) leaves every measured state as it is")
+    return out
 
 
 def _zero_curves(problem: Problem) -> dict:

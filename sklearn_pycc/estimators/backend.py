@@ -21,12 +21,14 @@ by the presence of a method: :attr:`Backend.output_error` (it implements
 from __future__ import annotations
 
 import copy
+import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from typing import ClassVar
 
 import numpy as np
 
+from ..exceptions import RankDeficiencyWarning
 from ..skeleton.curves import as_curve
 from ._setup import FitResult, Problem
 
@@ -153,9 +155,15 @@ class Backend(ABC):
         result = self.refine(problem, result, plan)
         info = dict(result.attributes["shooting_"])
         # the windows' joins are soft: a last pass simulates every experiment whole
-        params, first, nrmse = single_shooting(problem, result.params, info["initial_states"],
-                                               plan.substeps, iterations)
-        info.update(initial_states=first, nrmse_whole=nrmse)
+        params, first, nrmse, unseen = single_shooting(
+            problem, result.params, info["initial_states"], plan.substeps, iterations)
+        info.update(initial_states=first, nrmse_whole=nrmse, unseen=unseen)
+        for words in unseen:
+            warnings.warn(
+                f"{', '.join(problem.hidden)} not measured, and the measurements cannot fix "
+                f"every parameter: {words}, so only combinations of those are determined (the "
+                "values found are one of many). Write a known value or ratio into the "
+                "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=4)
         table = initial_table(problem, first, plan.states)
         return FitResult(result.functions, params,
                          {**result.attributes, "shooting_": info, "initial_states_": table},
