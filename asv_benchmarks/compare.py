@@ -95,6 +95,13 @@ r.    Not timed: the loop's right-answer and false-alarm rates over the
       counts for the pendulum), a false alarm when ``diagnose`` of the true
       skeleton names anything.
 
+w.    ``PolyCCRegressor.fit`` of the two-tank cascade (``make_two_tanks``,
+      1,024 samples every 4 s, the lower level only at 40 dB, the upper one
+      unmeasured) below the rims and overflowing (the skeleton has no
+      overflow); the checks give the parameter errors and the validation
+      RMSE on a second record, simulated from ``estimate_initial_state``,
+      over that of the true parameters.
+
 and three lines only report times (no goal): k. ``SymbolicCCRegressor.fit``
 on the Duffing oscillator, l. ``to_symbolic`` of the neural stick-slip fit
 (20 dB on the force) from its curves alone and m. with the data.
@@ -724,6 +731,41 @@ def _axis_loop_timings() -> list[Timing]:
     return out
 
 
+#: the two-tank cascade with the lower tank's cross-section 0.8 times the upper one's
+TANKS = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = 1.25 a2 sqrt(x1) - a3 sqrt(x2)"]
+
+
+def _tank_timings() -> list[Timing]:
+    from sklearn_pycc import from_tables
+
+    out = []
+    for rims, label in (((100.0, 100.0), "below the rims"), (None, "overflowing")):
+        settings = {} if rims is None else {"rims": rims}
+        frame, truth = datasets.make_two_tanks(random_state=0, return_truth=True, **settings)
+        new, fresh = datasets.make_two_tanks(random_state=1, return_truth=True, **settings)
+        true = {"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}
+
+        def run(frame=frame):
+            return PolyCCRegressor(equations=TANKS,
+                                   constraints=["a1 >= 0", "a2 >= 0", "a3 >= 0"]).fit(frame)
+
+        model = run()
+        reference = from_tables(TANKS, {}, true)
+
+        def validation(m, new=new, fresh=fresh):
+            y0 = m.estimate_initial_state(new)
+            simulated = m.simulate(new.t, y0, inputs={"u": new.u.to_numpy()})
+            return float(np.sqrt(np.mean((simulated.x2 - fresh.states.x2) ** 2)))
+
+        errors = ", ".join(f"{a} {100 * (model.params_[a] / v - 1):+.1f} %"
+                           for a, v in true.items())
+        ratio = validation(model) / validation(reference)
+        out.append(Timing(f"w. two tanks, x1 unmeasured, {label}", run, None,
+                          f"{errors}; validation RMSE of x2 / the true parameters' "
+                          f"{ratio:.2f} (both from estimate_initial_state)"))
+    return out
+
+
 #: the effects make_oscillator can hide beyond its viscous damping
 HIDDEN = ["coulomb_friction", "quadratic_drag", "cubic_stiffness", "saturation", "pendulum",
           "position_dependent_damping", "offset"]
@@ -872,6 +914,7 @@ def main(argv=None) -> int:
         builders = [("g", _loop_timing), ("h", _diagnose_timing), ("p", _fit_diagnose_timing),
                     ("q", _axis_loop_timings), ("u", _bootstrap_timing),
                     ("v", _neural_scale_timings),
+                    ("w", _tank_timings),
                     ("k", _symbolic_fit_timing),
                     ("lm", _post_sr_timings)]
         for key, build in builders:

@@ -135,3 +135,36 @@ class AxisLoop:
     def track_mass_error(self, n_samples):
         """Relative error of the final model's ``a1`` (one over the mass)."""
         return abs(self._run().model.params_["a1"] / self.truth.params["a1"] - 1)
+
+
+class UnmeasuredTank:
+    """The two-tank cascade logged every 4 s, the upper level unmeasured (1,024 samples).
+
+    Below the tanks' rims (the skeleton has no overflow); compare.py line w
+    gives the parameter errors and the validation ratio beside the time.
+    """
+
+    processes = 1
+    repeat = (1, 3, 60.0)
+    timeout = 300
+    skeleton = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = 1.25 a2 sqrt(x1) - a3 sqrt(x2)"]
+
+    def setup(self):
+        self._limits = threadpool_limits(limits=1)
+        warnings.simplefilter("ignore")
+        self.frame, self.truth = datasets.make_two_tanks(rims=(100.0, 100.0), random_state=0,
+                                                         return_truth=True)
+
+    def teardown(self):
+        self._limits.restore_original_limits()
+
+    def _fit(self):
+        return PolyCCRegressor(equations=self.skeleton,
+                               constraints=["a1 >= 0", "a2 >= 0", "a3 >= 0"]).fit(self.frame)
+
+    def time_fit(self):
+        self._fit()
+
+    def track_outflow_error(self):
+        """Relative error of the upper tank's outflow coefficient ``a2``."""
+        return abs(self._fit().params_["a2"] / self.truth.params["a2"] - 1)
