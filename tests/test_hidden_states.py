@@ -7,7 +7,14 @@ import pandas as pd
 import pytest
 from sklearn.base import clone
 
-from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, datasets, diagnose
+from sklearn_pycc import (
+    InterpolatedCCRegressor,
+    NeuralCCRegressor,
+    PolyCCRegressor,
+    datasets,
+    diagnose,
+)
+from sklearn_pycc.estimators.least_squares import LeastSquaresCCRegressor
 from sklearn_pycc.exceptions import RankDeficiencyWarning
 
 #: the cascade with the lower tank's cross-section 0.8 times the upper one's (known): the
@@ -87,8 +94,9 @@ def test_where_an_unmeasured_state_cannot_be_fitted_the_error_says_why(tanks):
     with pytest.raises(ValueError, match=r"X has no column 'x1'.*the curves \(f1\) have none"):
         PolyCCRegressor(equations=["x1_dot = a1 u - f1(x1)",
                                    "x2_dot = a2 x1 - a3 sqrt(x2)"]).fit(frame)
-    with pytest.raises(ValueError, match=r"X has no column 'x1'.*PolyCCRegressor"):
-        NeuralCCRegressor(equations=CASCADE).fit(frame)
+    with pytest.raises(ValueError, match=r"X has no column 'x1'.*LeastSquaresCCRegressor "
+                                         r"reads every state from X"):
+        LeastSquaresCCRegressor(equations=CASCADE).fit(frame)
     model = tanks[2]
     with pytest.raises(ValueError, match=r"X has no column 'x1'.*diagnose reads every state"):
         diagnose(model, frame)
@@ -103,3 +111,15 @@ def test_a_scale_the_measurements_cannot_see_is_named(tanks):
         model = PolyCCRegressor(equations=skeleton, constraints=POSITIVE).fit(frame)
     assert len(model.shooting_["unseen"]) == 1
     assert tanks[2].shooting_["unseen"] == []  # the identifiable form sees everything
+
+
+@pytest.mark.parametrize("estimator", [NeuralCCRegressor, InterpolatedCCRegressor])
+def test_every_backend_fits_a_parametric_skeleton_with_an_unmeasured_state(estimator):
+    frame, truth = datasets.make_two_tanks(n_samples=300, rims=(100.0, 100.0),
+                                           random_state=2, return_truth=True)
+    model = estimator(equations=CASCADE, constraints=POSITIVE).fit(frame)
+    expected = {"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}
+    for name, value in expected.items():
+        assert model.params_[name] == pytest.approx(value, rel=0.1), name
+    assert list(model.initial_states_.columns) == ["x1"]
+    assert model.fit_mode_ == "simulation"

@@ -56,9 +56,6 @@ class Backend(ABC):
 
     #: it implements :meth:`refine` (fit_mode="simulation")
     output_error: ClassVar[bool] = False
-    #: its :meth:`refine` fits unmeasured states too (``problem.hidden``), starting from
-    #: :meth:`hidden_start`
-    unmeasured_states: ClassVar[bool] = False
     #: it implements :meth:`curve_sd` and :meth:`draws` for a model it fitted
     uncertainty: ClassVar[bool] = False
     #: joblib's ``prefer`` for refits on resamples: "threads" when the work
@@ -141,22 +138,36 @@ class Backend(ABC):
         return self.refine(problem, result, plan)
 
     def _estimate_hidden(self, problem: Problem, window: int, iterations: int) -> FitResult:
-        """Output error from :meth:`hidden_start`, the unmeasured states started by simulation."""
+        """Output error from :meth:`hidden_start`, the unmeasured states started by simulation.
+
+        The same for every backend: a skeleton with unmeasured states has
+        parameters only. Multiple shooting over the parameters and every
+        window's start, then every experiment simulated whole.
+        """
         from ._hidden import hidden_trajectories, initial_table, single_shooting
-        from ._shooting import ShootingPlan
+        from ._shooting import ShootingPlan, fit_shooting
 
         result = self.hidden_start(problem)
-        start = problem.skeleton.compile(result.functions,
-                                         {**problem.fixed_params, **result.params})
-        guesses = hidden_trajectories(problem, start)
-        plan = ShootingPlan(problem, window, hidden=guesses)
-        plan.iterations = iterations
+        names = list(problem.free_params)
+
+        def system_for(theta: np.ndarray):
+            values = {**problem.fixed_params, **dict(zip(names, theta))}
+            return problem.skeleton.compile(result.functions, values)
+
+        theta0 = np.array([result.params[a] for a in names], dtype=float)
+        start = system_for(theta0)
+        plan = ShootingPlan(problem, window,
+                            hidden=hidden_trajectories(problem, start))
         plan.choose_substeps(start, plan.columns())
-        result = self.refine(problem, result, plan)
-        info = dict(result.attributes["shooting_"])
+        bounds = problem.bounds
+        low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in names])
+        high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in names])
+        theta, info = fit_shooting(plan, system_for, np.clip(theta0, low, high), iterations,
+                                   bounds=(low, high))
         # the windows' joins are soft: a last pass simulates every experiment whole
         params, first, nrmse, unseen = single_shooting(
-            problem, result.params, info["initial_states"], plan.substeps, iterations)
+            problem, dict(zip(names, theta.tolist())), info["initial_states"], plan.substeps,
+            iterations)
         info.update(initial_states=first, nrmse_whole=nrmse, unseen=unseen)
         for words in unseen:
             warnings.warn(
@@ -166,8 +177,7 @@ class Backend(ABC):
                 "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=4)
         table = initial_table(problem, first, plan.states)
         return FitResult(result.functions, params,
-                         {**result.attributes, "shooting_": info, "initial_states_": table},
-                         result.stage)
+                         {"shooting_": info, "initial_states_": table})
 
     def hidden_start(self, problem: Problem) -> FitResult:
         """Where the output-error fit of a problem with unmeasured states starts.
@@ -175,7 +185,7 @@ class Backend(ABC):
         The free parameters at the backend's ``param_init``; those it does
         not give start at 1 times the common factor whose simulation follows
         the record best (:func:`~._hidden.scaled_start`); the curves pinned
-        to zero by the gauge. Only for backends with :attr:`unmeasured_states`.
+        to zero by the gauge.
         """
         from ._basis import ZeroCurve
         from ._hidden import scaled_start, starting_params

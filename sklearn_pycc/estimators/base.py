@@ -274,8 +274,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                              smooth=bool(self.smooth_states), estimator=self, reset=True,
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
                              who=type(self).__name__, trim=False,
-                             hidden_ok=(self.fit_mode != "equation"
-                                        and backend.unmeasured_states))
+                             hidden_ok=self.fit_mode != "equation")
         if record.hidden:
             _check_hidden(skeleton, record.hidden)
         weights = _equation_weights(self.equation_weights, skeleton)
@@ -436,7 +435,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         """
         adopted = ("skeleton_", "gauge_", "curve_ranges_", "n_features_in_",
                    "feature_names_in_", "measured_states_", "derivative_source_", "fit_mode_",
-                   "_y_1d")
+                   "initial_states_", "_y_1d")
         skeleton = source.skeleton_
         values = {name: copy.deepcopy(getattr(source, name)) for name in adopted
                   if hasattr(source, name)}

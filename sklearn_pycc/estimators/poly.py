@@ -154,7 +154,6 @@ class PolyBackend(Backend):
     """
 
     output_error = True
-    unmeasured_states = True
     uncertainty = True
     #: the refits' least squares run in LAPACK, which releases the GIL
     resample_in = "threads"
@@ -273,7 +272,7 @@ class PolyBackend(Backend):
         shape the equation fit gave them.
         """
         functions, params = result.functions, result.params
-        coefficients_at_start = result.attributes.get("coefficients_", {})
+        coefficients_at_start = result.attributes["coefficients_"]
         degrees = self._degrees(problem.free_functions)
         free_params = problem.free_params
         pieces = []  # (curve, basis, coefficients at start, null-space directions)

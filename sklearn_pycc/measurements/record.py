@@ -331,8 +331,8 @@ def _hidden_message(skeleton, state: str, blank, who: str | None) -> str:
             else f"X has no column {state!r}")
     return (f"{held}, a state of the skeleton, and no kinematic equation (NAME_dot = {state}) "
             f"ties it to a measured state. An unmeasured state is fitted by output error "
-            f"(PolyCCRegressor with fit_mode='auto' or 'simulation'); {who or 'this call'} "
-            f"reads every state from X")
+            f"(fit_mode='auto' or 'simulation'); {who or 'this call'} reads every state "
+            f"from X")
 
 
 def _no_time_message(skeleton, who: str | None) -> str:
