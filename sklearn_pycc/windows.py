@@ -207,6 +207,8 @@ class Windows:
         def rhs(state, column):
             return evaluate(state, [values[column] for values in columns])
 
+        limited = bool(getattr(system, "limits", None))
+
         with np.errstate(all="ignore"):
             for i in range(L):
                 h = (self.h[:, i] / m)[:, None]
@@ -217,6 +219,8 @@ class Windows:
                     k3 = rhs(x + 0.5 * h * k2, c + 1)
                     k4 = rhs(x + h * k3, c + 2)
                     x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+                    if limited:
+                        system.clip(x)
                 bad = ~np.isfinite(x).all(axis=1) | (np.abs(x) > self.bound).any(axis=1)
                 if bad.any():
                     self.escape_step[bad & ~escaped] = i + 1

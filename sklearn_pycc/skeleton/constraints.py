@@ -2,7 +2,9 @@
 
 On characteristic curves: ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``,
 ``"f1 increasing"``, ``"f2 decreasing"``; on scalar parameters: bounds
-``"a2 >= 0"``, ``"a2 <= 5"``, ``"0 <= a3 <= 10"``.
+``"a2 >= 0"``, ``"a2 <= 5"``, ``"0 <= a3 <= 10"``; on states: hard limits
+``"x1 <= 12"``, ``"0 <= x2 <= 13"`` (a tank that overflows at its rim, an end
+stop), which the state never leaves.
 """
 
 from __future__ import annotations
@@ -17,8 +19,8 @@ from ..exceptions import SkeletonError
 from .functions import is_param_name, is_unknown_name
 from .lexer import Token, tokenize
 
-__all__ = ["Bound", "Constraint", "check_constraints", "merged_bounds", "parse_constraint",
-           "parse_constraints"]
+__all__ = ["Bound", "Constraint", "StateLimit", "check_constraints", "merged_bounds",
+           "merged_limits", "parse_constraint", "parse_constraints"]
 
 #: kinds of curve constraints that are shapes rather than points
 MONOTONE = ("increasing", "decreasing")
@@ -112,6 +114,41 @@ class Bound:
         return self.low <= value <= self.high
 
 
+@dataclass(frozen=True)
+class StateLimit:
+    """A hard limit on a state: ``low <= state <= high`` at every instant.
+
+    At a limit the state's rate is held at zero while it would carry the
+    state beyond (what spills over a rim is lost; an end stop stops).
+
+    Attributes
+    ----------
+    state : str
+        The state, e.g. ``"x1"``.
+    low, high : float
+        Least and largest value (``-inf`` / ``inf`` when open).
+    """
+
+    state: str
+    low: float = -math.inf
+    high: float = math.inf
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.state, str) or is_param_name(self.state) \
+                or is_unknown_name(self.state):
+            raise SkeletonError(f"a limit applies to a state, got {self.state!r}")
+        if self.low >= self.high:
+            raise SkeletonError(f"limit on {self.state}: low {self.low:g} is not below high "
+                                f"{self.high:g}")
+
+    def __str__(self) -> str:
+        if math.isinf(self.low):
+            return f"{self.state} <= {self.high:.12g}"
+        if math.isinf(self.high):
+            return f"{self.state} >= {self.low:.12g}"
+        return f"{self.low:.12g} <= {self.state} <= {self.high:.12g}"
+
+
 def _signed_number(tokens: list[Token], i: int) -> tuple[float, int] | None:
     sign = 1.0
     if tokens[i].kind == "OP" and tokens[i].text in "+-":
@@ -160,10 +197,13 @@ def parse_constraint(item: str | Mapping, index: int = 0) -> Constraint | Bound:
         return SkeletonError(message, equation=index, position=pos, text=text, kind="constraints")
 
     usage = ("expected 'fN odd', 'fN even', 'fN increasing', 'fN decreasing', 'fN(c)=v', "
-             "'aN >= c', 'aN <= c' or 'c1 <= aN <= c2'")
+             "'aN >= c', 'aN <= c', 'c1 <= aN <= c2' or a state's limit 'x1 <= c'")
     first = tokens[0]
+    compared = len(tokens) > 1 and tokens[1].kind == "OP" \
+        and tokens[1].text in ("<=", ">=", "<", ">")
     if first.kind == "NUMBER" or (first.kind == "OP" and first.text in "+-") \
-            or (first.kind == "NAME" and is_param_name(first.text)):
+            or (first.kind == "NAME" and is_param_name(first.text)) \
+            or (first.kind == "NAME" and not is_unknown_name(first.text) and compared):
         return _parse_bound(tokens, text, fail, usage)
     if first.kind != "NAME" or not is_unknown_name(first.text):
         raise fail(f"unknown constraint: {usage}", first.pos)
@@ -192,18 +232,35 @@ def parse_constraint(item: str | Mapping, index: int = 0) -> Constraint | Bound:
     raise fail(f"unknown constraint: {usage}", second.pos)
 
 
-def _parse_bound(tokens: list[Token], text: str, fail, usage: str) -> Bound:
-    """``aN >= c``, ``aN <= c``, ``c <= aN``, ``c >= aN`` or ``c1 <= aN <= c2``."""
-    items, i = [], 0  # alternating operands (float or parameter name) and comparisons
+def _parse_bound(tokens: list[Token], text: str, fail, usage: str) -> Bound | StateLimit:
+    """``aN >= c``, ``aN <= c``, ``c <= aN``, ``c >= aN`` or ``c1 <= aN <= c2``.
+
+    With a state's name in place of ``aN``, the state's limit.
+    """
+    items, i = [], 0  # alternating operands (float or name) and comparisons
+    first_name = next((t.text for t in tokens if t.kind == "NAME"), "")
+    # a parameter's bound reads numbers and parameters; a state's limit, numbers and states
+    if is_param_name(first_name):
+        def readable(name: str) -> bool:
+            return is_param_name(name)
+    else:
+        def readable(name: str) -> bool:
+            return not is_param_name(name) and not is_unknown_name(name)
     while True:
         token = tokens[i]
-        if token.kind == "NAME" and is_param_name(token.text):
+        if token.kind == "NAME" and readable(token.text):
             items.append((token.text, token.pos))
             i += 1
         else:
             parsed = _signed_number(tokens, i)
             if parsed is None:
-                raise fail(f"expected a number or a parameter aN: {usage}", token.pos)
+                if not is_param_name(first_name) and token.kind == "NAME" \
+                        and is_param_name(token.text):
+                    raise fail(f"a state's limit is a known number ({first_name} <= 12); a "
+                               f"limit to fit ({first_name} <= {token.text}) is not available",
+                               token.pos)
+                what = "a parameter aN" if is_param_name(first_name) else "a state"
+                raise fail(f"expected a number or {what}: {usage}", token.pos)
             items.append((parsed[0], token.pos))
             i = parsed[1]
         token = tokens[i]
@@ -220,7 +277,7 @@ def _parse_bound(tokens: list[Token], text: str, fail, usage: str) -> Bound:
     names = [(value, pos) for value, pos in operands if isinstance(value, str)]
     if len(names) != 1:
         where = names[1][1] if len(names) > 1 else operands[0][1]
-        raise fail(f"a bound names exactly one parameter: {usage}", where)
+        raise fail(f"a bound names exactly one parameter or state: {usage}", where)
     if len(comparisons) not in (1, 2) or len(set(comparisons)) != 1:
         raise fail(f"a bound is 'aN >= c', 'aN <= c' or 'c1 <= aN <= c2': {usage}",
                    items[1][1])
@@ -239,6 +296,8 @@ def _parse_bound(tokens: list[Token], text: str, fail, usage: str) -> Bound:
     if low >= high:
         raise fail(f"empty bound: {low:g} >= {high:g} leaves no interval (write a fixed "
                    "value as a number in the equation)", operands[0][1])
+    if not is_param_name(name):
+        return StateLimit(name, float(low), float(high))
     return Bound(name, float(low), float(high))
 
 
@@ -250,7 +309,7 @@ def parse_constraints(items: Iterable | None) -> tuple[Constraint, ...]:
         items = [items]
     out: list[Constraint] = []
     for index, item in enumerate(items):
-        constraint = (item if isinstance(item, (Constraint, Bound))
+        constraint = (item if isinstance(item, (Constraint, Bound, StateLimit))
                       else parse_constraint(item, index))
         if constraint not in out:
             out.append(constraint)
@@ -271,6 +330,16 @@ def merged_bounds(constraints: Iterable) -> dict[str, tuple[float, float]]:
     return out
 
 
+def merged_limits(constraints: Iterable) -> dict[str, tuple[float, float]]:
+    """State -> ``(low, high)``, the intersection of every limit on it."""
+    out: dict[str, tuple[float, float]] = {}
+    for c in constraints:
+        if isinstance(c, StateLimit):
+            low, high = out.get(c.state, (-math.inf, math.inf))
+            out[c.state] = (max(low, c.low), min(high, c.high))
+    return out
+
+
 def _check_monotone_points(name: str, shape: str, points: list[Constraint],
                            odd: bool) -> None:
     """Point values of a monotone curve (and their mirror images when odd) in order."""
@@ -286,7 +355,7 @@ def _check_monotone_points(name: str, shape: str, points: list[Constraint],
 
 
 def check_constraints(constraints: Iterable, functions: Iterable[str],
-                      params: Iterable[str] = ()) -> None:
+                      params: Iterable[str] = (), states: Iterable[str] = ()) -> None:
     """Reject constraints on curves or parameters the skeleton lacks, and contradictory sets.
 
     Raises
@@ -295,7 +364,19 @@ def check_constraints(constraints: Iterable, functions: Iterable[str],
         Naming the constraint(s) at fault.
     """
     constraints = list(constraints)
-    functions, params = list(functions), list(params)
+    functions, params, states = list(functions), list(params), list(states)
+    for c in constraints:
+        if isinstance(c, StateLimit) and c.state not in states:
+            have = ", ".join(states) if states else "no states"
+            raise SkeletonError(f"constraint '{c}' limits {c.state}, which is neither a "
+                                f"parameter aN nor a state of the skeleton ({have})",
+                                kind="constraints")
+    for name, (low, high) in merged_limits(constraints).items():
+        if low >= high:
+            limits = ", ".join(str(c) for c in constraints
+                               if isinstance(c, StateLimit) and c.state == name)
+            raise SkeletonError(f"contradictory limits on {name}: {limits} leave no value",
+                                kind="constraints")
     for c in constraints:
         if isinstance(c, Bound) and c.param not in params:
             have = ", ".join(params) if params else "no parameters"

@@ -19,7 +19,15 @@ from ..simulation import (
     integrate_system,
     progress_bar,
 )
-from .constraints import Bound, Constraint, check_constraints, merged_bounds, parse_constraints
+from .constraints import (
+    Bound,
+    Constraint,
+    StateLimit,
+    check_constraints,
+    merged_bounds,
+    merged_limits,
+    parse_constraints,
+)
 from .equations import TIME, Equation, classify, evaluation_order, state_of
 from .nodes import (
     BinOp,
@@ -158,8 +166,9 @@ class Skeleton:
         self.params = sorted(params, key=_index_key)
         self.inputs = inputs
         self.uses_time = uses_time
-        self.constraints: tuple[Constraint | Bound, ...] = parse_constraints(constraints)
-        check_constraints(self.constraints, self.functions, self.params)
+        self.constraints: tuple[Constraint | Bound | StateLimit, ...] = parse_constraints(
+            constraints)
+        check_constraints(self.constraints, self.functions, self.params, self.states)
 
     # -- conveniences ---------------------------------------------------------
     def _reads(self, name: str) -> bool:
@@ -236,6 +245,11 @@ class Skeleton:
     def bounds(self) -> dict[str, tuple[float, float]]:
         """Parameter -> ``(low, high)`` for every bounded parameter (``-inf``/``inf`` open)."""
         return merged_bounds(self.constraints)
+
+    @property
+    def limits(self) -> dict[str, tuple[float, float]]:
+        """State -> ``(low, high)`` for every state with a hard limit (``-inf``/``inf`` open)."""
+        return merged_limits(self.constraints)
 
     def monotone(self, function: str) -> str | None:
         """``"increasing"``, ``"decreasing"`` or None for one curve."""
@@ -462,7 +476,7 @@ class Skeleton:
         functions, params = self.check_values(functions, params)
         static = [eq for eq in self._all if eq.output is not None]
         return CompiledSystem(self._equations, self.states, self.inputs, params, functions,
-                              static=static)
+                              static=static, limits=self.limits)
 
     def simulate(
         self,
@@ -577,6 +591,8 @@ def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method=None, 
             frame = integrate_system(rhs, t, y0, system.states, method=method or "LSODA",
                                      rtol=rtol, atol=atol, progress=progress,
                                      **solver_options)
+    for name, (low, high) in system.limits.items():  # a step may overshoot by its error
+        frame[name] = frame[name].clip(low, high)
     if return_derivatives:
         data = {name: frame[name].to_numpy() for name in system.states}
         values = signals.on(t)

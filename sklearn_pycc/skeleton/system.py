@@ -37,6 +37,10 @@ class CompiledSystem:
     static : list of Equation, optional
         Static equations ``NAME = rhs``, whose outputs
         :meth:`evaluate_outputs` predicts from the same columns.
+    limits : mapping, optional
+        State -> ``(low, high)``: hard limits. At a limit the state's rate is
+        held at zero while it points beyond (see :meth:`clip` for the states
+        themselves).
     """
 
     def __init__(
@@ -47,8 +51,13 @@ class CompiledSystem:
         params: Mapping[str, float],
         functions: Mapping[str, Callable],
         static: list[Equation] = (),
+        limits: Mapping[str, tuple[float, float]] | None = None,
     ) -> None:
         self.states = list(states)
+        self.limits = {s: (float(lo), float(hi)) for s, (lo, hi) in (limits or {}).items()}
+        # (position among the states, position among the derivatives, low, high)
+        self._limited = [(self.states.index(s), [eq.state for eq in equations].index(s), lo, hi)
+                         for s, (lo, hi) in self.limits.items()]
         self.inputs = list(inputs)
         self.derivatives = [eq.derivative for eq in equations]
         names = [*self.states, *self.inputs, TIME, *self.derivatives]
@@ -101,7 +110,28 @@ class CompiledSystem:
                     env[slot] = -e0 / (e1 - e0)
         if not self._output_slots:
             return np.zeros((n, 0))
-        return np.column_stack([env[s] for s in self._output_slots])
+        rates = np.column_stack([env[s] for s in self._output_slots])
+        if self._limited:
+            x = np.column_stack([np.broadcast_to(np.asarray(env[q], dtype=float), (n,))
+                                 for q in range(len(self.states))])
+            self._hold(x, rates)
+        return rates
+
+    def _hold(self, x: np.ndarray, rates: np.ndarray) -> None:
+        """Zero, in place, the rates that would carry a state beyond its limit."""
+        for q, j, low, high in self._limited:
+            beyond = ((x[:, q] >= high) & (rates[:, j] > 0)) | (
+                (x[:, q] <= low) & (rates[:, j] < 0))
+            rates[beyond, j] = 0.0
+
+    def clip(self, x: np.ndarray) -> np.ndarray:
+        """States ``(..., n_states)`` held within their limits, in place.
+
+        An integration step may overshoot a limit by its error.
+        """
+        for q, _, low, high in self._limited:
+            np.clip(x[..., q], low, high, out=x[..., q])
+        return x
 
     def batch_rhs(self, n: int, signals: list[str]) -> Callable:
         """Return ``rhs(x, values)`` for ``n`` trajectories integrated side by side.
@@ -137,8 +167,11 @@ class CompiledSystem:
             out = np.empty((n, len(outputs)))
             for j, slot in enumerate(outputs):
                 out[:, j] = env[slot]  # a constant right-hand side broadcasts
+            if limited:
+                hold(x, out)
             return out
 
+        limited, hold = bool(self._limited), self._hold
         return rhs
 
     def evaluate_outputs(self, data: Mapping[str, np.ndarray], n: int) -> np.ndarray:
@@ -187,6 +220,12 @@ class CompiledSystem:
                 for v in out:
                     if not isfinite(v):
                         raise Diverged(f"the right-hand side is {v} at t={t:.6g}")
+            if limited:
+                out = list(out)
+                for q, j, low, high in limited:
+                    if (env[q] >= high and out[j] > 0) or (env[q] <= low and out[j] < 0):
+                        out[j] = 0.0
             return out
 
+        limited = self._limited
         return rhs

@@ -1,0 +1,69 @@
+"""Hard limits on states: a tank that overflows at its rim, an end stop."""
+
+import numpy as np
+import pytest
+
+from sklearn_pycc import PolyCCRegressor, Skeleton, datasets, from_tables
+from sklearn_pycc.exceptions import SkeletonError
+from sklearn_pycc.skeleton.constraints import StateLimit
+
+TORRICELLI = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
+
+
+def test_a_limit_on_a_state_is_read_and_checked():
+    skeleton = Skeleton(TORRICELLI, ["x1 <= 12", "0 <= x2 <= 13", "a1 >= 0"])
+    assert skeleton.limits == {"x1": (-np.inf, 12.0), "x2": (0.0, 13.0)}
+    assert skeleton.bounds == {"a1": (0.0, np.inf)}
+    assert skeleton.params == ["a1", "a2", "a3", "a4"]  # a limit adds no parameter
+    assert [str(c) for c in skeleton.constraints if isinstance(c, StateLimit)] == \
+        ["x1 <= 12", "0 <= x2 <= 13"]
+    with pytest.raises(SkeletonError, match="limits u, which is neither a parameter aN nor a "
+                                            "state of the skeleton"):
+        Skeleton(TORRICELLI, ["u <= 3"])
+    with pytest.raises(SkeletonError, match="contradictory limits on x1"):
+        Skeleton(TORRICELLI, ["x1 <= 1", "x1 >= 2"])
+    with pytest.raises(SkeletonError, match="a state's limit is a known number"):
+        Skeleton(TORRICELLI, ["x1 <= a5"])
+    with pytest.raises(SkeletonError, match="unknown constraint"):
+        Skeleton(TORRICELLI, ["x1 odd"])
+
+
+def test_a_limited_simulation_follows_the_overflowing_tanks_exactly():
+    frame, truth = datasets.make_two_tanks(random_state=0, return_truth=True, noise=None,
+                                           measured=("x1", "x2"))
+    assert min(truth.overflowing.values()) > 0.03
+    skeleton = Skeleton(TORRICELLI, ["x1 <= 12", "x2 <= 13"])
+    simulated = skeleton.simulate(frame.t, list(truth.y0), params=truth.params,
+                                  inputs={"u": frame.u.to_numpy()}, input_hold="zoh")
+    for state, rim in truth.rims.items():
+        assert simulated[state].max() <= rim
+        np.testing.assert_allclose(simulated[state], truth.states[state], atol=5e-3)
+    # without the limits the levels rise past the rims
+    free = Skeleton(TORRICELLI).simulate(frame.t, list(truth.y0), params=truth.params,
+                                         inputs={"u": frame.u.to_numpy()}, input_hold="zoh")
+    assert free.x2.max() > truth.rims["x2"] + 1.0
+    # the rates are held at zero only while they point beyond the rim
+    system = skeleton.compile({}, truth.params)
+    rates = system.evaluate({"x1": np.array([12.0, 12.0, 5.0]), "x2": np.array([4.0] * 3),
+                             "u": np.array([10.0, 0.0, 10.0])}, 3)
+    assert rates[0, 0] == 0.0 and rates[1, 0] < 0 and rates[2, 0] > 0
+
+
+@pytest.mark.slow
+def test_the_overflowing_tanks_are_fitted_from_the_lower_level_alone():
+    frame, truth = datasets.make_two_tanks(random_state=0, return_truth=True)
+    new, fresh = datasets.make_two_tanks(random_state=1, return_truth=True)
+    skeleton = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = 1.25 a2 sqrt(x1) - a3 sqrt(x2)"]
+    limits = ["a1 >= 0", "a2 >= 0", "a3 >= 0", "x1 <= 12", "x2 <= 13"]
+    model = PolyCCRegressor(equations=skeleton, constraints=limits).fit(frame)
+    true = {"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}
+    for name, value in true.items():
+        assert model.params_[name] == pytest.approx(value, rel=0.05), name
+    reference = from_tables(skeleton, {}, true, constraints=limits)
+
+    def validation(m):
+        y0 = m.estimate_initial_state(new)
+        simulated = m.simulate(new.t, y0, inputs={"u": new.u.to_numpy()})
+        return float(np.sqrt(np.mean((simulated.x2 - fresh.states.x2) ** 2)))
+
+    assert validation(model) <= 1.5 * validation(reference)
