@@ -69,6 +69,15 @@ class Constraint:
         return f"{self.function} {self.kind}"
 
 
+def _interval_text(name: str, low: float, high: float) -> str:
+    """``name <= high``, ``name >= low`` or ``low <= name <= high``."""
+    if math.isinf(low):
+        return f"{name} <= {high:.12g}"
+    if math.isinf(high):
+        return f"{name} >= {low:.12g}"
+    return f"{low:.12g} <= {name} <= {high:.12g}"
+
+
 @dataclass(frozen=True)
 class Bound:
     """Bounds on a scalar parameter: ``low <= param <= high``.
@@ -103,11 +112,7 @@ class Bound:
                                 f"{self.high:g}")
 
     def __str__(self) -> str:
-        if math.isinf(self.low):
-            return f"{self.param} <= {self.high:.12g}"
-        if math.isinf(self.high):
-            return f"{self.param} >= {self.low:.12g}"
-        return f"{self.low:.12g} <= {self.param} <= {self.high:.12g}"
+        return _interval_text(self.param, self.low, self.high)
 
     def contains(self, value: float) -> bool:
         """Whether ``value`` lies within the bounds."""
@@ -142,11 +147,7 @@ class StateLimit:
                                 f"{self.high:g}")
 
     def __str__(self) -> str:
-        if math.isinf(self.low):
-            return f"{self.state} <= {self.high:.12g}"
-        if math.isinf(self.high):
-            return f"{self.state} >= {self.low:.12g}"
-        return f"{self.low:.12g} <= {self.state} <= {self.high:.12g}"
+        return _interval_text(self.state, self.low, self.high)
 
 
 def _signed_number(tokens: list[Token], i: int) -> tuple[float, int] | None:
