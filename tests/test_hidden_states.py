@@ -11,6 +11,7 @@ from sklearn_pycc import (
     InterpolatedCCRegressor,
     NeuralCCRegressor,
     PolyCCRegressor,
+    Skeleton,
     datasets,
     diagnose,
 )
@@ -123,3 +124,20 @@ def test_every_backend_fits_a_parametric_skeleton_with_an_unmeasured_state(estim
         assert model.params_[name] == pytest.approx(value, rel=0.1), name
     assert list(model.initial_states_.columns) == ["x1"]
     assert model.fit_mode_ == "simulation"
+
+
+def test_a_thermal_core_no_sensor_reads_is_fitted_from_the_surface():
+    # two nodes: the surface (measured, 0.05 degC noise) and the core (unmeasured), heated
+    skeleton = ["x1_dot = a1 (x2 - x1) + a2 (20 - x1) + a3 u", "x2_dot = a4 (x1 - x2)"]
+    true = {"a1": 0.02, "a2": 0.01, "a3": 0.05, "a4": 0.005}
+    rng = np.random.default_rng(0)
+    t = np.arange(0, 3000, 4.0)
+    periods, phases = np.array([150.0, 310.0, 620.0, 1500.0]), rng.uniform(0, 2 * np.pi, 4)
+    u = 5 + np.sin(2 * np.pi * t[:, None] / periods + phases).sum(axis=1)
+    exact = Skeleton(skeleton).simulate(t, [20.0, 20.0], params=true, inputs={"u": u})
+    frame = pd.DataFrame({"t": t, "u": u, "x1": exact.x1 + 0.05 * rng.standard_normal(len(t))})
+    model = PolyCCRegressor(equations=skeleton,
+                            constraints=["a1 >= 0", "a2 >= 0", "a3 >= 0", "a4 >= 0"]).fit(frame)
+    for name, value in true.items():
+        assert model.params_[name] == pytest.approx(value, rel=0.03), name
+    assert model.initial_states_.x2.iloc[0] == pytest.approx(20.0, abs=0.2)
