@@ -92,13 +92,17 @@ class Windows:
         Steps per window (samples between its first and last).
     merge_tail : bool, default=True
         A last window shorter than half of ``window`` joins the one before it.
+    hold : {"bandlimited", "foh", "zoh"}, default="bandlimited"
+        How the inputs are read between samples (see ``simulate``'s
+        ``input_hold``).
     """
 
     def __init__(self, states: Sequence[str], inputs: Sequence[str], uses_time: bool,
                  experiments: Sequence[tuple[np.ndarray, np.ndarray]],
                  starts: Mapping[str, np.ndarray], signals: Mapping[str, np.ndarray],
-                 window: int, *, merge_tail: bool = True) -> None:
+                 window: int, *, merge_tail: bool = True, hold: str = "bandlimited") -> None:
         self.states = list(states)
+        self.hold = hold
         self.inputs = list(inputs)
         self.uses_time = uses_time
         self.window = window
@@ -141,7 +145,7 @@ class Windows:
         self._experiments = list(experiments)
         self._signals = {name: np.asarray(signals[name], dtype=float) for name in self.inputs}
         self.substeps = 1
-        self._fine: dict[str, np.ndarray] = {}
+        self._fine: dict[str, dict[str, np.ndarray]] = {}
 
     # -- integration ---------------------------------------------------------
     def choose_substeps(self, system, data: Mapping[str, np.ndarray]) -> int:
@@ -161,25 +165,33 @@ class Windows:
         self._fine = {}
         return self.substeps
 
-    def fine_signals(self) -> dict[str, np.ndarray]:
-        """Inputs (and ``t``) at every Runge-Kutta stage time, ``(K, 2 L m + 1)``."""
-        if self._fine:
-            return self._fine
+    def fine_signals(self, left: bool = False) -> dict[str, np.ndarray]:
+        """Inputs (and ``t``) at every Runge-Kutta stage time, ``(K, 2 L m + 1)``.
+
+        With ``left``, each input's limit from the left: the value a stage
+        at the end of a sample interval reads (a held input steps only
+        after it). The same values unless ``hold="zoh"``.
+        """
+        key = "left" if left and self.hold == "zoh" else "right"
+        if key in self._fine:
+            return self._fine[key]
         m, L = self.substeps, self.n_steps
         frac = np.arange(2 * m) / (2 * m)
         fine_t = (self.times[:, :-1, None] + self.h[:, :, None] * frac).reshape(
             self.n_segments, 2 * m * L)
         fine_t = np.concatenate([fine_t, self.times[:, -1:]], axis=1)
+        # a hair before each stage time: the held value of the interval it ends
+        lag = 1e-9 * max(float(self.h.max()), 1e-300) if key == "left" else 0.0
         fine = {TIME: fine_t} if self.uses_time else {}
         for name, values in self._signals.items():
             out = np.empty_like(fine_t)
             for e, (rows, t) in enumerate(self._experiments):
                 mine = self.segment_experiment == e
-                # read between samples as simulate reads them by default
-                held = InputSignals([name], {name: values[rows]}, t)
-                out[mine] = held.on(fine_t[mine])[0]
+                # read between samples as simulate reads them
+                held = InputSignals([name], {name: values[rows]}, t, self.hold)
+                out[mine] = held.on(np.maximum(fine_t[mine] - lag, t[0]))[0]
             fine[name] = out
-        self._fine = fine
+        self._fine[key] = fine
         return fine
 
     def simulate(self, system, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -192,7 +204,7 @@ class Windows:
             Windows stopped because they diverged (they stay where they were;
             :attr:`escape_step` holds the first step they left the range at).
         """
-        fine = self.fine_signals()
+        fine, ends = self.fine_signals(), self.fine_signals(left=True)
         K, L, m = self.n_segments, self.n_steps, self.substeps
         names = self.states
         out = np.empty((K, L + 1, len(names)))
@@ -202,10 +214,12 @@ class Windows:
         self.escape_step = np.full(K, L + 1)
         signals = [name for name in fine if name in system.slots]
         columns = [fine[name].T.copy() for name in signals]  # (stage, K): contiguous rows
+        # the later stages of a step read a held input's value before it steps
+        lefts = columns if ends is fine else [ends[name].T.copy() for name in signals]
         evaluate = system.batch_rhs(K, signals)
 
-        def rhs(state, column):
-            return evaluate(state, [values[column] for values in columns])
+        def rhs(state, column, source=columns):
+            return evaluate(state, [values[column] for values in source])
 
         limited = bool(getattr(system, "limits", None))
 
@@ -215,9 +229,9 @@ class Windows:
                 for j in range(m):
                     c = 2 * (i * m + j)
                     k1 = rhs(x, c)
-                    k2 = rhs(x + 0.5 * h * k1, c + 1)
-                    k3 = rhs(x + 0.5 * h * k2, c + 1)
-                    k4 = rhs(x + h * k3, c + 2)
+                    k2 = rhs(x + 0.5 * h * k1, c + 1, lefts)
+                    k3 = rhs(x + 0.5 * h * k2, c + 1, lefts)
+                    k4 = rhs(x + h * k3, c + 2, lefts)
                     x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
                     if limited:
                         system.clip(x)
@@ -345,7 +359,7 @@ def _positive(value) -> bool:
 def simulate_windows(system, states: Sequence[str], inputs: Sequence[str], uses_time: bool,
                      columns: Mapping[str, np.ndarray], signals: Mapping[str, np.ndarray],
                      experiments: Sequence[tuple[np.ndarray, np.ndarray]], horizon: Horizon,
-                     n_samples: int):
+                     n_samples: int, hold: str = "bandlimited"):
     """Every row predicted from the measured state one horizon (or less) before it.
 
     Windows of ``horizon.samples`` steps tile every experiment and are
@@ -363,7 +377,7 @@ def simulate_windows(system, states: Sequence[str], inputs: Sequence[str], uses_
         experiments where some did.
     """
     windows = Windows(states, inputs, uses_time, experiments,
-                      {s: columns[s] for s in states}, signals, horizon.samples)
+                      {s: columns[s] for s in states}, signals, horizon.samples, hold=hold)
     windows.choose_substeps(system, columns)
     out, escaped = windows.simulate(system, windows.initial)
     # each row once: a window's first sample is the previous window's last prediction
@@ -446,7 +460,8 @@ def simulate_rows(model, columns: Mapping[str, np.ndarray], signals: Mapping[str
         system = skeleton.compile(model.functions_, model.params_)
         simulated, escaped = simulate_windows(
             system, states, inputs, "t" in skeleton.variables, columns, drive,
-            [(rows, t) for _, rows, t in experiments], horizon, n_samples)
+            [(rows, t) for _, rows, t in experiments], horizon, n_samples,
+            hold=getattr(model, "input_hold", "bandlimited"))
         stops = [Divergence(experiments[e][0], start, end,
                       f"{count} of {total} windows of the horizon left the states' range")
                  for e, (start, end, count, total) in escaped.items()]

@@ -158,7 +158,8 @@ class WholeRecord:
                                [(e.rows, e.t) for e in problem.experiments],
                                {s: np.zeros(n) for s in self.states},
                                {name: problem.signals[name] for name in self.inputs},
-                               max(e.n_samples for e in problem.experiments), merge_tail=False)
+                               max(e.n_samples for e in problem.experiments), merge_tail=False,
+                               hold=problem.input_hold)
         self.targets = np.stack([problem.measured[s][self.windows.rows] for s in measured],
                                 axis=-1)
         self.scale = np.array([np.sqrt(np.mean(problem.measured[s] ** 2)) or 1.0

@@ -136,6 +136,8 @@ class Problem:
     hidden : tuple of str
         Unmeasured states: no column of the record holds them; they are
         fitted by output error (``fit_mode`` is then "simulation").
+    input_hold : {"bandlimited", "foh", "zoh"}
+        How an output-error stage reads the inputs between samples.
     """
 
     skeleton: Skeleton
@@ -155,6 +157,7 @@ class Problem:
     rows: np.ndarray | None = None
     covariance: bool = True
     hidden: tuple = ()
+    input_hold: str = "bandlimited"
 
     @property
     def equations(self) -> list[Equation]:

@@ -71,7 +71,7 @@ class ShootingPlan(Windows):
         signals = {name: problem.signals[name] for name in inputs}
         super().__init__(states, inputs, TIME in skeleton.variables,
                          [(e.rows, e.t) for e in problem.experiments], starts,
-                         signals, int(window))
+                         signals, int(window), hold=problem.input_hold)
         self._starts, self._inputs = starts, signals
         self._times = np.zeros(len(next(iter(starts.values()))))
         for e in problem.experiments:

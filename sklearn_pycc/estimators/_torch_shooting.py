@@ -43,14 +43,17 @@ class _Integrator:
             self.rhs.append(compile_torch(eq.expression, slots, module.curves, module.params,
                                           fixed))
         self.plan = plan
-        fine = plan.fine_signals()
+        fine, ends = plan.fine_signals(), plan.fine_signals(left=True)
         self.signals = [_tensor(fine[name], like) for name in names[len(plan.states):]]
+        # the later stages of a step read a held input's value before it steps
+        self.lefts = self.signals if ends is fine else [
+            _tensor(ends[name], like) for name in names[len(plan.states):]]
         self.h = _tensor(plan.h / plan.substeps, like)
         self.bound = _tensor(plan.bound, like)
         self.n_states = len(plan.states)
 
-    def _f(self, x: torch.Tensor, column: int) -> torch.Tensor:
-        cols = [*x.unbind(1), *[s[:, column] for s in self.signals]]
+    def _f(self, x: torch.Tensor, column: int, left: bool = False) -> torch.Tensor:
+        cols = [*x.unbind(1), *[s[:, column] for s in (self.lefts if left else self.signals)]]
         out = []
         for fn in self.rhs:
             value = fn(cols)
@@ -69,9 +72,9 @@ class _Integrator:
             for j in range(m):
                 c = 2 * (i * m + j)
                 k1 = self._f(x, c)
-                k2 = self._f(x + 0.5 * h * k1, c + 1)
-                k3 = self._f(x + 0.5 * h * k2, c + 1)
-                k4 = self._f(x + h * k3, c + 2)
+                k2 = self._f(x + 0.5 * h * k1, c + 1, True)
+                k3 = self._f(x + 0.5 * h * k2, c + 1, True)
+                k4 = self._f(x + h * k3, c + 2, True)
                 x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
                 # a diverging trial stays finite and far off: a large loss, not a crash
                 x = torch.clamp(torch.nan_to_num(x), -self.bound, self.bound)

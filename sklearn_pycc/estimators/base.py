@@ -26,6 +26,7 @@ from ..measurements.differentiation import (
     resolve_differentiation,
 )
 from ..measurements.record import targets_in_y
+from ..simulation import INPUT_HOLDS
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.curves import as_curve
@@ -38,10 +39,12 @@ from ._intervals import N_DRAWS, IntervalsMixin, check_level
 from ._setup import GAUGES, FitResult, Problem, build_skeleton, gauge_skeleton, measured_part
 from .backend import Backend
 
-__all__ = ["FIT_MODES", "RANDOM_STATES", "RESAMPLING", "CCRegressor", "adopt", "backend_of",
-           "make_problem", "set_fitted"]
+__all__ = ["FIT_MODES", "OUTPUT_ERROR_SETTINGS", "RANDOM_STATES", "RESAMPLING", "CCRegressor",
+           "adopt", "backend_of", "make_problem", "set_fitted"]
 
 FIT_MODES = ("auto", "equation", "simulation")
+#: the hyperparameters of the output-error stage, left out by estimators that have none
+OUTPUT_ERROR_SETTINGS = ("fit_mode", "shooting_window", "shooting_iterations", "input_hold")
 #: below this signal-to-noise ratio of the measured states, ``fit_mode="auto"`` refines the
 #: equation fit by output error: derivatives of such records bias the fit by per cents
 AUTO_SIMULATION_SNR_DB = 45.0
@@ -162,6 +165,14 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         part without unknowns), then multiplied by its weight: raise the
         weight of a relation the fit must honour more closely, such as a
         conserved quantity.
+    input_hold : {"bandlimited", "foh", "zoh"}, default="bandlimited"
+        How the inputs were applied between samples, for the output-error
+        stage, the diagnosis's simulations and :meth:`simulate`'s default: a
+        measured or generated signal (band-limited), straight lines, or
+        steps held from one sample to the next (``"zoh"``: a digital
+        controller's or a plant's logged setpoints). A held input read as
+        band-limited rings at its steps and biases an output-error fit by
+        per cents.
 
     Attributes
     ----------
@@ -215,12 +226,14 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         "shooting_window": [Interval(Integral, 2, None, closed="left")],
         "shooting_iterations": [Interval(Integral, 1, None, closed="left")],
         "equation_weights": ["array-like", None],
+        "input_hold": [StrOptions(set(INPUT_HOLDS))],
     }
 
     def __init__(self, *, equations=None, constraints=None, gauge: str = "auto",
                  differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,
-                 shooting_iterations: int = 30, equation_weights=None) -> None:
+                 shooting_iterations: int = 30, equation_weights=None,
+                 input_hold: str = "bandlimited") -> None:
         self.equations = equations
         self.constraints = constraints
         self.equation_weights = equation_weights
@@ -230,6 +243,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         self.fit_mode = fit_mode
         self.shooting_window = shooting_window
         self.shooting_iterations = shooting_iterations
+        self.input_hold = input_hold
 
     # -- to be provided by each estimator -------------------------------------
     @abstractmethod
@@ -290,7 +304,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                           record.smoothed, record.signals, fit_mode=mode,
                           equation_weights=weights,
                           rows=None if record.trusted is None else np.flatnonzero(record.trusted),
-                          hidden=record.hidden)
+                          hidden=record.hidden,
+                          input_hold=getattr(self, "input_hold", "bandlimited"))
         return problem, facts
 
     def _resolve_mode(self, skeleton, record, backend: Backend) -> tuple[str, str]:
@@ -520,7 +535,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         return float(r2_score(truth / scale, pred / scale, sample_weight=sample_weight))
 
     def estimate_initial_state(self, X, *, n_samples: int = 200,
-                               input_hold: str = "bandlimited") -> dict[str, float]:
+                               input_hold: str | None = None) -> dict[str, float]:
         """The full state at the first time of a record: measured states read, others fitted.
 
         A state that ``X`` holds is read at its first row; a state it does
@@ -537,8 +552,9 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         n_samples : int, default=200
             Rows simulated to fit the unmeasured states (all of them when
             ``X`` has fewer).
-        input_hold : str, default="bandlimited"
-            How the inputs are read between samples, as in :meth:`simulate`.
+        input_hold : {"bandlimited", "foh", "zoh"}, optional
+            How the inputs are read between samples, as in :meth:`simulate`
+            (by default the estimator's ``input_hold``).
 
         Returns
         -------
@@ -574,6 +590,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         if not unknown:
             return state
         system = self._system()
+        if input_hold is None:
+            input_hold = getattr(self, "input_hold", "bandlimited")
         drive = {name: stretch[name].to_numpy(dtype=float) for name in inputs}
         point = {**state, **{name: values[0] for name, values in drive.items()}, "t": t[0]}
         start = np.array([equilibrium(system, unknown, point)[s] for s in unknown])
@@ -608,7 +626,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         rtol: float = 1e-6,
         atol: float = 1e-8,
         return_derivatives: bool = False,
-        input_hold: str = "bandlimited",
+        input_hold: str | None = None,
         verbose: bool = False,
         level: float | None = None,
         n_draws: int = N_DRAWS,
@@ -629,9 +647,10 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             How to integrate; as in :meth:`Skeleton.simulate
             <sklearn_pycc.Skeleton.simulate>` (the sampled-input integrator
             for array inputs, else LSODA).
-        input_hold : {"bandlimited", "foh", "zoh"}, default="bandlimited"
+        input_hold : {"bandlimited", "foh", "zoh"}, optional
             How an array input is read between its samples; see
-            :meth:`Skeleton.simulate <sklearn_pycc.Skeleton.simulate>`.
+            :meth:`Skeleton.simulate <sklearn_pycc.Skeleton.simulate>`. By
+            default the estimator's ``input_hold``.
         verbose : bool, default=False
             Show a progress bar (tqdm) over the samples.
         rtol, atol : float
@@ -677,6 +696,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         """
         system = self._system()
         skeleton = self.skeleton_
+        if input_hold is None:
+            input_hold = getattr(self, "input_hold", "bandlimited")
         if not skeleton.states:
             raise ValueError(
                 "the skeleton has no differential equation, so there is nothing to "

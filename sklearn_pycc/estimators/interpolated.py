@@ -25,7 +25,7 @@ from ..skeleton.curves import Curve
 from ._basis import ZeroCurve
 from ._setup import gauge_skeleton
 from .backend import Backend, FitResult, Problem
-from .base import CCRegressor, backend_of
+from .base import OUTPUT_ERROR_SETTINGS, CCRegressor, backend_of
 from .poly import PolyCCRegressor
 
 __all__ = ["INTERPOLATIONS", "InterpolatedCCRegressor", "InterpolatedCurve", "TableBackend",
@@ -249,7 +249,7 @@ class InterpolatedCCRegressor(CCRegressor):
 
     _parameter_constraints: dict = {
         **{k: v for k, v in CCRegressor._parameter_constraints.items()
-         if k not in ("fit_mode", "shooting_window", "shooting_iterations")},
+         if k not in OUTPUT_ERROR_SETTINGS},
         "estimator": [CCRegressor, None],
         "n_points": [Interval(Integral, 2, None, closed="left")],
         "method": [StrOptions(set(INTERPOLATIONS))],

@@ -20,7 +20,7 @@ from sklearn.utils._param_validation import Interval
 
 from ._basis import PolyCurve, ZeroCurve
 from .backend import Backend, FitResult, Problem
-from .base import CCRegressor
+from .base import OUTPUT_ERROR_SETTINGS, CCRegressor
 
 __all__ = ["LeastSquaresBackend", "LeastSquaresCCRegressor"]
 
@@ -163,7 +163,7 @@ class LeastSquaresCCRegressor(CCRegressor):
 
     _parameter_constraints: dict = {
         **{k: v for k, v in CCRegressor._parameter_constraints.items()
-           if k not in ("fit_mode", "shooting_window", "shooting_iterations")},
+           if k not in OUTPUT_ERROR_SETTINGS},
         "degree": [Interval(Integral, 0, 15, closed="both")],
         "param_init": [dict, None],
         "max_nfev": [Interval(Integral, 1, None, closed="left")],

@@ -385,7 +385,7 @@ default="lbfgs"
         Extra callbacks for the skorch net.
     gauge : {"auto", "warn", "raise"}, default="auto"
         See :class:`CCRegressor`.
-    differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations
+    differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations, input_hold
         How measurements without derivatives are used, and output-error
         fitting: see :class:`CCRegressor`.
     equation_weights : list of float, optional
@@ -481,12 +481,13 @@ default="lbfgs"
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, shooting_start_epochs: int | None = 10,
                  equation_weights=None, random_state=None, n_bootstrap: int = 0,
-                 n_jobs: int | None = None, verbose: int = 0) -> None:
+                 n_jobs: int | None = None, verbose: int = 0,
+                 input_hold: str = "bandlimited") -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
                          shooting_iterations=shooting_iterations,
-                         equation_weights=equation_weights)
+                         equation_weights=equation_weights, input_hold=input_hold)
         self.hidden_layer_sizes = hidden_layer_sizes
         self.activation = activation
         self.optimizer = optimizer

@@ -526,7 +526,7 @@ class PolyCCRegressor(CCRegressor):
         Starting values of nonlinear parameters; the others start from a grid.
     gauge : {"auto", "warn", "raise"}, default="auto"
         See :class:`CCRegressor`.
-    differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations
+    differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations, input_hold
         How measurements without derivatives are used, and output-error
         fitting: see :class:`CCRegressor`.
     equation_weights : list of float, optional
@@ -588,12 +588,12 @@ class PolyCCRegressor(CCRegressor):
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, equation_weights=None,
                  random_state=None, n_bootstrap: int = 0,
-                 n_jobs: int | None = None) -> None:
+                 n_jobs: int | None = None, input_hold: str = "bandlimited") -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
                          shooting_iterations=shooting_iterations,
-                         equation_weights=equation_weights)
+                         equation_weights=equation_weights, input_hold=input_hold)
         self.degree = degree
         self.basis = basis
         self.alpha = alpha

@@ -26,7 +26,7 @@ from ._symbolic_engines import (
     make_engine,
 )
 from .backend import Backend
-from .base import RANDOM_STATES, RESAMPLING, CCRegressor, backend_of
+from .base import OUTPUT_ERROR_SETTINGS, RANDOM_STATES, RESAMPLING, CCRegressor, backend_of
 
 __all__ = ["SymbolicBackend", "SymbolicCCRegressor", "polish", "refit_params"]
 
@@ -567,7 +567,7 @@ class SymbolicCCRegressor(CCRegressor):
 
     _parameter_constraints: dict = {
         **{k: v for k, v in CCRegressor._parameter_constraints.items()
-         if k not in ("fit_mode", "shooting_window", "shooting_iterations")},
+         if k not in OUTPUT_ERROR_SETTINGS},
         "engine": [StrOptions(set(ENGINES))],
         "binary_operators": [list, tuple],
         "unary_operators": [list, tuple],
