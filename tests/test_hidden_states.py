@@ -177,3 +177,10 @@ def test_a_heater_held_in_steps_is_fitted_with_input_hold_zoh():
     held = model.simulate(t, y0, inputs={"u": u}, input_hold="zoh")
     np.testing.assert_allclose(again.x1, held.x1)
     assert float(np.sqrt(np.mean((again.x1 - exact.x1) ** 2))) < 0.05
+
+
+def test_predict_says_what_to_do_for_a_state_that_was_not_measured(tanks):
+    frame, _, model = tanks
+    with pytest.raises(ValueError, match=r"X has no column 'x1': the model was fitted with x1 "
+                                         r"unmeasured.*estimate_initial_state"):
+        model.predict(frame)

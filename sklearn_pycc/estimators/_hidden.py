@@ -290,22 +290,32 @@ def unseen_directions(jacobian: np.ndarray, z: np.ndarray, labels: Sequence[str]
     """Directions of the unknowns that the measured states do not see, in words.
 
     The Jacobian of the measured states' errors with respect to the
-    unknowns' relative changes ``d z / |z|``: a singular value below
-    :data:`UNSEEN` times the largest is a direction the data cannot fix, such
-    as the scale of an unmeasured state that free parameters absorb.
+    unknowns, each column scaled to unit norm: a singular value below
+    :data:`UNSEEN` times the largest is a direction the data cannot fix,
+    such as the scale of an unmeasured state that free parameters absorb.
+    It is told as relative changes (``c`` to some power) of the unknowns it
+    moves.
     """
-    size = np.maximum(np.abs(z), 1e-12)
-    J = np.asarray(jacobian, dtype=float) * size[None, :]
+    J = np.asarray(jacobian, dtype=float)
     if not np.all(np.isfinite(J)) or J.shape[0] < J.shape[1]:
         return []
-    _, sigma, Vt = np.linalg.svd(J, full_matrices=False)
+    norms = np.linalg.norm(J, axis=0)
+    blind = norms == 0  # an unknown nothing measured responds to at all
+    norms[blind] = 1.0
+    _, sigma, Vt = np.linalg.svd(J / norms, full_matrices=False)
     out = []
     for k in np.flatnonzero(sigma < UNSEEN * sigma[0]):
-        v = Vt[k]
-        involved = np.flatnonzero(np.abs(v) > 0.05 * np.abs(v).max())
+        step = Vt[k] / norms  # the change of each unknown along the direction
+        sizes = np.abs(np.asarray(z, dtype=float))
+        moved = np.abs(Vt[k]) > 0.05 * np.abs(Vt[k]).max()
+        if np.any(moved & (sizes == 0)):  # no relative change to tell: name them
+            out.append(f"{' and '.join(labels[j] for j in np.flatnonzero(moved))} together")
+            continue
+        relative = np.where(sizes > 0, step / np.where(sizes > 0, sizes, 1.0), 0.0)
+        involved = np.flatnonzero(np.abs(relative) > 0.05 * np.abs(relative).max())
         anchor = next((j for j in involved
                        if any(labels[j].startswith(f"{s}(0)") for s in hidden)), involved[0])
-        powers = v / v[anchor]
+        powers = relative / relative[anchor]
         moves = [f"{labels[j]} by " + ("c" if abs(powers[j] - 1) < 1e-3
                                         else f"c^{powers[j]:.3g}") for j in involved]
         listed = ", ".join(moves[:-1]) + " and " + moves[-1] if len(moves) > 1 else moves[0]

@@ -485,6 +485,15 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             1-D in ``fit``.
         """
         system = self._system()
+        unmeasured = list(getattr(self, "initial_states_", pd.DataFrame()).columns)
+        if unmeasured and isinstance(X, pd.DataFrame):
+            missing = [s for s in unmeasured if s not in X.columns]
+            if missing:
+                raise ValueError(
+                    f"X has no column {missing[0]!r}: the model was fitted with "
+                    f"{', '.join(unmeasured)} unmeasured, and predict reads every state from X. "
+                    "Simulate the model instead, from the full initial state "
+                    "estimate_initial_state(X) gives")
         data = read_X(self, X, self.skeleton_.variables, reset=False)
         with np.errstate(all="ignore"):
             pred = np.hstack([system.evaluate(data.columns, data.n_samples),
