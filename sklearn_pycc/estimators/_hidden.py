@@ -68,11 +68,8 @@ def starting_params(problem: Problem, param_init: Mapping[str, float] | None) ->
     out = {}
     for name in problem.free_params:
         low, high = problem.bounds.get(name, (-np.inf, np.inf))
-        value = float(given.get(name, 1.0))
-        if not low <= value <= high:
-            value = float(np.clip(value, low, high)) if np.isfinite(low) or np.isfinite(
-                high) else value
-        out[name] = value
+        # param_init was checked against the bounds: only the default may need moving
+        out[name] = float(np.clip(given.get(name, 1.0), low, high))
     return out
 
 

@@ -485,7 +485,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             1-D in ``fit``.
         """
         system = self._system()
-        unmeasured = list(getattr(self, "initial_states_", pd.DataFrame()).columns)
+        table = getattr(self, "initial_states_", None)
+        unmeasured = [] if table is None else list(table.columns)
         if unmeasured and isinstance(X, pd.DataFrame):
             missing = [s for s in unmeasured if s not in X.columns]
             if missing:

@@ -213,7 +213,7 @@ def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = T
         present = {str(c) for c in X.columns} - {str(c) for c in blank}
         hidden = unmeasured_states(skeleton, present)
         if hidden and not hidden_ok:
-            raise ValueError(_hidden_message(skeleton, hidden[0], blank, who))
+            raise ValueError(_hidden_message(hidden[0], blank, who))
         if hidden:
             X = X.drop(columns=[c for c in blank if str(c) in hidden])
             optional |= set(hidden)
@@ -325,7 +325,7 @@ def targets_in_y(y, skeleton) -> list[str]:
     return expected
 
 
-def _hidden_message(skeleton, state: str, blank, who: str | None) -> str:
+def _hidden_message(state: str, blank, who: str | None) -> str:
     """Why an unmeasured state is refused here, and where it would be fitted."""
     held = (f"X's column {state!r} holds only missing values" if state in map(str, blank)
             else f"X has no column {state!r}")

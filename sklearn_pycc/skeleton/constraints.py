@@ -69,6 +69,18 @@ class Constraint:
         return f"{self.function} {self.kind}"
 
 
+def _check_ends(what: str, low, high) -> None:
+    """Refuse an end of a bound or a limit that is not a number (an infinity is) or is huge."""
+    for name, number in (("low", low), ("high", high)):
+        if isinstance(number, bool) or not isinstance(number, Real) or math.isnan(number):
+            raise SkeletonError(f"{what}: {name} must be a number (or an infinity), got "
+                                f"{number!r}")
+        if math.isfinite(number) and abs(number) > LARGEST_BOUND:
+            raise SkeletonError(f"{what}: {name} {number:g} is beyond {LARGEST_BOUND:g}, where "
+                                "a fitted number loses its precision; rescale the quantity or "
+                                "leave it unbounded")
+
+
 def _interval_text(name: str, low: float, high: float) -> str:
     """``name <= high``, ``name >= low`` or ``low <= name <= high``."""
     if math.isinf(low):
@@ -98,15 +110,7 @@ class Bound:
         if not isinstance(self.param, str) or not is_param_name(self.param):
             raise SkeletonError(f"a bound applies to a parameter a1, a2, ..., got "
                                 f"{self.param!r}")
-        for name, number in (("low", self.low), ("high", self.high)):
-            if isinstance(number, bool) or not isinstance(number, Real) \
-                    or math.isnan(number):
-                raise SkeletonError(f"bound on {self.param}: {name} must be a number (or "
-                                    f"an infinity), got {number!r}")
-            if math.isfinite(number) and abs(number) > LARGEST_BOUND:
-                raise SkeletonError(f"bound on {self.param}: {name} {number:g} is beyond "
-                                    f"{LARGEST_BOUND:g}, where a fitted number loses its "
-                                    "precision; rescale the quantity or leave it unbounded")
+        _check_ends(f"bound on {self.param}", self.low, self.high)
         if self.low > self.high:
             raise SkeletonError(f"bound on {self.param}: low {self.low:g} exceeds high "
                                 f"{self.high:g}")
@@ -142,6 +146,7 @@ class StateLimit:
         if not isinstance(self.state, str) or is_param_name(self.state) \
                 or is_unknown_name(self.state):
             raise SkeletonError(f"a limit applies to a state, got {self.state!r}")
+        _check_ends(f"limit on {self.state}", self.low, self.high)
         if self.low >= self.high:
             raise SkeletonError(f"limit on {self.state}: low {self.low:g} is not below high "
                                 f"{self.high:g}")
