@@ -26,6 +26,8 @@ def test_a_limit_on_a_state_is_read_and_checked():
         Skeleton(TORRICELLI, ["x1 <= a5"])
     with pytest.raises(SkeletonError, match="unknown constraint"):
         Skeleton(TORRICELLI, ["x1 odd"])
+    with pytest.raises(SkeletonError, match="limit on x1: high must be a number"):
+        StateLimit("x1", high=float("nan"))
 
 
 def test_a_limited_simulation_follows_the_overflowing_tanks_exactly():
