@@ -97,10 +97,11 @@ r.    Not timed: the loop's right-answer and false-alarm rates over the
 
 w.    ``PolyCCRegressor.fit`` of the two-tank cascade (``make_two_tanks``,
       1,024 samples every 4 s, the lower level only at 40 dB, the upper one
-      unmeasured) below the rims and overflowing (the skeleton has no
-      overflow); the checks give the parameter errors and the validation
-      RMSE on a second record, simulated from ``estimate_initial_state``,
-      over that of the true parameters.
+      unmeasured): below the rims; overflowing, without and with the rims as
+      state limits; and the cross-section ratio free (a1-a4) with the rims;
+      the checks give the parameter errors and the validation RMSE on a
+      second record, simulated from ``estimate_initial_state``, over that of
+      the true parameters.
 
 and three lines only report times (no goal): k. ``SymbolicCCRegressor.fit``
 on the Duffing oscillator, l. ``to_symbolic`` of the neural stick-slip fit
@@ -738,19 +739,27 @@ TANKS = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = 1.25 a2 sqrt(x1) - a3 sqrt(x2)
 def _tank_timings() -> list[Timing]:
     from sklearn_pycc import from_tables
 
+    positive = ["a1 >= 0", "a2 >= 0", "a3 >= 0"]
+    rims = ["x1 <= 12", "x2 <= 13"]
+    issue = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
+    cases = [("below the rims", (100.0, 100.0), TANKS, positive),
+             ("overflowing, no limits", None, TANKS, positive),
+             ("overflowing, rims as limits", None, TANKS, positive + rims),
+             ("overflowing, a1-a4 free, rims as limits", None, issue,
+              [*positive, "a4 >= 0", *rims])]
     out = []
-    for rims, label in (((100.0, 100.0), "below the rims"), (None, "overflowing")):
-        settings = {} if rims is None else {"rims": rims}
+    for label, rim, skeleton, constraints in cases:
+        settings = {} if rim is None else {"rims": rim}
         frame, truth = datasets.make_two_tanks(random_state=0, return_truth=True, **settings)
         new, fresh = datasets.make_two_tanks(random_state=1, return_truth=True, **settings)
-        true = {"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}
+        true = ({"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}
+                if skeleton is TANKS else dict(truth.params))
 
-        def run(frame=frame):
-            return PolyCCRegressor(equations=TANKS,
-                                   constraints=["a1 >= 0", "a2 >= 0", "a3 >= 0"]).fit(frame)
+        def run(frame=frame, skeleton=skeleton, constraints=constraints):
+            return PolyCCRegressor(equations=skeleton, constraints=constraints).fit(frame)
 
         model = run()
-        reference = from_tables(TANKS, {}, true)
+        reference = from_tables(skeleton, {}, true, constraints=constraints)
 
         def validation(m, new=new, fresh=fresh):
             y0 = m.estimate_initial_state(new)

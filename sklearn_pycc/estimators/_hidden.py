@@ -19,30 +19,36 @@ from scipy.optimize import least_squares
 from ..skeleton.nodes import Symbol, walk
 from ..windows import Windows
 from ._setup import Problem
+from ._shooting import state_bounds
 
 __all__ = ["START_FACTORS", "WholeRecord", "check_visible", "equilibrium", "hidden_trajectories",
-           "initial_table", "scaled_start", "single_shooting", "starting_params",
+           "initial_table", "scaled_start", "sensor_readings", "single_shooting",
+           "starting_params",
            "unseen_directions"]
 
 
 def _reads(skeleton) -> dict[str, set[str]]:
-    """State -> the states its equation's right-hand side reads."""
+    """State or static output -> the states its equation's right-hand side reads."""
     states = set(skeleton.states)
-    return {eq.state: {n.name for n in walk(eq.expression) if isinstance(n, Symbol)} & states
-            for eq in skeleton.parsed}
+    equations = [*skeleton.parsed, *(eq for eq in skeleton.algebraic if eq.output is not None)]
+    return {eq.state or eq.output:
+            {n.name for n in walk(eq.expression) if isinstance(n, Symbol)} & states
+            for eq in equations}
 
 
 def check_visible(skeleton, hidden: Sequence[str]) -> None:
-    """Refuse an unmeasured state that no measured state depends on, naming it and why.
+    """Refuse an unmeasured state that nothing measured depends on, naming it and why.
 
-    A hidden state is seen when a measured state's equation reads it, or
-    reads another hidden state that is seen.
+    A hidden state is seen when a measured state's equation or a static
+    output's (a sensor's reading: ``acc = ...``) reads it, or reads another
+    hidden state that is seen.
     """
     reads = _reads(skeleton)
-    measured = [s for s in skeleton.states if s not in hidden]
+    measured = [s for s in skeleton.states if s not in hidden] + list(skeleton.outputs)
     if not measured:
         raise ValueError(f"no state of the skeleton is measured ({', '.join(hidden)} have no "
-                         "column in X): there is nothing to fit the model to")
+                         "column in X) and it has no static output (a sensor's equation such "
+                         "as 'y = a1 x1'): there is nothing to fit the model to")
     seen: set[str] = set()
     frontier = list(measured)
     while frontier:
@@ -114,7 +120,7 @@ def hidden_trajectories(problem: Problem, system) -> dict[str, np.ndarray]:
     windows = whole.windows
     with np.errstate(all="ignore"):
         simulated, _ = windows.simulate(system, first)
-    n = len(next(iter(problem.smoothed.values())))
+    n = len(next(iter({**problem.measured, **problem.observed}.values())))
     out = {}
     for s in problem.hidden:
         q = whole.states.index(s)
@@ -140,8 +146,16 @@ def initial_table(problem: Problem, first: np.ndarray, states: Sequence[str]) ->
                         columns=list(problem.hidden))
 
 
+#: the scaled error of a sample where the simulation has escaped
+_ESCAPED = 1e3
+
+
 class WholeRecord:
-    """Every experiment simulated whole from its initial state, against the measured states."""
+    """Every experiment simulated whole from its initial state, against what was measured.
+
+    The measured states, and the static outputs (a sensor's reading)
+    computed from the simulated states, are compared with the record.
+    """
 
     def __init__(self, problem: Problem) -> None:
         skeleton = problem.skeleton
@@ -150,24 +164,50 @@ class WholeRecord:
         self.inputs = [name for name in skeleton.inputs if name != "t"]
         measured = [s for s in self.states if s in problem.measured]
         self.index = [self.states.index(s) for s in measured]
-        n = len(problem.measured[measured[0]])
+        self.outputs = list(problem.observed)
+        n = len(next(iter({**problem.measured, **problem.observed}.values())))
         self.windows = Windows(self.states, self.inputs, "t" in skeleton.variables,
                                [(e.rows, e.t) for e in problem.experiments],
                                {s: np.zeros(n) for s in self.states},
                                {name: problem.signals[name] for name in self.inputs},
                                max(e.n_samples for e in problem.experiments), merge_tail=False,
                                hold=problem.input_hold)
-        self.targets = np.stack([problem.measured[s][self.windows.rows] for s in measured],
-                                axis=-1)
-        self.scale = np.array([np.sqrt(np.mean(problem.measured[s] ** 2)) or 1.0
-                               for s in measured])
+        read = [problem.measured[s] for s in measured] + [problem.observed[o]
+                                                         for o in self.outputs]
+        rows = self.windows.rows
+        self.targets = np.stack([values[rows] for values in read], axis=-1)
+        self.scale = np.array([np.sqrt(np.mean(values ** 2)) or 1.0 for values in read])
+        times = np.zeros(n)
+        for experiment in problem.experiments:
+            times[experiment.rows] = experiment.t
+        self.drive = {name: problem.signals[name][rows] for name in self.inputs}
+        self.drive["t"] = times[rows]
 
-    def errors(self, system, first: np.ndarray) -> np.ndarray:
-        """Scaled errors of the measured states on every row (large where the model escapes)."""
+    def errors(self, system, first: np.ndarray, skip: float = 0.0) -> np.ndarray:
+        """Scaled errors of what was measured on every row (large where the model escapes).
+
+        ``skip`` leaves out that share of each experiment's first rows.
+        """
         with np.errstate(all="ignore"):
             simulated, _ = self.windows.simulate(system, first)
-        error = ((simulated[:, :, self.index] - self.targets) / self.scale)[self.windows.valid]
-        return np.where(np.isfinite(error), error, 1e3).ravel()
+            compared = simulated[:, :, self.index]
+            if self.outputs:
+                compared = np.concatenate([compared, self.outputs_of(system, simulated)],
+                                          axis=-1)
+        valid = self.windows.valid
+        if skip:
+            steps = np.arange(valid.shape[1])
+            valid = valid & (steps >= skip * valid.sum(axis=1, keepdims=True))
+        error = ((compared - self.targets) / self.scale)[valid]
+        return np.where(np.isfinite(error), error, _ESCAPED).ravel()
+
+    def outputs_of(self, system, simulated: np.ndarray) -> np.ndarray:
+        """The static outputs along simulated states ``(K, L + 1, n_states)``."""
+        shape = simulated.shape[:2]
+        data = {s: simulated[:, :, q].ravel() for q, s in enumerate(self.states)}
+        data.update({name: values.ravel() for name, values in self.drive.items()})
+        return sensor_readings(system, data, self.outputs).reshape(*shape, len(self.outputs))
+
 
     def first_states(self, system) -> np.ndarray:
         """Each experiment's first sample, the hidden states at rest with it."""
@@ -180,7 +220,7 @@ class WholeRecord:
             point["t"] = float(experiment.t[0])
             point.update(equilibrium(system, list(problem.hidden), point))
             first[e] = [point[s] for s in self.states]
-        return first
+        return np.clip(first, *state_bounds(problem.skeleton))
 
     def choose_substeps(self, system, first: np.ndarray) -> None:
         """RK4 substeps for ``system`` near the experiments' first states."""
@@ -189,6 +229,20 @@ class WholeRecord:
         columns.update({name: self.problem.signals[name][row:row + 1] for name in self.inputs})
         columns["t"] = np.array([float(self.problem.experiments[0].t[0])])
         self.windows.choose_substeps(system, columns)
+
+
+def sensor_readings(system, data: Mapping[str, np.ndarray], outputs: Sequence[str]) -> np.ndarray:
+    """The static outputs ``outputs`` on columns of every state, input and ``t``.
+
+    Returns an array ``(n, len(outputs))``; the derivatives an output may
+    read are evaluated on the way.
+    """
+    n = len(data["t"])
+    data = dict(data)
+    rates = np.asarray(system.evaluate(data, n), dtype=float)
+    data.update({d: rates[:, j] for j, d in enumerate(system.derivatives)})
+    values = system.evaluate_outputs(data, n)
+    return values[:, [list(system.outputs).index(o) for o in outputs]]
 
 
 #: common factors of the starting parameters tried before output error (param_init aside)
@@ -222,7 +276,7 @@ def scaled_start(problem: Problem, params: Mapping[str, float],
             whole.choose_substeps(system, first)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError):
             continue
-        error = float(np.sqrt(np.mean(whole.errors(system, first) ** 2)))
+        error = float(np.sqrt(np.mean(whole.errors(system, first, skip=0.25) ** 2)))
         if error < best_error:
             best, best_error = trial, error
     return best
@@ -263,6 +317,9 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
         return whole.errors(problem.skeleton.compile(functions, values),
                             z[p:].reshape(first.shape))
 
+    # an experiment starts within the states' hard limits
+    low_s, high_s = state_bounds(problem.skeleton)
+    low[p:], high[p:] = np.tile(low_s, len(first)), np.tile(high_s, len(first))
     z0 = np.clip(np.r_[[float(params[a]) for a in names], first.ravel()], low, high)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -272,7 +329,9 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     error = residuals(z)
     labels = names + [f"{s}(0)" if first.shape[0] == 1 else f"{s}(0) of experiment {e}"
                       for e in range(first.shape[0]) for s in whole.states]
-    unseen = unseen_directions(solution.jac, z, labels, problem.hidden)
+    # where the model escapes, the errors are held at a cap that no unknown moves
+    escaped = bool(np.any(error == _ESCAPED))
+    unseen = [] if escaped else unseen_directions(solution.jac, z, labels, problem.hidden)
     return (dict(zip(names, z[:p].tolist())), z[p:].reshape(first.shape),
             float(np.sqrt(np.mean(error ** 2))), unseen)
 

@@ -138,6 +138,10 @@ class Problem:
         fitted by output error (``fit_mode`` is then "simulation").
     input_hold : {"bandlimited", "foh", "zoh"}
         How an output-error stage reads the inputs between samples.
+    observed : dict
+        Static outputs (``y = ...``: what a sensor reads) as measured on
+        every row of the record, compared with the simulated ones when
+        states are unmeasured.
     """
 
     skeleton: Skeleton
@@ -158,6 +162,7 @@ class Problem:
     covariance: bool = True
     hidden: tuple = ()
     input_hold: str = "bandlimited"
+    observed: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def equations(self) -> list[Equation]:

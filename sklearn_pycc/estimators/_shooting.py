@@ -77,6 +77,8 @@ class ShootingPlan(Windows):
         for e in problem.experiments:
             self._times[e.rows] = e.t
         self.measured = [s for s in self.states if s in problem.measured]
+        #: each state's hard limits, where a window may start
+        self.limits = state_bounds(skeleton)
         # a segment's last sample is fitted by the next segment's start
         own = self.valid.copy()
         own[np.flatnonzero(self.successor), self.steps[self.successor]] = False
@@ -154,6 +156,14 @@ class ShootingPlan(Windows):
         return J.toarray() if shape[1] <= 400 else J
 
 
+def state_bounds(skeleton) -> tuple[np.ndarray, np.ndarray]:
+    """Each state's hard limits (``-inf``/``inf`` where it has none), in state order."""
+    limits = skeleton.limits
+    low = np.array([limits.get(s, (-np.inf, np.inf))[0] for s in skeleton.states], dtype=float)
+    high = np.array([limits.get(s, (-np.inf, np.inf))[1] for s in skeleton.states], dtype=float)
+    return low, high
+
+
 def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], CompiledSystem],
                  theta0: np.ndarray, max_iterations: int,
                  bounds: tuple[np.ndarray, np.ndarray] | None = None
@@ -223,12 +233,14 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
             sens_start.append((plan.simulate(system, bumped)[0] - base) / step[:, None, None])
         return plan.jacobian(sens_theta, sens_start)
 
+    # a window starts within the states' hard limits (a tank holds no more than its rim)
+    low_s, high_s = plan.limits
+    start0 = np.clip(start0, low_s, high_s)
     z0 = np.concatenate([np.asarray(theta0, dtype=float), start0.ravel()])
-    free = np.full(start0.size, np.inf)
     if bounds is None:
-        z_bounds = (-np.inf, np.inf)
-    else:
-        z_bounds = (np.concatenate([bounds[0], -free]), np.concatenate([bounds[1], free]))
+        bounds = (np.full(p, -np.inf), np.full(p, np.inf))
+    z_bounds = (np.concatenate([bounds[0], np.tile(low_s, K)]),
+                np.concatenate([bounds[1], np.tile(high_s, K)]))
     before_states, _ = run(z0)
     before = plan.output_nrmse(before_states)
     cost0 = 0.5 * float(np.sum(plan.residuals(before_states, start0) ** 2))

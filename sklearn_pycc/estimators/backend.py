@@ -144,7 +144,7 @@ class Backend(ABC):
         parameters only. Multiple shooting over the parameters and every
         window's start, then every experiment simulated whole.
         """
-        from ._hidden import hidden_trajectories, initial_table, single_shooting
+        from ._hidden import WholeRecord, hidden_trajectories, initial_table, single_shooting
         from ._shooting import ShootingPlan, fit_shooting
 
         result = self.hidden_start(problem)
@@ -156,17 +156,26 @@ class Backend(ABC):
 
         theta0 = np.array([result.params[a] for a in names], dtype=float)
         start = system_for(theta0)
-        plan = ShootingPlan(problem, window,
-                            hidden=hidden_trajectories(problem, start))
-        plan.choose_substeps(start, plan.columns())
         bounds = problem.bounds
         low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in names])
         high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in names])
-        theta, info = fit_shooting(plan, system_for, np.clip(theta0, low, high), iterations,
-                                   bounds=(low, high))
+        theta0 = np.clip(theta0, low, high)
+        if any(s in problem.measured for s in problem.skeleton.states):
+            plan = ShootingPlan(problem, window,
+                                hidden=hidden_trajectories(problem, start))
+            plan.choose_substeps(start, plan.columns())
+            theta, info = fit_shooting(plan, system_for, theta0, iterations,
+                                       bounds=(low, high))
+            substeps = plan.substeps
+        else:  # only sensors' outputs measured: no window can start from a measured state
+            whole = WholeRecord(problem)
+            first = whole.first_states(start)
+            whole.choose_substeps(start, first)
+            theta, substeps = theta0, whole.windows.substeps
+            info = {"substeps": substeps, "initial_states": first}
         # the windows' joins are soft: a last pass simulates every experiment whole
         params, first, nrmse, unseen = single_shooting(
-            problem, dict(zip(names, theta.tolist())), info["initial_states"], plan.substeps,
+            problem, dict(zip(names, theta.tolist())), info["initial_states"], substeps,
             iterations)
         info.update(initial_states=first, nrmse_whole=nrmse, unseen=unseen)
         for words in unseen:
@@ -175,7 +184,7 @@ class Backend(ABC):
                 f"every parameter: {words}, so only combinations of those are determined (the "
                 "values found are one of many). Write a known value or ratio into the "
                 "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=4)
-        table = initial_table(problem, first, plan.states)
+        table = initial_table(problem, first, problem.skeleton.states)
         return FitResult(result.functions, params,
                          {"shooting_": info, "initial_states_": table})
 

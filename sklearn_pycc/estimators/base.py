@@ -282,7 +282,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         backend = self._make_backend() if backend is None else backend
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
         if self.fit_mode == "simulation":
-            _check_simulable(skeleton)
+            _check_simulable(skeleton, outputs_ok=True)
         constraints, fixed, zeroed, gauge = gauge_skeleton(skeleton, self.gauge)
         record = read_record(skeleton, X, y, differentiation=self.differentiation,
                              smooth=bool(self.smooth_states), estimator=self, reset=True,
@@ -291,6 +291,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                              hidden_ok=self.fit_mode != "equation")
         if record.hidden:
             _check_hidden(skeleton, record.hidden)
+        elif self.fit_mode == "simulation":
+            _check_simulable(skeleton)
         weights = _equation_weights(self.equation_weights, skeleton)
         mode, why = self._resolve_mode(skeleton, record, backend)
         facts = {"fit_mode_": mode, "derivative_source_": record.source + why,
@@ -305,13 +307,16 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                           equation_weights=weights,
                           rows=None if record.trusted is None else np.flatnonzero(record.trusted),
                           hidden=record.hidden,
-                          input_hold=getattr(self, "input_hold", "bandlimited"))
+                          input_hold=getattr(self, "input_hold", "bandlimited"),
+                          observed=({o: record.data[o] for o in skeleton.outputs}
+                                    if record.hidden else {}))
         return problem, facts
 
     def _resolve_mode(self, skeleton, record, backend: Backend) -> tuple[str, str]:
         """The fit mode to use, and why ``"auto"`` chose output error (else "")."""
         if record.hidden:
-            hidden, seen = ", ".join(record.hidden), ", ".join(record.measured)
+            hidden = ", ".join(record.hidden)
+            seen = ", ".join([*record.measured, *skeleton.outputs])
             return "simulation", (
                 f"; {hidden} not measured: fitted by output error on {seen}, the value of "
                 f"{hidden} at the start of each experiment a fitted number (initial_states_)")
@@ -576,7 +581,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         ValueError
             If ``X`` has no time column, lacks an input, or holds no state.
         """
-        from ._hidden import equilibrium
+        from ._hidden import equilibrium, sensor_readings
 
         check_is_fitted(self, "functions_")
         skeleton = self.skeleton_
@@ -592,9 +597,11 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         t = stretch["t"].to_numpy(dtype=float)
         read = [s for s in skeleton.states
                 if s in X.columns and np.isfinite(X[s].to_numpy(dtype=float)[0])]
-        if not read:
-            raise ValueError(f"X holds none of the states {skeleton.states}: there is nothing "
-                             "to fit an initial state to")
+        sensed = [o for o in skeleton.outputs if o in X.columns]
+        if not read and not sensed:
+            raise ValueError(f"X holds none of the states {skeleton.states}"
+                             + (f" nor the outputs {skeleton.outputs}" if skeleton.outputs
+                                else "") + ": there is nothing to fit an initial state to")
         state = {s: float(X[s].iloc[0]) for s in read}
         unknown = [s for s in skeleton.states if s not in read]
         if not unknown:
@@ -605,9 +612,16 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         drive = {name: stretch[name].to_numpy(dtype=float) for name in inputs}
         point = {**state, **{name: values[0] for name, values in drive.items()}, "t": t[0]}
         start = np.array([equilibrium(system, unknown, point)[s] for s in unknown])
-        targets = stretch[read].to_numpy(dtype=float)
+        targets = stretch[read + sensed].to_numpy(dtype=float)
         scale = np.sqrt(np.nanmean(targets ** 2, axis=0))
         scale[~(scale > 0)] = 1.0
+
+        def compared(frame: pd.DataFrame) -> np.ndarray:
+            if not sensed:
+                return frame[read].to_numpy(dtype=float)
+            data = {s: frame[s].to_numpy(dtype=float) for s in skeleton.states}
+            readings = sensor_readings(system, {**data, **drive, "t": t}, sensed)
+            return np.column_stack([frame[read].to_numpy(dtype=float), readings])
 
         def residuals(z: np.ndarray) -> np.ndarray:
             y0 = [state[s] if s in state else z[unknown.index(s)] for s in skeleton.states]
@@ -615,7 +629,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     frame = simulate_system(system, t, y0, drive, input_hold=input_hold)
-                simulated = frame[read].to_numpy(dtype=float)
+                simulated = compared(frame)
             except (SimulationError, ValueError, ArithmeticError):
                 return np.full(targets.size, 1e3)
             error = (simulated - targets) / scale
@@ -994,7 +1008,7 @@ def _pair(domain) -> tuple[float, float]:
 
 def _check_hidden(skeleton: Skeleton, hidden) -> None:
     """Refuse unmeasured states where they cannot be fitted, saying why."""
-    _check_simulable(skeleton)
+    _check_simulable(skeleton, outputs_ok=True)
     check_visible(skeleton, hidden)
     if skeleton.functions:
         raise ValueError(
@@ -1005,13 +1019,18 @@ def _check_hidden(skeleton: Skeleton, hidden) -> None:
             "(a1 x1 + a2 x1^3, a1 tanh(a2 x2), ...) or measure every state")
 
 
-def _check_simulable(skeleton: Skeleton) -> None:
-    """Refuse ``fit_mode="simulation"`` for a skeleton with equations it cannot simulate."""
+def _check_simulable(skeleton: Skeleton, *, outputs_ok: bool = False) -> None:
+    """Refuse ``fit_mode="simulation"`` for a skeleton with equations it cannot simulate.
+
+    With ``outputs_ok`` a static equation (``y = ...``, what a sensor reads)
+    passes: a fit with unmeasured states compares its simulated output.
+    """
     if not skeleton.states:
         raise ValueError("fit_mode='simulation' fits simulated states, and the skeleton has "
                          "no differential equation")
-    if skeleton.algebraic:
-        eq = skeleton.algebraic[0]
+    left_out = [eq for eq in skeleton.algebraic if not (outputs_ok and eq.output is not None)]
+    if left_out:
+        eq = left_out[0]
         raise ValueError(
             f"fit_mode='simulation' fits simulated states, which equations[{eq.index}] "
             f"({eq.text!r}), without a derivative of its own, takes no part in: fit it by "

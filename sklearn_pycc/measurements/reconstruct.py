@@ -180,7 +180,12 @@ def estimate_states(skeleton, columns: Mapping[str, np.ndarray],
     depth: dict[str, int] = {}
     for root, order in plan.values():
         depth[root] = max(depth.get(root, 0), order + 1)
-    n = len(next(iter(columns.values())))
+    n = (len(next(iter(columns.values()))) if columns
+         else sum(e.n_samples for e in experiments))
+    if not depth:  # every state unmeasured (a sensor's output is what is measured)
+        return Estimate({}, {}, np.full((n, len(states)), np.nan), [],
+                        f"no state measured ({', '.join(hidden)} unmeasured): nothing "
+                        "differentiated", {}, {}, None, None)
     series = {root: [np.empty(n) for _ in range(k + 1)] for root, k in depth.items()}
     inputs = dict(inputs or {})
     filtered = {name: np.array(values, dtype=float) for name, values in inputs.items()}

@@ -10,10 +10,12 @@ import pandas as pd
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions, validate_params
 from sklearn.utils.validation import check_is_fitted
 
+from ..exceptions import SimulationError
 from ..measurements import read_record
 from ..measurements.differentiation import DIFFERENTIATION_METHODS, Differentiator
-from ..measurements.experiments import TIME
+from ..measurements.experiments import TIME, TRAJECTORY, split_experiments
 from ..measurements.measurement import unwrap
+from ..measurements.reconstruct import unmeasured_states
 from ..windows import Horizon, choose_horizon, simulate_rows
 
 __all__ = ["SimulationScorer", "make_simulation_scorer"]
@@ -62,6 +64,9 @@ class SimulationScorer:
                             f"and the measured states, got {type(X).__name__}")
         if TIME not in given.columns:
             raise ValueError("the simulation scorer needs the time column 't' in X")
+        present = {str(c) for c in given.columns if not given[c].isna().all()}
+        if unmeasured_states(skeleton, present):
+            return self._nrmse_unmeasured(estimator, given, present)
         compared = self._compared(skeleton, given)
         spec = self.differentiation
         settings = estimator.get_params()
@@ -82,6 +87,50 @@ class SimulationScorer:
                 truth = record.measured[state][rows]
                 spread = float(np.std(truth)) or 1.0
                 err = (simulated[rows, skeleton.states.index(state)] - truth) / spread
+                total += float(err @ err)
+                count += len(err)
+        if count == 0:
+            raise ValueError("no experiment in X has two samples to simulate")
+        return float(np.sqrt(total / count))
+
+    def _nrmse_unmeasured(self, estimator, X: pd.DataFrame, present: set[str]) -> float:
+        """The score of a record that lacks states: each experiment simulated whole.
+
+        No window can restart from a state no sensor reads: each experiment
+        starts from the state :meth:`estimate_initial_state` finds on its
+        first samples, and the measured states and outputs are compared.
+        """
+        skeleton = estimator.skeleton_
+        sensed = [o for o in skeleton.outputs if o in present]
+        compared = ([s for s in skeleton.states if s in present] + sensed
+                    if self.states is None else self._compared(skeleton, X))
+        if not compared:
+            raise ValueError(f"X holds none of the model's states {skeleton.states}"
+                             + (f" nor its outputs {skeleton.outputs}" if skeleton.outputs
+                                else ""))
+        inputs = [name for name in skeleton.inputs if name != TIME]
+        trajectory = X[TRAJECTORY].to_numpy() if TRAJECTORY in X.columns else None
+        experiments = split_experiments(len(X), X[TIME].to_numpy(dtype=float), trajectory)
+        total, count = 0.0, 0
+        for experiment in experiments:
+            if experiment.n_samples < 2:
+                continue
+            part = X.iloc[experiment.rows]
+            try:
+                y0 = estimator.estimate_initial_state(part)
+                simulated = estimator.simulate(
+                    experiment.t, y0, inputs={name: part[name].to_numpy(dtype=float)
+                                              for name in inputs},
+                    rtol=self.rtol, atol=self.atol, max_steps=self.max_steps)
+            except SimulationError:
+                return float("inf")
+            for name in compared:
+                truth = part[name].to_numpy(dtype=float)
+                spread = float(np.nanstd(truth)) or 1.0
+                err = (simulated[name].to_numpy() - truth) / spread
+                err = err[np.isfinite(truth)]
+                if not np.all(np.isfinite(err)):
+                    return float("inf")
                 total += float(err @ err)
                 count += len(err)
         if count == 0:
