@@ -144,7 +144,13 @@ class Backend(ABC):
         parameters only. Multiple shooting over the parameters and every
         window's start, then every experiment simulated whole.
         """
-        from ._hidden import WholeRecord, hidden_trajectories, initial_table, single_shooting
+        from ._hidden import (
+            WholeRecord,
+            hidden_trajectories,
+            initial_table,
+            rescaled,
+            single_shooting,
+        )
         from ._shooting import ShootingPlan, fit_shooting
 
         result = self.hidden_start(problem)
@@ -173,10 +179,16 @@ class Backend(ABC):
             whole.choose_substeps(start, first)
             theta, substeps = theta0, whole.windows.substeps
             info = {"substeps": substeps, "initial_states": first}
-        # the windows' joins are soft: a last pass simulates every experiment whole
-        params, first, nrmse, unseen = single_shooting(
-            problem, dict(zip(names, theta.tolist())), info["initial_states"], substeps,
-            iterations)
+        # the windows' joins are soft: a last pass simulates every experiment whole, from
+        # the estimate and from its best common rescaling (the better of the two is kept)
+        params = dict(zip(names, theta.tolist()))
+        starts = [(params, info["initial_states"])]
+        other = rescaled(problem, params, info["initial_states"], substeps)
+        if other is not None:
+            starts.append(other)
+        params, first, nrmse, unseen = min(
+            (single_shooting(problem, p, f, substeps, iterations) for p, f in starts),
+            key=lambda found: found[2])
         info.update(initial_states=first, nrmse_whole=nrmse, unseen=unseen)
         for words in unseen:
             warnings.warn(
