@@ -51,7 +51,6 @@ def test_a_limited_simulation_follows_the_overflowing_tanks_exactly():
     assert rates[0, 0] == 0.0 and rates[1, 0] < 0 and rates[2, 0] > 0
 
 
-@pytest.mark.slow
 def test_the_overflowing_tanks_are_fitted_from_the_lower_level_alone():
     frame, truth = datasets.make_two_tanks(random_state=0, return_truth=True)
     new, fresh = datasets.make_two_tanks(random_state=1, return_truth=True)

@@ -133,6 +133,12 @@ class CompiledSystem:
             np.clip(x[..., q], low, high, out=x[..., q])
         return x
 
+    def clip_values(self, x: list[float]) -> list[float]:
+        """A state as a list of floats held within its limits, in place (:meth:`clip`)."""
+        for q, _, low, high in self._limited:
+            x[q] = min(max(x[q], low), high)
+        return x
+
     def batch_rhs(self, n: int, signals: list[str]) -> Callable:
         """Return ``rhs(x, values)`` for ``n`` trajectories integrated side by side.
 
