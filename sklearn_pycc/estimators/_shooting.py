@@ -166,8 +166,8 @@ def state_bounds(skeleton) -> tuple[np.ndarray, np.ndarray]:
 
 def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], CompiledSystem],
                  theta0: np.ndarray, max_iterations: int,
-                 bounds: tuple[np.ndarray, np.ndarray] | None = None
-                 ) -> tuple[np.ndarray, dict]:
+                 bounds: tuple[np.ndarray, np.ndarray] | None = None,
+                 limit_starts: bool = True) -> tuple[np.ndarray, dict]:
     """Minimise the output error over the parameters and the segments' initial states.
 
     Parameters
@@ -183,6 +183,10 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
     bounds : (ndarray, ndarray), optional
         Least and largest value of each parameter (``-inf``/``inf`` open);
         ``theta0`` must lie within them, and so does the result.
+    limit_starts : bool, default=True
+        Keep the segments' starts within the states' hard limits; without,
+        only their first guesses are (each step of the simulation holds the
+        states within them, and the solver moves more freely).
 
     Returns
     -------
@@ -236,6 +240,8 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
     # a window starts within the states' hard limits (a tank holds no more than its rim)
     low_s, high_s = plan.limits
     start0 = np.clip(start0, low_s, high_s)
+    if not limit_starts:
+        low_s, high_s = np.full(n, -np.inf), np.full(n, np.inf)
     z0 = np.concatenate([np.asarray(theta0, dtype=float), start0.ravel()])
     if bounds is None:
         bounds = (np.full(p, -np.inf), np.full(p, np.inf))

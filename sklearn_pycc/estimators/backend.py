@@ -142,7 +142,10 @@ class Backend(ABC):
 
         The same for every backend: a skeleton with unmeasured states has
         parameters only. Multiple shooting over the parameters and every
-        window's start, then every experiment simulated whole.
+        window's start (with state limits, once holding the starts within
+        them and once not), then every experiment simulated whole from the
+        start, from each estimate and from each one's best common rescaling;
+        the best whole-record fit wins.
         """
         from ._hidden import (
             WholeRecord,
@@ -166,26 +169,32 @@ class Backend(ABC):
         low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in names])
         high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in names])
         theta0 = np.clip(theta0, low, high)
+        whole = WholeRecord(problem)
+        first = whole.first_states(start)
+        whole.choose_substeps(start, first)
+        estimates = [(theta0, first)]  # the start itself, simulated whole
+        info = {"substeps": whole.windows.substeps}
         if any(s in problem.measured for s in problem.skeleton.states):
             plan = ShootingPlan(problem, window,
                                 hidden=hidden_trajectories(problem, start))
             plan.choose_substeps(start, plan.columns())
-            theta, info = fit_shooting(plan, system_for, theta0, iterations,
-                                       bounds=(low, high))
-            substeps = plan.substeps
-        else:  # only sensors' outputs measured: no window can start from a measured state
-            whole = WholeRecord(problem)
-            first = whole.first_states(start)
-            whole.choose_substeps(start, first)
-            theta, substeps = theta0, whole.windows.substeps
-            info = {"substeps": substeps, "initial_states": first}
+            # the windows' starts held within the states' limits, and left free (where a
+            # state sits on its limit much of the time, either may stall)
+            for limit_starts in (True, False) if problem.skeleton.limits else (True,):
+                theta, info = fit_shooting(plan, system_for, theta0, iterations,
+                                           bounds=(low, high), limit_starts=limit_starts)
+                estimates.append((theta, info["initial_states"]))
+        substeps = info["substeps"]
         # the windows' joins are soft: a last pass simulates every experiment whole, from
-        # the estimate and from its best common rescaling (the better of the two is kept)
-        params = dict(zip(names, theta.tolist()))
-        starts = [(params, info["initial_states"])]
-        other = rescaled(problem, params, info["initial_states"], substeps)
-        if other is not None:
-            starts.append(other)
+        # each estimate and from its best common rescaling (multiple shooting may settle
+        # on the wrong time scale); the best whole-record fit is kept
+        starts = []
+        for theta, initial in estimates:
+            params = dict(zip(names, np.asarray(theta, dtype=float).tolist()))
+            starts.append((params, initial))
+            other = rescaled(problem, params, initial, substeps)
+            if other is not None:
+                starts.append(other)
         params, first, nrmse, unseen = min(
             (single_shooting(problem, p, f, substeps, iterations) for p, f in starts),
             key=lambda found: found[2])
