@@ -198,7 +198,8 @@ class Backend(ABC):
         params, first, nrmse, unseen = min(
             (single_shooting(problem, p, f, substeps, iterations) for p, f in starts),
             key=lambda found: found[2])
-        info.update(initial_states=first, nrmse_whole=nrmse, unseen=unseen)
+        info.update(initial_states=first, nrmse_whole=nrmse, unseen=unseen,
+                    whole_record_starts=len(starts))
         for words in unseen:
             warnings.warn(
                 f"{', '.join(problem.hidden)} not measured, and the measurements cannot fix "

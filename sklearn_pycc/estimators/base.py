@@ -204,7 +204,11 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
     shooting_ : dict
         Only after an output-error fit: segments, iterations, the
         normalised RMSE of the simulated states before and after, and the
-        largest continuity defect.
+        largest continuity defect. With unmeasured states also
+        ``nrmse_whole`` (the measured states and readings simulated along
+        whole experiments), ``unseen`` (directions the measurements cannot
+        fix, in words) and ``whole_record_starts`` (the starts of the last,
+        whole-record pass; the best is kept).
     n_features_in_ : int
         Number of columns of ``X`` seen in ``fit``.
     feature_names_in_ : ndarray
