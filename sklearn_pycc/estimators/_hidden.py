@@ -307,8 +307,8 @@ def scaled_start(problem: Problem, params: Mapping[str, float],
     return best
 
 
-def rescaled(problem: Problem, params: Mapping[str, float], first: np.ndarray,
-             substeps: int) -> tuple[dict[str, float], np.ndarray] | None:
+def rescaled(problem: Problem, params: Mapping[str, float],
+             first: np.ndarray) -> tuple[dict[str, float], np.ndarray] | None:
     """The best common rescaling of the multiple-shooting estimate, if one simulates better.
 
     Multiple shooting fits each window's shape, and with an unmeasured
@@ -321,7 +321,6 @@ def rescaled(problem: Problem, params: Mapping[str, float], first: np.ndarray,
     states' limits); None when no factor but 1 does best.
     """
     whole = WholeRecord(problem)
-    whole.windows.substeps = int(substeps)
     names = list(params)
     given = np.clip(first, *state_bounds(problem.skeleton))
     best, best_error = None, np.inf

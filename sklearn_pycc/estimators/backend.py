@@ -192,7 +192,7 @@ class Backend(ABC):
         for theta, initial in estimates:
             params = dict(zip(names, np.asarray(theta, dtype=float).tolist()))
             starts.append((params, initial))
-            other = rescaled(problem, params, initial, substeps)
+            other = rescaled(problem, params, initial)
             if other is not None:
                 starts.append(other)
         params, first, nrmse, unseen = min(
