@@ -250,7 +250,6 @@ class Windows:
                 out[:, i + 1] = x
         return out, escaped
 
-
     def _simulate_one(self, system, start: np.ndarray, k: int, fine: Mapping[str, np.ndarray],
                       ends: Mapping[str, np.ndarray]) -> tuple[np.ndarray, bool, int]:
         """Window ``k`` of :meth:`simulate`, in floats: its states, escape and escape step.
@@ -300,7 +299,7 @@ class Windows:
                     if limited:
                         system.clip_values(x)
                 bad = not all(math.isfinite(v) and abs(v) <= b for v, b in zip(x, bound))
-            except (Diverged, ArithmeticError, ValueError):
+            except (Diverged, ArithmeticError, ValueError):  # math's domain errors too
                 bad = True
             if bad:
                 if not escaped:

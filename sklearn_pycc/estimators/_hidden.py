@@ -234,14 +234,10 @@ class WholeRecord:
 def sensor_readings(system, data: Mapping[str, np.ndarray], outputs: Sequence[str]) -> np.ndarray:
     """The static outputs ``outputs`` on columns of every state, input and ``t``.
 
-    Returns an array ``(n, len(outputs))``; the derivatives an output may
-    read are evaluated on the way.
+    Returns an array ``(n, len(outputs))`` (a static equation reads no
+    derivative: the skeleton refuses one that does).
     """
-    n = len(data["t"])
-    data = dict(data)
-    rates = np.asarray(system.evaluate(data, n), dtype=float)
-    data.update({d: rates[:, j] for j, d in enumerate(system.derivatives)})
-    values = system.evaluate_outputs(data, n)
+    values = system.evaluate_outputs(data, len(data["t"]))
     return values[:, [list(system.outputs).index(o) for o in outputs]]
 
 
@@ -328,10 +324,10 @@ def rescaled(problem: Problem, params: Mapping[str, float],
         trial = _scaled(problem, params, names, factor)
         if trial is None:
             continue
-        for start in (None, given):
-            error, start = _settled_error(whole, problem, trial, start)
+        for first_guess in (None, given):
+            error, used = _settled_error(whole, problem, trial, first_guess)
             if error < best_error:
-                best, best_error = (None if factor == 1 else (trial, start)), error
+                best, best_error = (None if factor == 1 else (trial, used)), error
     return best
 
 
