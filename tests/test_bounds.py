@@ -66,7 +66,9 @@ def test_bounds_and_monotone_curves_travel_with_the_skeleton():
     (["0 <= a1 <= -1"], "empty bound"),
     (["a1 >= 2", "a1 <= 1"], "contradictory bounds on a1"),
     (["a1 <= 0 <= 5"], "stands between its ends"),
-    (["a1 >= x1"], "expected a number or a parameter"),
+    (["a1 >= x1"], "a1 appears in the equations too; a limit to fit has a parameter of its "
+                   "own"),
+    (["a1 >= f1"], "expected a number or a parameter"),
     (["1 <= 2"], "names exactly one parameter"),
     (["f1 increasing", "f1 decreasing"], "cannot be both increasing and decreasing"),
     (["f1 even", "f1 increasing"], "an even f1 cannot be increasing"),

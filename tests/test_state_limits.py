@@ -22,12 +22,46 @@ def test_a_limit_on_a_state_is_read_and_checked():
         Skeleton(TORRICELLI, ["u <= 3"])
     with pytest.raises(SkeletonError, match="contradictory limits on x1"):
         Skeleton(TORRICELLI, ["x1 <= 1", "x1 >= 2"])
-    with pytest.raises(SkeletonError, match="a state's limit is a known number"):
-        Skeleton(TORRICELLI, ["x1 <= a5"])
     with pytest.raises(SkeletonError, match="unknown constraint"):
         Skeleton(TORRICELLI, ["x1 odd"])
     with pytest.raises(SkeletonError, match="limit on x1: high must be a number"):
         StateLimit("x1", high=float("nan"))
+
+
+def test_a_limit_to_fit_is_a_parameter_of_its_own():
+    skeleton = Skeleton(TORRICELLI, ["x1 <= a5", "0 <= x2 <= a6", "a5 >= 1"])
+    assert skeleton.params == ["a1", "a2", "a3", "a4", "a5", "a6"]
+    assert skeleton.limit_params == {"a5": ("x1", "high"), "a6": ("x2", "high")}
+    assert skeleton.limits == {"x1": (-np.inf, "a5"), "x2": (0.0, "a6")}
+    assert skeleton.bounds == {"a5": (1.0, np.inf)}
+    assert [str(c) for c in skeleton.constraints if isinstance(c, StateLimit)] == \
+        ["x1 <= a5", "0 <= x2 <= a6"]
+    values = {"a1": 1.0, "a2": 1.0, "a3": 1.0, "a4": 1.0, "a5": 12.0, "a6": 13.0}
+    assert skeleton.limits_at(values) == {"x1": (-np.inf, 12.0), "x2": (0.0, 13.0)}
+    assert skeleton.compile({}, values).limits == {"x1": (-np.inf, 12.0), "x2": (0.0, 13.0)}
+    assert Skeleton(TORRICELLI, ["a5 >= x1"]).limits == {"x1": (-np.inf, "a5")}
+    with pytest.raises(SkeletonError, match="one end at most of x1's limit is a parameter"):
+        Skeleton(TORRICELLI, ["a5 <= x1 <= a6"])
+    with pytest.raises(SkeletonError, match="a limit to fit is the only upper limit on x1"):
+        Skeleton(TORRICELLI, ["x1 <= a5", "x1 <= 12"])
+    with pytest.raises(SkeletonError, match="a2 appears in the equations too"):
+        Skeleton(TORRICELLI, ["x1 <= a2"])
+    with pytest.raises(SkeletonError, match="a5 is the end of more than one limit"):
+        Skeleton(TORRICELLI, ["x1 <= a5", "x2 <= a5"])
+
+
+def test_a_limit_to_fit_on_a_measured_state_is_read_from_the_record():
+    frame, truth = datasets.make_two_tanks(random_state=0, return_truth=True,
+                                           measured=("x1", "x2"), noise_columns=("x1", "x2"))
+    model = PolyCCRegressor(equations=TORRICELLI, constraints=["x1 <= a5", "x2 <= a6"],
+                            fit_mode="simulation").fit(frame)
+    # the smoothed level's highest value: the raw samples' overshoot it by the noise
+    assert model.params_["a5"] == pytest.approx(truth.rims["x1"], abs=0.15)
+    assert model.params_["a6"] == pytest.approx(truth.rims["x2"], abs=0.15)
+    assert frame.x2.max() > model.params_["a6"]
+    simulated = model.simulate(frame.t, [frame.x1.iloc[0], frame.x2.iloc[0]],
+                               inputs={"u": frame.u.to_numpy()})
+    assert simulated.x2.max() <= model.params_["a6"] + 1e-9
 
 
 def test_a_limited_simulation_follows_the_overflowing_tanks_exactly():

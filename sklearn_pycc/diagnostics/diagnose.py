@@ -14,6 +14,7 @@ from sklearn.utils.validation import check_is_fitted
 from .._random import check_seed_source
 from ..exceptions import SkeletonError
 from ..measurements.measurement import unwrap
+from ..measurements.reconstruct import unmeasured_states
 from ..skeleton import Bound, Skeleton
 from ..skeleton.nodes import BinOp, Param, walk
 from ..skeleton.parser import parse_expression
@@ -109,8 +110,10 @@ class Suggestion:
     bounds : tuple of str
         The bounds the effect's physics puts on the new parameters (in
         ``equations`` too), e.g. ``("a3 >= 0", "a4 >= 0")``.
-    move : {"add", "replace", "remove", "open"}
-        What the suggestion does to the skeleton: add the effect's term,
+    move : {"add", "replace", "remove", "open", "limit"}
+        What the suggestion does to the skeleton: add the effect's term
+        (``"limit"``: a hard limit on a state, ``term`` the constraint
+        ``"x1 <= a5"``, ``equation`` the state's),
         put it in place of the terms in ``replaces`` (a pendulum's sine for
         a linear spring), take the terms in ``replaces`` out (``term`` is
         then the removed term and ``effect`` what it stood for), or, when no
@@ -177,6 +180,8 @@ class Suggestion:
         """What to do to the skeleton, in words: ``"replace 'a2*x1' in x2_dot by ..."``."""
         if self.move == "remove":
             return f"remove '{self.term}' from {self.equation}"
+        if self.move == "limit":
+            return f"add the limit '{self.term}'"
         if self.replaces:
             old = "' and '".join(self.replaces)
             return f"replace '{old}' in {self.equation} by '- {self.term}'"
@@ -689,6 +694,18 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     if measurement is not None and units is None:
         units = measurement.units or None
     units = check_units(units, X, skeleton)
+    # states neither measured nor reconstructed by a kinematic equation from a measured one
+    hidden = [] if not isinstance(X, pd.DataFrame) else unmeasured_states(
+        skeleton, {c: X[c] for c in X.columns if X[c].notna().any()})
+    if hidden:
+        from ._unmeasured import diagnose_unmeasured
+
+        if TIME not in X.columns:
+            raise ValueError(f"{', '.join(hidden)} not measured: the diagnosis simulates the "
+                             "model, and X has no time column 't'")
+        return diagnose_unmeasured(model, X, min_improvement=min_improvement,
+                                   bic_threshold=bic_threshold, held_out=held_out,
+                                   units=units, notes=[])
     settings = model.get_params()
     data = read_measurements(skeleton, record, None if measurement is not None else y,
                              settings.get("differentiation", "auto"),

@@ -87,13 +87,15 @@ class Refinement:
 
 
 def _structure(skeleton: Skeleton) -> tuple:
-    """The skeleton's terms per equation, whatever their parameters are called."""
+    """The skeleton's terms per equation and its state limits, parameters unnamed."""
     out = []
     for eq in skeleton.parsed:
         same = {n.name: "a" for n in walk(eq.rhs) if isinstance(n, Param)}
         out.append((eq.derivative, tuple(sorted(
             (sign, to_text(rename(node, same))) for sign, node in signed_terms(eq.rhs)))))
-    return tuple(out)
+    limits = {state: tuple("a" if isinstance(end, str) else end for end in ends)
+              for state, ends in skeleton.limits.items()}
+    return (*out, tuple(sorted(limits.items())))
 
 
 class HypothesisLoop:

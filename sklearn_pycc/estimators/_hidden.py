@@ -22,9 +22,8 @@ from ._setup import Problem
 from ._shooting import state_bounds
 
 __all__ = ["START_FACTORS", "WholeRecord", "check_visible", "equilibrium", "hidden_trajectories",
-           "initial_table", "rescaled", "scaled_start", "sensor_readings", "single_shooting",
-           "starting_params",
-           "unseen_directions"]
+           "initial_table", "limit_start", "rescaled", "scaled_start", "sensor_readings",
+           "single_shooting", "starting_params", "unseen_directions"]
 
 
 def _reads(skeleton) -> dict[str, set[str]]:
@@ -290,9 +289,14 @@ def scaled_start(problem: Problem, params: Mapping[str, float],
     on the parameters ``param_init`` did not give, by simulating every
     experiment whole from rest; the factor of the smallest error wins.
     """
-    free = [a for a in params if a not in given]
+    limits = problem.skeleton.limit_params
+    free = [a for a in params if a not in given and a not in limits]
+    open_ends = {a: float(np.clip(-OPEN_LIMIT if limits[a][1] == "low" else OPEN_LIMIT,
+                                  *problem.bounds.get(a, (-np.inf, np.inf))))
+                 for a in params if a in limits and a not in given}
+    params = {**params, **open_ends}  # a limit to fit waits for the time scale
     if not free:
-        return dict(params)
+        return limit_start(problem, params, given)
     whole = WholeRecord(problem)
     best, best_error = dict(params), np.inf
     for factor in START_FACTORS:
@@ -300,7 +304,54 @@ def scaled_start(problem: Problem, params: Mapping[str, float],
         error = np.inf if trial is None else _settled_error(whole, problem, trial)[0]
         if error < best_error:
             best, best_error = trial, error
-    return best
+    return limit_start(problem, best, given)
+
+
+#: where a limit to fit starts before its own start is chosen (no state reaches it)
+OPEN_LIMIT = 1e12
+
+#: quantiles of a state, simulated without its limit, where a limit to fit may start
+LIMIT_QUANTILES = (0.3, 0.5, 0.7, 0.8, 0.9, 0.95)
+
+
+def limit_start(problem: Problem, params: Mapping[str, float],
+                given: Sequence[str]) -> dict[str, float]:
+    """The starting value of each limit to fit on an unmeasured state (``x1 <= a5``).
+
+    The limit's parameter moves the fit only where the state reaches it: a
+    start above everything the state does would stay there. The model is
+    simulated with the limit open, and the limit is tried at quantiles of
+    the state's course (:data:`LIMIT_QUANTILES`) and just beyond its
+    extreme; the value whose simulation follows the record best (past each
+    experiment's first rows) is the start. Limits are chosen one at a time
+    (a measured state's is read from the record, not fitted).
+    """
+    params = dict(params)
+    limits = problem.skeleton.limit_params
+    chosen = [a for a in params if a in limits and a not in given]
+    if not chosen:
+        return params
+    whole = WholeRecord(problem)
+    for name in chosen:
+        state, side = limits[name]
+        system = problem.skeleton.compile(_zero_curves(problem),
+                                          {**problem.fixed_params, **params})
+        course = hidden_trajectories(problem, system)[state]
+        course = course[np.isfinite(course)]
+        if course.size == 0:
+            continue
+        spread = float(np.ptp(course)) or 1.0
+        levels = np.quantile(course, LIMIT_QUANTILES if side == "high"
+                             else 1 - np.asarray(LIMIT_QUANTILES))
+        beyond = course.max() + 0.1 * spread if side == "high" else course.min() - 0.1 * spread
+        best, best_error = params[name], np.inf
+        for level in [*levels, beyond]:
+            trial = _scaled(problem, {**params, name: float(level)}, (), 1.0)
+            error = np.inf if trial is None else _settled_error(whole, problem, trial)[0]
+            if error < best_error:
+                best, best_error = float(level), error
+        params[name] = best
+    return params
 
 
 def rescaled(problem: Problem, params: Mapping[str, float],
@@ -317,7 +368,7 @@ def rescaled(problem: Problem, params: Mapping[str, float],
     states' limits); None when no factor but 1 does best.
     """
     whole = WholeRecord(problem)
-    names = list(params)
+    names = [a for a in params if a not in problem.skeleton.limit_params]  # rates, not levels
     given = np.clip(first, *state_bounds(problem.skeleton))
     best, best_error = None, np.inf
     for factor in RESCALE_FACTORS:

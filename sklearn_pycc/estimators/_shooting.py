@@ -157,10 +157,20 @@ class ShootingPlan(Windows):
 
 
 def state_bounds(skeleton) -> tuple[np.ndarray, np.ndarray]:
-    """Each state's hard limits (``-inf``/``inf`` where it has none), in state order."""
+    """Each state's hard limits (``-inf``/``inf`` where it has none), in state order.
+
+    An end still to fit (``x1 <= a5``) is open here: the simulation holds
+    the state within the fitted value.
+    """
     limits = skeleton.limits
-    low = np.array([limits.get(s, (-np.inf, np.inf))[0] for s in skeleton.states], dtype=float)
-    high = np.array([limits.get(s, (-np.inf, np.inf))[1] for s in skeleton.states], dtype=float)
+
+    def number(end, open_end: float) -> float:
+        return open_end if isinstance(end, str) else float(end)
+
+    low = np.array([number(limits.get(s, (-np.inf, np.inf))[0], -np.inf)
+                    for s in skeleton.states])
+    high = np.array([number(limits.get(s, (-np.inf, np.inf))[1], np.inf)
+                     for s in skeleton.states])
     return low, high
 
 

@@ -293,6 +293,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
                              who=type(self).__name__, trim=False,
                              hidden_ok=self.fit_mode != "equation")
+        fixed = {**fixed, **_measured_limits(skeleton, record)}
         if record.hidden:
             _check_hidden(skeleton, record.hidden)
         elif self.fit_mode == "simulation":
@@ -639,10 +640,42 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             error = (simulated - targets) / scale
             return np.where(np.isfinite(error), error, 1e3).ravel()
 
-        solution = least_squares(residuals, start, x_scale="jac", max_nfev=50 * (len(start) + 1))
-        z = solution.x if solution.cost <= 0.5 * float(np.sum(residuals(start) ** 2)) else start
+        best, best_cost = start, 0.5 * float(np.sum(residuals(start) ** 2))
+        for guess in self._initial_guesses(start, unknown):
+            solution = least_squares(residuals, guess, x_scale="jac",
+                                     max_nfev=50 * (len(start) + 1))
+            if solution.cost < best_cost:
+                best, best_cost = solution.x, solution.cost
+        z = best
         return {s: (state[s] if s in state else float(z[unknown.index(s)]))
                 for s in skeleton.states}
+
+    def _initial_guesses(self, start: np.ndarray, unknown: list[str]) -> list[np.ndarray]:
+        """Where :meth:`estimate_initial_state` starts: rest, and what the fit saw.
+
+        From the equilibrium with the first sample; from each training
+        experiment's fitted initial state (``initial_states_``); and from
+        each state's limits and their midpoint, where it has finite ones (a
+        slow unmeasured state far from rest can make a short stretch's
+        least squares settle elsewhere).
+        """
+        guesses = [np.asarray(start, dtype=float)]
+        table = getattr(self, "initial_states_", None)
+        if table is not None and all(s in table.columns for s in unknown):
+            guesses.extend(table[unknown].to_numpy(dtype=float))
+        limits = self.skeleton_.limits_at(self.params_)
+        ends = []
+        for s in unknown:
+            low, high = limits.get(s, (-np.inf, np.inf))
+            finite = [v for v in (low, high) if np.isfinite(v)]
+            ends.append(finite + ([0.5 * (low + high)] if len(finite) == 2 else
+                                  [0.5 * finite[0]] if finite else []))
+        for k, values in enumerate(ends):
+            for value in values:
+                guess = guesses[0].copy()
+                guess[k] = value
+                guesses.append(guess)
+        return [g for g in guesses if np.all(np.isfinite(g))]
 
     def simulate(
         self,
@@ -1008,6 +1041,23 @@ def _pair(domain) -> tuple[float, float]:
     if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
         raise ValueError(f"domain must run from a lower to a higher finite value, got {domain!r}")
     return lo, hi
+
+
+def _measured_limits(skeleton, record) -> dict[str, float]:
+    """Each limit to fit on a measured state, at the state's extreme in the record.
+
+    A measured state shows where it stops; the equations cannot (at its
+    limit a state's rate is held, not what they compute). The extreme of
+    the smoothed state is read (the raw samples' overshoots it by the
+    noise). A limit on an unmeasured state is fitted by output error
+    (:func:`~._hidden.limit_start`).
+    """
+    out = {}
+    for name, (state, side) in skeleton.limit_params.items():
+        if state in record.measured:
+            values = np.asarray(record.smoothed.get(state, record.measured[state]), dtype=float)
+            out[name] = float(values.max() if side == "high" else values.min())
+    return out
 
 
 def _check_hidden(skeleton: Skeleton, hidden) -> None:

@@ -4,7 +4,8 @@ On characteristic curves: ``"f1 odd"``, ``"f1 even"``, ``"f2(0)=0"``,
 ``"f1 increasing"``, ``"f2 decreasing"``; on scalar parameters: bounds
 ``"a2 >= 0"``, ``"a2 <= 5"``, ``"0 <= a3 <= 10"``; on states: hard limits
 ``"x1 <= 12"``, ``"0 <= x2 <= 13"`` (a tank that overflows at its rim, an end
-stop), which the state never leaves.
+stop), which the state never leaves; an end may be a parameter to fit
+(``"x1 <= a5"``: a rim whose height is not known).
 """
 
 from __future__ import annotations
@@ -19,8 +20,9 @@ from ..exceptions import SkeletonError
 from .functions import is_param_name, is_unknown_name
 from .lexer import Token, tokenize
 
-__all__ = ["Bound", "Constraint", "StateLimit", "check_constraints", "merged_bounds",
-           "merged_limits", "parse_constraint", "parse_constraints"]
+__all__ = ["Bound", "Constraint", "StateLimit", "check_constraints", "limit_params",
+           "merged_bounds", "merged_limits", "parse_constraint", "parse_constraints",
+           "resolved_limits"]
 
 #: kinds of curve constraints that are shapes rather than points
 MONOTONE = ("increasing", "decreasing")
@@ -81,13 +83,17 @@ def _check_ends(what: str, low, high) -> None:
                                 "leave it unbounded")
 
 
-def _interval_text(name: str, low: float, high: float) -> str:
+def _end_text(end: float | str) -> str:
+    return end if isinstance(end, str) else f"{end:.12g}"
+
+
+def _interval_text(name: str, low: float | str, high: float | str) -> str:
     """``name <= high``, ``name >= low`` or ``low <= name <= high``."""
-    if math.isinf(low):
-        return f"{name} <= {high:.12g}"
-    if math.isinf(high):
-        return f"{name} >= {low:.12g}"
-    return f"{low:.12g} <= {name} <= {high:.12g}"
+    if not isinstance(low, str) and math.isinf(low):
+        return f"{name} <= {_end_text(high)}"
+    if not isinstance(high, str) and math.isinf(high):
+        return f"{name} >= {_end_text(low)}"
+    return f"{_end_text(low)} <= {name} <= {_end_text(high)}"
 
 
 @dataclass(frozen=True)
@@ -134,18 +140,33 @@ class StateLimit:
     ----------
     state : str
         The state, e.g. ``"x1"``.
-    low, high : float
-        Least and largest value (``-inf`` / ``inf`` when open).
+    low, high : float or str
+        Least and largest value (``-inf`` / ``inf`` when open), or the name
+        of a parameter whose fitted value it is (``"a5"``).
     """
 
     state: str
-    low: float = -math.inf
-    high: float = math.inf
+    low: float | str = -math.inf
+    high: float | str = math.inf
 
     def __post_init__(self) -> None:
         if not isinstance(self.state, str) or is_param_name(self.state) \
                 or is_unknown_name(self.state):
             raise SkeletonError(f"a limit applies to a state, got {self.state!r}")
+        fitted = [end for end in (self.low, self.high) if isinstance(end, str)]
+        for end in fitted:
+            if not is_param_name(end):
+                raise SkeletonError(f"limit on {self.state}: an end is a number or a "
+                                    f"parameter aN, got {end!r}")
+        if fitted:
+            if len(fitted) == 2:
+                raise SkeletonError(f"limit on {self.state}: one end at most is a parameter "
+                                    "to fit; write the other as a number, or as a limit of "
+                                    "its own")
+            _check_ends(f"limit on {self.state}",
+                        *(-math.inf if e is self.low else math.inf
+                          if isinstance(e, str) else e for e in (self.low, self.high)))
+            return
         _check_ends(f"limit on {self.state}", self.low, self.high)
         if self.low >= self.high:
             raise SkeletonError(f"limit on {self.state}: low {self.low:g} is not below high "
@@ -203,7 +224,8 @@ def parse_constraint(item: str | Mapping, index: int = 0) -> Constraint | Bound:
         return SkeletonError(message, equation=index, position=pos, text=text, kind="constraints")
 
     usage = ("expected 'fN odd', 'fN even', 'fN increasing', 'fN decreasing', 'fN(c)=v', "
-             "'aN >= c', 'aN <= c', 'c1 <= aN <= c2' or a state's limit 'x1 <= c'")
+             "'aN >= c', 'aN <= c', 'c1 <= aN <= c2' or a state's limit 'x1 <= c' "
+             "(or 'x1 <= aN' to fit)")
     first = tokens[0]
     compared = len(tokens) > 1 and tokens[1].kind == "OP" \
         and tokens[1].text in ("<=", ">=", "<", ">")
@@ -244,14 +266,17 @@ def _parse_bound(tokens: list[Token], text: str, fail, usage: str) -> Bound | St
     With a state's name in place of ``aN``, the state's limit.
     """
     items, i = [], 0  # alternating operands (float or name) and comparisons
-    first_name = next((t.text for t in tokens if t.kind == "NAME"), "")
+    named = [t.text for t in tokens if t.kind == "NAME"]
+    # a state's limit names a state (and perhaps a parameter as its end to fit)
+    first_name = next((n for n in named if not is_param_name(n) and not is_unknown_name(n)),
+                      named[0] if named else "")
     # a parameter's bound reads numbers and parameters; a state's limit, numbers and states
     if is_param_name(first_name):
         def readable(name: str) -> bool:
             return is_param_name(name)
-    else:
+    else:  # a state's limit may have a parameter to fit as an end: x1 <= a5
         def readable(name: str) -> bool:
-            return not is_param_name(name) and not is_unknown_name(name)
+            return not is_unknown_name(name)
     while True:
         token = tokens[i]
         if token.kind == "NAME" and readable(token.text):
@@ -260,11 +285,6 @@ def _parse_bound(tokens: list[Token], text: str, fail, usage: str) -> Bound | St
         else:
             parsed = _signed_number(tokens, i)
             if parsed is None:
-                if not is_param_name(first_name) and token.kind == "NAME" \
-                        and is_param_name(token.text):
-                    raise fail(f"a state's limit is a known number ({first_name} <= 12); a "
-                               f"limit to fit ({first_name} <= {token.text}) is not available",
-                               token.pos)
                 what = "a parameter aN" if is_param_name(first_name) else "a state"
                 raise fail(f"expected a number or {what}: {usage}", token.pos)
             items.append((parsed[0], token.pos))
@@ -281,6 +301,12 @@ def _parse_bound(tokens: list[Token], text: str, fail, usage: str) -> Bound | St
         i += 1
     operands, comparisons = items[0::2], [op for op, _ in items[1::2]]
     names = [(value, pos) for value, pos in operands if isinstance(value, str)]
+    ends = [(value, pos) for value, pos in names if is_param_name(value)]
+    if not is_param_name(first_name) and ends:
+        # a state's limit to fit: the state's name, and parameters as ends
+        names = [(value, pos) for value, pos in names if not is_param_name(value)]
+        if not names:
+            raise fail(f"a state's limit names a state: {usage}", operands[0][1])
     if len(names) != 1:
         where = names[1][1] if len(names) > 1 else operands[0][1]
         raise fail(f"a bound names exactly one parameter or state: {usage}", where)
@@ -299,6 +325,11 @@ def _parse_bound(tokens: list[Token], text: str, fail, usage: str) -> Bound | St
         raise fail("the ends of a bound must be finite numbers", operands[0][1])
     low = values[position - 1] if position > 0 else -math.inf
     high = values[position + 1] if position + 1 < len(values) else math.inf
+    if isinstance(low, str) or isinstance(high, str):
+        if isinstance(low, str) and isinstance(high, str):
+            raise fail(f"one end at most of {name}'s limit is a parameter to fit; write the "
+                       "other as a number, or as a limit of its own", ends[-1][1])
+        return StateLimit(name, low, high)
     if low >= high:
         raise fail(f"empty bound: {low:g} >= {high:g} leaves no interval (write a fixed "
                    "value as a number in the equation)", operands[0][1])
@@ -336,14 +367,41 @@ def merged_bounds(constraints: Iterable) -> dict[str, tuple[float, float]]:
     return out
 
 
-def merged_limits(constraints: Iterable) -> dict[str, tuple[float, float]]:
-    """State -> ``(low, high)``, the intersection of every limit on it."""
-    out: dict[str, tuple[float, float]] = {}
+def merged_limits(constraints: Iterable) -> dict[str, tuple[float | str, float | str]]:
+    """State -> ``(low, high)``, the intersection of every limit on it.
+
+    An end to fit is the parameter's name (the skeleton allows no other
+    limit on that side of that state).
+    """
+    out: dict[str, tuple] = {}
     for c in constraints:
         if isinstance(c, StateLimit):
             low, high = out.get(c.state, (-math.inf, math.inf))
-            out[c.state] = (max(low, c.low), min(high, c.high))
+            low = c.low if isinstance(c.low, str) or isinstance(low, str) else max(low, c.low)
+            high = (c.high if isinstance(c.high, str) or isinstance(high, str)
+                    else min(high, c.high))
+            out[c.state] = (low, high)
     return out
+
+
+def limit_params(constraints: Iterable) -> dict[str, tuple[str, str]]:
+    """Parameter -> ``(state, side)`` for every limit end to fit (side "low" or "high")."""
+    out = {}
+    for c in constraints:
+        if isinstance(c, StateLimit):
+            for side, end in (("low", c.low), ("high", c.high)):
+                if isinstance(end, str):
+                    out[end] = (c.state, side)
+    return out
+
+
+def resolved_limits(limits: Mapping[str, tuple], params: Mapping[str, float]
+                    ) -> dict[str, tuple[float, float]]:
+    """``limits`` with each end to fit replaced by its parameter's value in ``params``."""
+    def value(end):
+        return float(params[end]) if isinstance(end, str) else float(end)
+
+    return {s: (value(low), value(high)) for s, (low, high) in limits.items()}
 
 
 def _check_monotone_points(name: str, shape: str, points: list[Constraint],
@@ -377,12 +435,41 @@ def check_constraints(constraints: Iterable, functions: Iterable[str],
             raise SkeletonError(f"constraint '{c}' limits {c.state}, which is neither a "
                                 f"parameter aN nor a state of the skeleton ({have})",
                                 kind="constraints")
+    fitted_ends: dict[tuple[str, str], int] = {}
+    for c in constraints:
+        if isinstance(c, StateLimit):
+            for side, end in (("low", c.low), ("high", c.high)):
+                if isinstance(end, str) or not math.isinf(end):
+                    key = (c.state, side)
+                    fitted_ends[key] = fitted_ends.get(key, 0) + (2 if isinstance(end, str)
+                                                                  else 1)
+    for c in constraints:
+        if isinstance(c, StateLimit):
+            for side, end in (("low", c.low), ("high", c.high)):
+                if isinstance(end, str) and fitted_ends[(c.state, side)] > 2:
+                    raise SkeletonError(f"constraint '{c}': a limit to fit is the only "
+                                        f"{'upper' if side == 'high' else 'lower'} limit on "
+                                        f"{c.state}; leave out the others",
+                                        kind="constraints")
+    owners = limit_params(constraints)
+    for c in constraints:
+        if isinstance(c, StateLimit):
+            used = [e for e in (c.low, c.high) if isinstance(e, str)]
+            if used and used[0] in owners and owners[used[0]] != (
+                    c.state, "low" if c.low == used[0] else "high"):
+                raise SkeletonError(f"{used[0]} is the end of more than one limit: give "
+                                    "each limit to fit its own parameter", kind="constraints")
+            if used and used[0] in params:
+                raise SkeletonError(f"constraint '{c}': {used[0]} appears in the equations "
+                                    "too; a limit to fit has a parameter of its own",
+                                    kind="constraints")
     for name, (low, high) in merged_limits(constraints).items():
-        if low >= high:
+        if not isinstance(low, str) and not isinstance(high, str) and low >= high:
             limits = ", ".join(str(c) for c in constraints
                                if isinstance(c, StateLimit) and c.state == name)
             raise SkeletonError(f"contradictory limits on {name}: {limits} leave no value",
                                 kind="constraints")
+    params = [*params, *owners]  # a limit's parameter may have bounds too
     for c in constraints:
         if isinstance(c, Bound) and c.param not in params:
             have = ", ".join(params) if params else "no parameters"

@@ -341,7 +341,7 @@ def analyse(skeleton, seed: int = 0) -> IdentifiabilityReport:
     reference = probe(curves, params)
     columns, labels = [], []
     for a in skeleton.params:
-        if a in fixed_params:
+        if a in fixed_params or a in skeleton.limit_params:  # a limit acts in no equation
             continue
         h = 1e-4 * max(1.0, abs(params[a]))
         up = probe(curves, {**params, a: params[a] + h})

@@ -24,9 +24,11 @@ from .constraints import (
     Constraint,
     StateLimit,
     check_constraints,
+    limit_params,
     merged_bounds,
     merged_limits,
     parse_constraints,
+    resolved_limits,
 )
 from .equations import TIME, Equation, classify, evaluation_order, state_of
 from .nodes import (
@@ -163,12 +165,14 @@ class Skeleton:
                           and (name not in self.outputs or self._reads(name))):
                         inputs.append(name)
         self.functions = sorted(functions, key=_index_key)
-        self.params = sorted(params, key=_index_key)
         self.inputs = inputs
         self.uses_time = uses_time
         self.constraints: tuple[Constraint | Bound | StateLimit, ...] = parse_constraints(
             constraints)
-        check_constraints(self.constraints, self.functions, self.params, self.states)
+        check_constraints(self.constraints, self.functions, params, self.states)
+        #: parameter -> (state, side) of each state limit to fit (``x1 <= a5``)
+        self.limit_params = limit_params(self.constraints)
+        self.params = sorted([*params, *self.limit_params], key=_index_key)
 
     # -- conveniences ---------------------------------------------------------
     def _reads(self, name: str) -> bool:
@@ -247,9 +251,17 @@ class Skeleton:
         return merged_bounds(self.constraints)
 
     @property
-    def limits(self) -> dict[str, tuple[float, float]]:
-        """State -> ``(low, high)`` for every state with a hard limit (``-inf``/``inf`` open)."""
+    def limits(self) -> dict[str, tuple[float | str, float | str]]:
+        """State -> ``(low, high)`` for every state with a hard limit (``-inf``/``inf`` open).
+
+        An end to fit is its parameter's name (:attr:`limit_params`); see
+        :meth:`limits_at`.
+        """
         return merged_limits(self.constraints)
+
+    def limits_at(self, params: Mapping[str, float]) -> dict[str, tuple[float, float]]:
+        """:attr:`limits` with every end to fit at its value in ``params``."""
+        return resolved_limits(self.limits, params)
 
     def monotone(self, function: str) -> str | None:
         """``"increasing"``, ``"decreasing"`` or None for one curve."""
@@ -476,7 +488,7 @@ class Skeleton:
         functions, params = self.check_values(functions, params)
         static = [eq for eq in self._all if eq.output is not None]
         return CompiledSystem(self._equations, self.states, self.inputs, params, functions,
-                              static=static, limits=self.limits)
+                              static=static, limits=self.limits_at(params))
 
     def simulate(
         self,

@@ -1,0 +1,323 @@
+"""The diagnosis of a model with unmeasured states: judged by simulating what is measured.
+
+No derivative of a state that no sensor reads can be estimated, and no
+window of a simulation can restart from it: each experiment is simulated
+whole from the state :meth:`~sklearn_pycc.CCRegressor.estimate_initial_state`
+finds on its first samples, and the measured states and sensor readings are
+compared with the record. The candidates are hard limits on each state that
+has none (``overflow``: a tank's rim, an end stop), each refitted by output
+error from the diagnosed model's parameters and kept when it lowers the
+simulation error in the record (by the BIC and ``min_improvement``) and on
+data its fit did not see (each half of the record, or each experiment,
+predicted by the fit to the rest).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from sklearn.base import clone
+
+from ..exceptions import SimulationError
+from ..measurements.experiments import TIME, TRAJECTORY, split_experiments
+from ..measurements.reconstruct import unmeasured_states
+from ._held_out import HELD_OUT_GAIN, HeldOut
+from ._metrics import error_table_row
+from .diagnose import Diagnosis, Suggestion
+
+__all__ = ["UnmeasuredDiagnosis", "diagnose_unmeasured"]
+
+#: the catalogue's name and physics of a hard limit on a state
+OVERFLOW = ("overflow", "the state stops at a limit it cannot pass (a tank's rim, an end stop): "
+            "beyond it the flow spills or the motion stops")
+
+
+@dataclass
+class LimitTrial:
+    """One limit tried: the refitted model and its simulation errors."""
+
+    state: str
+    term: str
+    refit: object | None
+    nrmse: float
+    delta_bic: float
+    removed: float
+    held_out: HeldOut | None = None
+    failure: str = ""
+
+
+class UnmeasuredDiagnosis(Diagnosis):
+    """A :class:`Diagnosis` of a model with unmeasured states (see :func:`diagnose`).
+
+    :attr:`trajectories` holds what is measured (states and sensor
+    readings) simulated whole from each experiment's estimated initial
+    state; :attr:`simulation` every state simulated, the unmeasured ones
+    without a measured column; :attr:`hidden` names the unmeasured states
+    and :attr:`ranking` the limits tried.
+    """
+
+    hidden: list
+
+    def summary(self) -> str:
+        """The diagnosis in plain words."""
+        model = self.model
+        lines = [f"Model ({type(model).__name__}, {model.n_parameters_} fitted numbers) "
+                 f"against {len(self.simulation)} samples; {', '.join(self.hidden)} not "
+                 "measured:"]
+        lines.extend(f"    {text}" for text in model.equations())
+        lines.append("")
+        lines.append("Simulation of each experiment whole, from the initial state estimated "
+                     "on its first samples, with the measured inputs:")
+        for name, row in self.trajectories.iterrows():
+            unit = f" {self.units[name]}" if self.units.get(name) else ""
+            lines.append(f"    {name}: fit {row.fit_percent:.1f} %, RMSE {row.rmse:.4g}{unit} "
+                         f"(NRMSE {row.nrmse:.3g})")
+        for d in self.divergences:
+            lines.append(f"    FAILURE: {d}")
+        lines.append("")
+        if self.best is None:
+            lines.append("Nothing is missing among the limits tried: " + (
+                "; ".join(f"'{r.suggested_term}' {self._why(r)}"
+                          for r in self.ranking.itertuples())
+                or "every state has its limits") + ".")
+        else:
+            best = self.best
+            lines.append(f"Missing effect: {best.effect} of {best.variable} ({best.description})"
+                         f": {best.action()}; the simulation error falls "
+                         f"{100 * best.error_removed:.0f} % (delta BIC {best.delta_bic:.1f}).")
+            if best.held_out is not None:
+                lines.append(f"    held out: {best.held_out}")
+        if self.notes:
+            lines.append("")
+            lines.extend(f"Note: {note}" for note in self.notes)
+        return "\n".join(lines)
+
+    @staticmethod
+    def _why(row) -> str:
+        if isinstance(row.failure, str) and row.failure:
+            return f"could not be fitted ({row.failure})"
+        held = row.held_out_change
+        return (f"removes {100 * row.error_removed:.0f} % of the simulation error"
+                + ("" if not np.isfinite(held) else f", held out {100 * held:+.1f} %"))
+
+    def plot(self):
+        """Each measured signal against its simulation, and the unmeasured states."""
+        from ..plotting import _pyplot
+
+        plt = _pyplot()
+        frame = self.simulation
+        names = [c[:-4] for c in frame.columns if c.endswith("_sim")]
+        fig, axes = plt.subplots(len(names), 1, sharex=True, squeeze=False,
+                                 figsize=(8, 2.2 * len(names)))
+        for ax, name in zip(axes[:, 0], names):
+            if name in frame.columns:
+                ax.plot(frame[TIME], frame[name], ".", ms=2, color="0.5", label="measured")
+            ax.plot(frame[TIME], frame[f"{name}_sim"], lw=1,
+                    label="simulated" + (" (not measured)" if name in self.hidden else ""))
+            unit = f" [{self.units[name]}]" if self.units.get(name) else ""
+            ax.set_ylabel(name + unit)
+            ax.legend(loc="upper right", fontsize="small")
+        axes[-1, 0].set_xlabel(TIME + (f" [{self.units[TIME]}]" if self.units.get(TIME)
+                                       else ""))
+        fig.tight_layout()
+        return fig
+
+
+def _experiments(X: pd.DataFrame):
+    trajectory = X[TRAJECTORY].to_numpy() if TRAJECTORY in X.columns else None
+    return split_experiments(len(X), X[TIME].to_numpy(dtype=float), trajectory)
+
+
+def simulate_record(model, X: pd.DataFrame) -> pd.DataFrame:
+    """Every state and sensor reading, each experiment simulated whole from its estimate.
+
+    Raises :class:`SimulationError` where the model escapes.
+    """
+    skeleton = model.skeleton_
+    inputs = [name for name in skeleton.inputs if name != TIME]
+    parts = []
+    for experiment in _experiments(X):
+        part = X.iloc[experiment.rows]
+        y0 = model.estimate_initial_state(part)
+        simulated = model.simulate(experiment.t, y0,
+                                   inputs={n: part[n].to_numpy(dtype=float) for n in inputs})
+        parts.append(simulated.set_index(part.index))
+    return pd.concat(parts)
+
+
+def _compared(model, X: pd.DataFrame) -> list[str]:
+    skeleton = model.skeleton_
+    return [name for name in [*skeleton.states, *skeleton.outputs]
+            if name in X.columns and X[name].notna().any()]
+
+
+def _nrmse(model, X: pd.DataFrame, compared: list[str]) -> float:
+    """Normalised RMSE of ``compared`` simulated whole (inf where the model escapes)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            simulated = simulate_record(model, X)
+    except (SimulationError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return math.inf
+    errors = []
+    for name in compared:
+        truth = X[name].to_numpy(dtype=float)
+        spread = float(np.nanstd(truth)) or 1.0
+        err = ((simulated[name].to_numpy(dtype=float) - truth) / spread)[np.isfinite(truth)]
+        errors.append(err)
+    err = np.concatenate(errors)
+    return float(np.sqrt(np.mean(err ** 2))) if np.all(np.isfinite(err)) else math.inf
+
+
+def _fresh_param(skeleton) -> str:
+    numbers = [int(re.sub(r"\D", "", a)) for a in skeleton.params] or [0]
+    return f"a{max(numbers) + 1}"
+
+
+def _refit(model, X: pd.DataFrame, skeleton, init: dict):
+    """``model`` refitted with ``skeleton`` from the starting values ``init``."""
+    settings = {"equations": skeleton, "constraints": None}
+    if "param_init" in model.get_params():
+        settings["param_init"] = {a: v for a, v in init.items() if a in skeleton.params}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return clone(model).set_params(**settings).fit(X)
+
+
+def _halves(X: pd.DataFrame) -> list[tuple[pd.DataFrame, pd.DataFrame, str]]:
+    """Held-out folds: each experiment left out (two or more), else each half left out."""
+    experiments = _experiments(X)
+    if len(experiments) >= 2:
+        folds = []
+        for k, e in enumerate(experiments):
+            rest = np.setdiff1d(np.arange(len(X)), e.rows)
+            folds.append((X.iloc[rest], X.iloc[e.rows], f"experiment {k}"))
+        return folds
+    middle = len(X) // 2
+    first, second = X.iloc[:middle], X.iloc[middle:]
+    return [(first, second, "second half"), (second, first, "first half")]
+
+
+def _held_out(model, trial_skeleton, X: pd.DataFrame, compared: list[str],
+              init: dict) -> HeldOut:
+    """The model with and without the limit, each fitted without a fold, judged on it."""
+    before, after, wins, n_folds = [], [], 0, 0
+    folds = _halves(X)
+    for train, test, _ in folds:
+        base = _refit(model, train, model.skeleton_, dict(model.params_))
+        trial = _refit(model, train, trial_skeleton, init)
+        b, a = _nrmse(base, test, compared), _nrmse(trial, test, compared)
+        before.append(b)
+        after.append(a)
+        wins += int(a < b)
+        n_folds += 1
+    pooled_before = float(np.sqrt(np.mean(np.square(before))))
+    pooled_after = float(np.sqrt(np.mean(np.square(after))))
+    confirmed = bool(np.isfinite(pooled_after) and pooled_after
+                     <= (1 - HELD_OUT_GAIN) * pooled_before and 2 * wins > n_folds)
+    words = ("each experiment predicted by the fit to the others" if len(folds) > 2
+             or folds[0][2].startswith("experiment") else
+             "each half of the record predicted by the fit to the other half")
+    return HeldOut(words, "simulation", {"simulation": pooled_before},
+                   {"simulation": pooled_after}, wins, n_folds, confirmed)
+
+
+def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
+                        bic_threshold: float, held_out: bool, units: dict,
+                        notes: list[str]) -> UnmeasuredDiagnosis:
+    """Diagnose a model whose skeleton has states ``X`` does not measure (see module)."""
+    skeleton = model.skeleton_
+    hidden = unmeasured_states(skeleton, {c: X[c] for c in X.columns if X[c].notna().any()})
+    compared = _compared(model, X)
+    notes.append(
+        f"{', '.join(hidden)} not measured: each experiment is simulated whole from the "
+        "initial state estimated on its first samples (no window restarts from a state no "
+        f"sensor reads), and the model is judged on {', '.join(compared)}.")
+    divergences = []
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            simulated = simulate_record(model, X)
+    except SimulationError as error:
+        simulated = None
+        divergences.append(str(error))
+    rows, frame = [], pd.DataFrame({TIME: X[TIME].to_numpy(dtype=float)})
+    if simulated is not None:
+        for name in compared:
+            truth = X[name].to_numpy(dtype=float)
+            rows.append(error_table_row(truth, simulated[name].to_numpy(dtype=float)))
+        for name in skeleton.states + list(skeleton.outputs):
+            if name in X.columns:
+                frame[name] = X[name].to_numpy(dtype=float)
+            frame[f"{name}_sim"] = simulated[name].to_numpy(dtype=float)
+    trajectories = pd.DataFrame(rows, index=pd.Index(compared if rows else [], name="state"))
+    trajectories["unit"] = [units.get(s, "") for s in trajectories.index]
+    base = _nrmse(model, X, compared)
+    n = sum(int(X[name].notna().sum()) for name in compared)
+
+    trials = []
+    limits = skeleton.limits
+    for state in skeleton.states:
+        high = limits.get(state, (-math.inf, math.inf))[1]
+        if isinstance(high, str) or math.isfinite(high):
+            continue  # it has its upper limit
+        name = _fresh_param(skeleton)
+        term = f"{state} <= {name}"
+        extended = skeleton.with_constraints([term])
+        try:
+            refit = _refit(model, X, extended, dict(model.params_))
+        except (ValueError, SimulationError, ArithmeticError, np.linalg.LinAlgError) as error:
+            trials.append(LimitTrial(state, term, None, math.nan, math.nan, math.nan,
+                                     failure=str(error)))
+            continue
+        error = _nrmse(refit, X, compared)
+        removed = 1 - error / base if base > 0 and math.isfinite(error) else math.nan
+        delta = (n * math.log(error ** 2 / base ** 2) + math.log(n)
+                 if math.isfinite(error) and error > 0 and base > 0 else math.nan)
+        trials.append(LimitTrial(state, term, refit, error, delta, removed))
+    trials.sort(key=lambda t: (not math.isfinite(t.delta_bic), t.delta_bic))
+    best = None
+    for trial in trials:
+        # the error includes the noise, which no limit removes: a small share of it may be
+        # all a real limit can take; data the fit did not see decide then
+        if not (math.isfinite(trial.delta_bic) and trial.delta_bic < -bic_threshold) \
+                or (trial.removed < min_improvement and not held_out):
+            continue
+        if held_out:
+            trial.held_out = _held_out(model, trial.refit.skeleton_, X, compared,
+                                       dict(trial.refit.params_))
+            if not trial.held_out.confirmed:
+                continue
+        best = _limit_suggestion(trial)
+        break
+    ranking = pd.DataFrame([{
+        "equation": f"{t.state}_dot", "variable": t.state, "effect": OVERFLOW[0],
+        "suggested_term": t.term, "simulation_nrmse": t.nrmse, "delta_bic": t.delta_bic,
+        "error_removed": t.removed,
+        "held_out_change": math.nan if t.held_out is None else t.held_out.change(),
+        "failure": t.failure} for t in trials],
+        columns=["equation", "variable", "effect", "suggested_term", "simulation_nrmse",
+                 "delta_bic", "error_removed", "held_out_change", "failure"])
+    diagnosis = UnmeasuredDiagnosis(
+        model, pd.DataFrame(columns=["rmse", "nrmse", "r2", "fit_percent"]), trajectories,
+        frame, pd.DataFrame(), divergences, pd.DataFrame(), pd.DataFrame(), {}, ranking, best,
+        float(np.sqrt(np.mean(trajectories["rmse"] ** 2))) if rows else math.nan, notes,
+        None, [], units, [s for s in skeleton.states if s not in hidden])
+    diagnosis.hidden = hidden
+    return diagnosis
+
+
+def _limit_suggestion(trial: LimitTrial) -> Suggestion:
+    skeleton = trial.refit.skeleton_
+    return Suggestion(
+        effect=OVERFLOW[0], description=OVERFLOW[1], equation=f"{trial.state}_dot",
+        variable=trial.state, term=trial.term, equations=skeleton,
+        param_init={a: float(v) for a, v in trial.refit.params_.items()}, curve_term=None,
+        curve_constraints=(), also={}, error_removed=float(trial.removed),
+        delta_bic=float(trial.delta_bic), simulation_rmse=float(trial.nrmse),
+        held_out=trial.held_out, move="limit")

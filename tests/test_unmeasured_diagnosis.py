@@ -1,0 +1,49 @@
+"""The diagnosis and the loop with a state no sensor reads: the overflowing tanks."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets, diagnose
+
+TORRICELLI = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
+
+
+def test_a_model_with_an_unmeasured_state_is_diagnosed_by_simulation():
+    # below the rims: nothing stops either level, and no limit is suggested
+    frame = datasets.make_two_tanks(400, rims=(100.0, 100.0), random_state=0)
+    assert "x1" not in frame.columns
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=TORRICELLI).fit(frame)
+        report = diagnose(model, frame, held_out=False)
+    assert report.best is None
+    assert report.hidden == ["x1"] and report.measured == ["x2"]
+    assert list(report.trajectories.index) == ["x2"]
+    # at the noise level (40 dB of the level's RMS)
+    noise = 0.01 * np.sqrt(np.mean(frame.x2 ** 2))
+    assert report.trajectories.loc["x2", "rmse"] < 1.5 * noise
+    assert {"x1_sim", "x2_sim", "x2"} <= set(report.simulation.columns)
+    assert "x1" not in report.simulation.columns
+    assert sorted(report.ranking.suggested_term) == ["x1 <= a5", "x2 <= a5"]
+    assert (report.ranking.error_removed < 0.01).all()
+    text = report.summary()
+    assert "x1 not measured" in text and "Nothing is missing among the limits tried" in text
+    report.plot()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_loop_names_the_overflow_of_both_tanks(seed):
+    frame = datasets.make_two_tanks(random_state=seed)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = HypothesisLoop(PolyCCRegressor(equations=TORRICELLI), frame).run()
+    added = [r.added for r in loop.rounds if r.added is not None]
+    assert {a.effect for a in added} == {"overflow"}
+    assert sorted(a.variable for a in added) == ["x1", "x2"]
+    assert loop.stopped
+    errors = loop.table().x2_rmse
+    assert errors.iloc[-1] < 0.6 * errors.iloc[0]
+    assert set(loop.final_model.skeleton_.limits) == {"x1", "x2"}
