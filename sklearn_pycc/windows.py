@@ -53,20 +53,23 @@ def jacobian_eigenvalues(system, data: Mapping[str, np.ndarray], states: Sequenc
     Returns
     -------
     ndarray of complex, shape (n_points, n_states)
-        Finite differences, each state bumped by a millionth of its ``scale``.
+        Finite differences, each state bumped by a millionth of its ``scale``;
+        of the equations' rates, without a state limit's hold (whose jump
+        would read as an infinitely fast mode where a state sits on its limit).
     """
     n = len(next(iter(v for v in data.values() if np.ndim(v))))
     rows = np.unique(np.linspace(0, n - 1, min(n, EIGEN_SAMPLES)).astype(int))
     sample = {name: np.asarray(values)[rows] if np.ndim(values) else values
               for name, values in data.items()}
     m = len(rows)
-    base = system.evaluate(sample, m)
+    options = {"hold": False} if getattr(system, "limits", None) else {}
+    base = system.evaluate(sample, m, **options)
     jacobian = np.empty((m, len(states), len(states)))
     for q, state in enumerate(states):
         delta = 1e-6 * scale[q]
         bumped = dict(sample)
         bumped[state] = sample[state] + delta
-        jacobian[:, :, q] = (system.evaluate(bumped, m) - base) / delta
+        jacobian[:, :, q] = (system.evaluate(bumped, m, **options) - base) / delta
     jacobian = np.nan_to_num(jacobian, nan=0.0, posinf=0.0, neginf=0.0)
     return np.linalg.eigvals(jacobian)
 

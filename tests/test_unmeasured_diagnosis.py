@@ -5,7 +5,7 @@ import warnings
 import numpy as np
 import pytest
 
-from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets, diagnose
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets, diagnose, from_tables
 
 TORRICELLI = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
 
@@ -46,4 +46,18 @@ def test_the_loop_names_the_overflow_of_both_tanks(seed):
     assert loop.stopped
     errors = loop.table().x2_rmse
     assert errors.iloc[-1] < 0.6 * errors.iloc[0]
-    assert set(loop.final_model.skeleton_.limits) == {"x1", "x2"}
+    final = loop.final_model
+    assert set(final.skeleton_.limits) == {"x1", "x2"}
+    # the lower rim is fitted where the level stops; the upper one fixes x1's free scale
+    assert final.params_[final.skeleton_.limits["x2"][1]] == pytest.approx(13.0, abs=0.05)
+    # complete: a fresh record, simulated from estimate_initial_state, as the truth does
+    new, fresh = datasets.make_two_tanks(random_state=seed + 10, return_truth=True)
+    truth = from_tables(TORRICELLI, {}, dict(fresh.params),
+                        constraints=[f"{s} <= {v}" for s, v in fresh.rims.items()])
+
+    def validation(model):
+        y0 = model.estimate_initial_state(new)
+        simulated = model.simulate(new.t, y0, inputs={"u": new.u.to_numpy()})
+        return np.sqrt(np.mean((simulated.x2 - fresh.states.x2) ** 2))
+
+    assert validation(final) < 1.5 * validation(truth)

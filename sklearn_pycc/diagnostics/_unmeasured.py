@@ -204,14 +204,19 @@ def _halves(X: pd.DataFrame) -> list[tuple[pd.DataFrame, pd.DataFrame, str]]:
 
 
 def _held_out(model, trial_skeleton, X: pd.DataFrame, compared: list[str],
-              init: dict) -> HeldOut:
-    """The model with and without the limit, each fitted without a fold, judged on it."""
+              init: dict, cache: dict) -> HeldOut:
+    """The model with and without the limit, each fitted without a fold, judged on it.
+
+    ``cache`` keeps the model's own held-out errors for the next limit.
+    """
     before, after, wins, n_folds = [], [], 0, 0
     folds = _halves(X)
-    for train, test, _ in folds:
-        base = _refit(model, train, model.skeleton_, dict(model.params_))
+    for k, (train, test, _) in enumerate(folds):
+        if k not in cache:
+            base = _refit(model, train, model.skeleton_, dict(model.params_))
+            cache[k] = _nrmse(base, test, compared)
         trial = _refit(model, train, trial_skeleton, init)
-        b, a = _nrmse(base, test, compared), _nrmse(trial, test, compared)
+        b, a = cache[k], _nrmse(trial, test, compared)
         before.append(b)
         after.append(a)
         wins += int(a < b)
@@ -281,7 +286,7 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
                  if math.isfinite(error) and error > 0 and base > 0 else math.nan)
         trials.append(LimitTrial(state, term, refit, error, delta, removed))
     trials.sort(key=lambda t: (not math.isfinite(t.delta_bic), t.delta_bic))
-    best = None
+    best, cache = None, {}
     for trial in trials:
         # the error includes the noise, which no limit removes: a small share of it may be
         # all a real limit can take; data the fit did not see decide then
@@ -290,7 +295,7 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
             continue
         if held_out:
             trial.held_out = _held_out(model, trial.refit.skeleton_, X, compared,
-                                       dict(trial.refit.params_))
+                                       dict(trial.refit.params_), cache)
             if not trial.held_out.confirmed:
                 continue
         best = _limit_suggestion(trial)
@@ -320,4 +325,4 @@ def _limit_suggestion(trial: LimitTrial) -> Suggestion:
         param_init={a: float(v) for a, v in trial.refit.params_.items()}, curve_term=None,
         curve_constraints=(), also={}, error_removed=float(trial.removed),
         delta_bic=float(trial.delta_bic), simulation_rmse=float(trial.nrmse),
-        held_out=trial.held_out, move="limit")
+        held_out=trial.held_out, move="limit", refit=trial.refit)

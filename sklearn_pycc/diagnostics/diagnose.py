@@ -148,6 +148,12 @@ class Suggestion:
         Hyperparameters the diagnosis refitted the suggestion with besides
         the skeleton and the starting values (``{"extrapolation": "linear"}``
         for a polynomial free curve); fit ``equations`` with them too.
+    refit : CCRegressor or None
+        The diagnosis's own fit of ``equations`` to the whole record with
+        the diagnosed model's settings, where it is one (a limit suggested
+        for a model with unmeasured states): :class:`HypothesisLoop` takes
+        it as the next round's model rather than fit it again. None
+        otherwise.
     """
 
     effect: str
@@ -172,6 +178,7 @@ class Suggestion:
     formula_held_out: HeldOut | None = None
     curve: pd.DataFrame | None = field(default=None, repr=False, compare=False)
     settings: dict = field(default_factory=dict)
+    refit: object = field(default=None, repr=False, compare=False)
 
     def __str__(self) -> str:
         return f"{self.action()} ({self.effect} through {self.variable or 'nothing'})"

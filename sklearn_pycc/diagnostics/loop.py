@@ -224,7 +224,11 @@ class HypothesisLoop:
         if self.stopped:
             return None
         self.refinement = None  # a refinement judges the last round only
-        model = self._next_model().fit(self.measurement)
+        added = self.rounds[-1].added if self.rounds else None
+        if added is not None and added.refit is not None:
+            model = added.refit  # the diagnosis fitted it to this record already
+        else:
+            model = self._next_model().fit(self.measurement)
         report = diagnose(model, self.measurement, **self._options())
         first = self.rounds[0].diagnosis.horizon if self.rounds else None
         if first is not None and report.horizon is not None and report.horizon.time is not None \

@@ -323,8 +323,8 @@ def limit_start(problem: Problem, params: Mapping[str, float],
     simulated with the limit open, and the limit is tried at quantiles of
     the state's course (:data:`LIMIT_QUANTILES`) and just beyond its
     extreme; the value whose simulation follows the record best (past each
-    experiment's first rows) is the start. Limits are chosen one at a time
-    (a measured state's is read from the record, not fitted).
+    experiment's first rows) is the start. Limits are chosen one at a time;
+    a measured state's starts at the smoothed state's extreme.
     """
     params = dict(params)
     limits = problem.skeleton.limit_params
@@ -334,6 +334,10 @@ def limit_start(problem: Problem, params: Mapping[str, float],
     whole = WholeRecord(problem)
     for name in chosen:
         state, side = limits[name]
+        if state in problem.measured:  # it shows where it stops
+            values = np.asarray(problem.smoothed.get(state, problem.measured[state]))
+            params[name] = float(values.max() if side == "high" else values.min())
+            continue
         system = problem.skeleton.compile(_zero_curves(problem),
                                           {**problem.fixed_params, **params})
         course = hidden_trajectories(problem, system)[state]

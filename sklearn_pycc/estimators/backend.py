@@ -24,6 +24,7 @@ import copy
 import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import ClassVar
 
 import numpy as np
@@ -145,61 +146,28 @@ class Backend(ABC):
         window's start (with state limits, once holding the starts within
         them and once not), then every experiment simulated whole from the
         start, from each estimate and from each one's best common rescaling;
-        the best whole-record fit wins.
+        the best whole-record fit wins. A limit to fit on an unmeasured state
+        is held at its start through all that (where the state's scale is
+        free, as a tank's of unknown cross-section, any level does as well
+        and the scale is then fixed; where it is not, the level is found
+        next), and a last whole-record pass frees it.
         """
-        from ._hidden import (
-            WholeRecord,
-            hidden_trajectories,
-            initial_table,
-            rescaled,
-            single_shooting,
-        )
-        from ._shooting import ShootingPlan, fit_shooting
+        from ._hidden import initial_table, single_shooting
 
         result = self.hidden_start(problem)
-        names = list(problem.free_params)
-
-        def system_for(theta: np.ndarray):
-            values = {**problem.fixed_params, **dict(zip(names, theta))}
-            return problem.skeleton.compile(result.functions, values)
-
-        theta0 = np.array([result.params[a] for a in names], dtype=float)
-        start = system_for(theta0)
-        bounds = problem.bounds
-        low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in names])
-        high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in names])
-        theta0 = np.clip(theta0, low, high)
-        whole = WholeRecord(problem)
-        first = whole.first_states(start)
-        whole.choose_substeps(start, first)
-        estimates = [(theta0, first)]  # the start itself, simulated whole
-        info = {"substeps": whole.windows.substeps}
-        if any(s in problem.measured for s in problem.skeleton.states):
-            plan = ShootingPlan(problem, window,
-                                hidden=hidden_trajectories(problem, start))
-            plan.choose_substeps(start, plan.columns())
-            # the windows' starts held within the states' limits, and left free (where a
-            # state sits on its limit much of the time, either may stall)
-            for limit_starts in (True, False) if problem.skeleton.limits else (True,):
-                theta, info = fit_shooting(plan, system_for, theta0, iterations,
-                                           bounds=(low, high), limit_starts=limit_starts)
-                estimates.append((theta, info["initial_states"]))
-        substeps = info["substeps"]
-        # the windows' joins are soft: a last pass simulates every experiment whole, from
-        # each estimate and from its best common rescaling (multiple shooting may settle
-        # on the wrong time scale); the best whole-record fit is kept
-        starts = []
-        for theta, initial in estimates:
-            params = dict(zip(names, np.asarray(theta, dtype=float).tolist()))
-            starts.append((params, initial))
-            other = rescaled(problem, params, initial)
-            if other is not None:
-                starts.append(other)
-        params, first, nrmse, unseen = min(
-            (single_shooting(problem, p, f, substeps, iterations) for p, f in starts),
-            key=lambda found: found[2])
-        info.update(initial_states=first, nrmse_whole=nrmse, unseen=unseen,
-                    whole_record_starts=len(starts))
+        limits = problem.skeleton.limit_params
+        pinned = {a: float(result.params[a]) for a in problem.free_params
+                  if a in limits and limits[a][0] in problem.hidden}
+        inner = problem if not pinned else replace(
+            problem, fixed_params={**problem.fixed_params, **pinned})
+        start = {a: v for a, v in result.params.items() if a not in pinned}
+        params, first, info = _multistart(inner, result.functions, start, window, iterations)
+        unseen = info.pop("unseen")
+        if pinned:
+            params, first, nrmse, unseen = single_shooting(
+                problem, {**params, **pinned}, first, info["substeps"], iterations)
+            info["nrmse_whole"] = nrmse
+        info.update(initial_states=first, unseen=unseen)
         for words in unseen:
             warnings.warn(
                 f"{', '.join(problem.hidden)} not measured, and the measurements cannot fix "
@@ -262,3 +230,61 @@ class Backend(ABC):
     def draws(self, model, n: int, rng: np.random.Generator) -> list[tuple[dict, dict]] | None:
         """``n`` models ``(functions, params)`` drawn from the estimate's distribution."""
         return None
+
+
+def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float], window: int,
+                iterations: int) -> tuple[dict, np.ndarray, dict]:
+    """The best whole-record fit of ``problem`` from ``start`` and its estimates.
+
+    Multiple shooting (with state limits, once holding the windows' starts
+    within them and once not), then every experiment simulated whole from
+    ``start``, from each estimate and from each one's best common rescaling.
+    Returns the parameters, each experiment's initial state and the
+    stage's summary (with ``unseen``, the directions the measurements do
+    not see).
+    """
+    from ._hidden import WholeRecord, hidden_trajectories, rescaled, single_shooting
+    from ._shooting import ShootingPlan, fit_shooting
+
+    names = list(problem.free_params)
+
+    def system_for(theta: np.ndarray):
+        values = {**problem.fixed_params, **dict(zip(names, theta))}
+        return problem.skeleton.compile(functions, values)
+
+    theta0 = np.array([start[a] for a in names], dtype=float)
+    bounds = problem.bounds
+    low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in names])
+    high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in names])
+    theta0 = np.clip(theta0, low, high)
+    first_system = system_for(theta0)
+    whole = WholeRecord(problem)
+    first = whole.first_states(first_system)
+    whole.choose_substeps(first_system, first)
+    estimates = [(theta0, first)]  # the start itself, simulated whole
+    info = {"substeps": whole.windows.substeps}
+    if any(s in problem.measured for s in problem.skeleton.states):
+        plan = ShootingPlan(problem, window, hidden=hidden_trajectories(problem, first_system))
+        plan.choose_substeps(first_system, plan.columns())
+        # the windows' starts held within the states' limits, and left free (where a
+        # state sits on its limit much of the time, either may stall)
+        for limit_starts in (True, False) if problem.skeleton.limits else (True,):
+            theta, info = fit_shooting(plan, system_for, theta0, iterations,
+                                       bounds=(low, high), limit_starts=limit_starts)
+            estimates.append((theta, info["initial_states"]))
+    substeps = info["substeps"]
+    # the windows' joins are soft: a last pass simulates every experiment whole, from
+    # each estimate and from its best common rescaling (multiple shooting may settle
+    # on the wrong time scale); the best whole-record fit is kept
+    starts = []
+    for theta, initial in estimates:
+        params = dict(zip(names, np.asarray(theta, dtype=float).tolist()))
+        starts.append((params, initial))
+        other = rescaled(problem, params, initial)
+        if other is not None:
+            starts.append(other)
+    params, first, nrmse, unseen = min(
+        (single_shooting(problem, p, f, substeps, iterations) for p, f in starts),
+        key=lambda found: found[2])
+    info.update(nrmse_whole=nrmse, unseen=unseen, whole_record_starts=len(starts))
+    return params, first, info

@@ -293,7 +293,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
                              who=type(self).__name__, trim=False,
                              hidden_ok=self.fit_mode != "equation")
-        fixed = {**fixed, **_measured_limits(skeleton, record)}
+        if not record.hidden:  # by output error, a measured state's limit is fitted too
+            fixed = {**fixed, **_measured_limits(skeleton, record)}
         if record.hidden:
             _check_hidden(skeleton, record.hidden)
         elif self.fit_mode == "simulation":
@@ -1049,8 +1050,8 @@ def _measured_limits(skeleton, record) -> dict[str, float]:
     A measured state shows where it stops; the equations cannot (at its
     limit a state's rate is held, not what they compute). The extreme of
     the smoothed state is read (the raw samples' overshoots it by the
-    noise). A limit on an unmeasured state is fitted by output error
-    (:func:`~._hidden.limit_start`).
+    noise). With unmeasured states every limit is fitted by output error,
+    a measured state's from there (:func:`~._hidden.limit_start`).
     """
     out = {}
     for name, (state, side) in skeleton.limit_params.items():

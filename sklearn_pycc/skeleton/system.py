@@ -95,8 +95,12 @@ class CompiledSystem:
                 env[slot] = np.asarray(data[name], dtype=float)
         return env
 
-    def evaluate(self, data: Mapping[str, np.ndarray], n: int) -> np.ndarray:
-        """Derivatives on data columns (states, inputs, ``t``); shape ``(n, n_states)``."""
+    def evaluate(self, data: Mapping[str, np.ndarray], n: int, hold: bool = True) -> np.ndarray:
+        """Derivatives on data columns (states, inputs, ``t``); shape ``(n, n_states)``.
+
+        ``hold=False`` leaves the rates at a limit as the equations give them
+        (a Jacobian is taken across the limit's jump otherwise).
+        """
         env = self._env(data)
         with np.errstate(all="ignore"):
             for slot, fn, explicit in self._plan_array:
@@ -111,7 +115,7 @@ class CompiledSystem:
         if not self._output_slots:
             return np.zeros((n, 0))
         rates = np.column_stack([env[s] for s in self._output_slots])
-        if self._limited:
+        if self._limited and hold:
             x = np.column_stack([np.broadcast_to(np.asarray(env[q], dtype=float), (n,))
                                  for q in range(len(self.states))])
             self._hold(x, rates)
