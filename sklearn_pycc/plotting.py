@@ -501,6 +501,8 @@ def _move_label(added) -> str:
         return f"-{added.term}"
     if added.move == "open":
         return f"outside: {added.effect}"
+    if added.move == "limit":
+        return f"+{added.term}"
     if added.replaces:
         return f"{added.effect} for {' + '.join(added.replaces)}"
     return f"+{added.effect}"

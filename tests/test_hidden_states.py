@@ -1,6 +1,7 @@
 """States no sensor reads: fitted by output error, their initial values fitted numbers."""
 
 import pickle
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -199,3 +200,26 @@ def test_the_fit_finds_the_cascades_time_scale_on_every_draw(seed):
     for name, value in expected.items():
         assert model.params_[name] == pytest.approx(value, rel=0.04), name
     assert model.shooting_["nrmse_whole"] < 0.011  # the sensor's noise: 40 dB
+
+
+def test_a_coarsely_sampled_record_is_not_trusted_for_derivatives():
+    skeleton = ["x1_dot = -a1 x1 + a2 u"]
+    values = {"a1": 0.5, "a2": 1.0}  # a time constant of 2 s
+    fits = {}
+    for h in (0.05, 1.0):
+        t = np.arange(0.0, 60.0, h)
+        u = np.sign(np.sin(2 * np.pi * t / 15))
+        x1 = Skeleton(skeleton).simulate(t, [0.0], params=values, inputs={"u": u},
+                                         input_hold="zoh").x1
+        X = pd.DataFrame({"t": t, "x1": x1, "u": u})
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            fits[h] = PolyCCRegressor(equations=skeleton, input_hold="zoh",
+                                      fit_mode="equation").fit(X)
+        coarse = [w for w in caught if "samples per time constant" in str(w.message)]
+        assert bool(coarse) == (h == 1.0)
+        # by default the record's spectrum sends the coarse one to output error
+        auto = PolyCCRegressor(equations=skeleton, input_hold="zoh").fit(X)
+        assert auto.fit_mode_ == ("simulation" if h == 1.0 else "equation")
+        assert auto.params_["a1"] == pytest.approx(0.5, rel=0.05)
+    assert fits[1.0].params_["a1"] < 0.7 * 0.5  # what the warning is about

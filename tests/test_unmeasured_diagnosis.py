@@ -30,7 +30,8 @@ def test_a_model_with_an_unmeasured_state_is_diagnosed_by_simulation():
     assert (report.ranking.error_removed < 0.01).all()
     text = report.summary()
     assert "x1 not measured" in text and "Nothing is missing among the limits tried" in text
-    report.plot()
+    assert list(report.plot()) == ["simulation"]
+    assert "x1 not measured" in report._repr_html_()
 
 
 @pytest.mark.slow
@@ -61,3 +62,5 @@ def test_the_loop_names_the_overflow_of_both_tanks(seed):
         return np.sqrt(np.mean((simulated.x2 - fresh.states.x2) ** 2))
 
     assert validation(final) < 1.5 * validation(truth)
+    page = loop.to_html()
+    assert "add the limit" in page and "x1 not measured" in page

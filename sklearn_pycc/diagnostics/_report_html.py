@@ -33,6 +33,9 @@ CAPTIONS = {
     "residual": "The derivative residual against the variable that explains it best, "
                 "with the suggested term's fit.",
     "map": "Mean residual over the states; hatched cells hold no samples.",
+    "simulation": "What is measured against its simulation, each experiment whole from the "
+                  "initial state estimated on its first samples; the unmeasured states as "
+                  "simulated.",
     "open_curve": "Outside the catalogue: the free curve with its 95 % band, the terms it "
                   "would replace, and the formula proposed for it.",
 }
@@ -42,7 +45,9 @@ def _ranking_table(report, rows: int = 8) -> str:
     ranking = report.ranking
     shown = [c for c in RANKING_SHOWN if c in ranking.columns]
     frame = ranking[shown].head(rows).copy()
-    frame["plausible"] = [("" if v is None else "yes" if v else "no") for v in frame.plausible]
+    if "plausible" in frame.columns:
+        frame["plausible"] = [("" if v is None else "yes" if v else "no")
+                              for v in frame.plausible]
     frame.index = pd.RangeIndex(1, len(frame) + 1, name="rank")
     return table_html(frame)
 

@@ -105,8 +105,12 @@ class UnmeasuredDiagnosis(Diagnosis):
         return (f"removes {100 * row.error_removed:.0f} % of the simulation error"
                 + ("" if not np.isfinite(held) else f", held out {100 * held:+.1f} %"))
 
-    def plot(self):
-        """Each measured signal against its simulation, and the unmeasured states."""
+    def plot(self) -> dict:
+        """Figures of the diagnosis: ``{"simulation": figure}``.
+
+        Each measured signal against its simulation, and the unmeasured
+        states as simulated, one panel each.
+        """
         from ..plotting import _pyplot
 
         plt = _pyplot()
@@ -125,7 +129,7 @@ class UnmeasuredDiagnosis(Diagnosis):
         axes[-1, 0].set_xlabel(TIME + (f" [{self.units[TIME]}]" if self.units.get(TIME)
                                        else ""))
         fig.tight_layout()
-        return fig
+        return {"simulation": fig}
 
 
 def _experiments(X: pd.DataFrame):

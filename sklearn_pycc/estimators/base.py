@@ -385,6 +385,9 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             facts = {**facts, **self._bootstrap(problem, result, n_bootstrap, backend)}
         self._store(problem, result, {**facts, "backend_": backend})
         _warn_unmet_relations(problem, result)
+        if self.fit_mode_ == "equation" and not facts["derivative_source_"].startswith(
+                "measured"):
+            _warn_coarse_sampling(problem, self._system())
         return self
 
     def _bootstrap(self, problem: Problem, result: FitResult, n: int,
@@ -1128,6 +1131,53 @@ def _argument_ranges(problem: Problem, params: Mapping,
 #: an algebraic relation whose fitted residual keeps this share of the spread of its
 #: measured part does not hold on the data
 UNMET_RELATION = 0.5
+
+
+#: a fitted model whose fast decays (90th percentile along the record) go this far within
+#: one sampling interval (``h |Re lambda|``) was fitted to derivatives the samples cannot give
+COARSE_SAMPLING = 0.2
+
+
+def _warn_coarse_sampling(problem: Problem, system) -> None:
+    """Warn when the record is sampled coarsely against the fitted model's time constants.
+
+    Derivatives estimated from the states are differences over a few
+    samples: where the model's fastest time constant spans fewer than five
+    sampling intervals (a process logged every few seconds), they are not
+    to be trusted, and neither is an equation fit to them.
+    """
+    from ..windows import jacobian_eigenvalues
+
+    if not problem.experiments or not problem.skeleton.states:
+        return  # nothing sampled in time, or nothing that moves
+    steps = np.concatenate([np.diff(e.t) for e in problem.experiments
+                            if e.t is not None and e.n_samples > 1]
+                           or [np.zeros(0)])
+    columns = problem.data.columns
+    states = list(problem.skeleton.states)
+    if steps.size == 0 or any(s not in columns for s in states):
+        return
+    h = float(np.median(steps))
+    scale = np.array([float(np.std(columns[s])) or 1.0 for s in states])
+    data = {name: np.asarray(values, dtype=float) for name, values in columns.items()}
+    try:
+        # decays: an oscillation is followed by the band-limited differentiator up to
+        # near the Nyquist frequency; a transient's corners are not
+        rates = np.abs(jacobian_eigenvalues(system, data, states, scale).real).max(axis=1)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return
+    rates = rates[np.isfinite(rates)]
+    if rates.size == 0:
+        return
+    fastest = float(np.quantile(rates, 0.9))
+    if h * fastest > COARSE_SAMPLING:
+        warnings.warn(
+            f"the record is sampled every {h:.3g} time units, and the fitted model's fastest "
+            f"time constant is about {1 / fastest:.3g}: fewer than {1 / COARSE_SAMPLING:.0f} "
+            "samples per time constant, where derivatives estimated from the states are not "
+            "to be trusted, nor an equation fit to them. Fit by output error "
+            "(fit_mode='simulation'), which compares simulated states with the record",
+            UserWarning, stacklevel=3)
 
 
 def _warn_unmet_relations(problem: Problem, result: FitResult) -> None:
