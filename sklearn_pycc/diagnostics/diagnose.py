@@ -594,6 +594,17 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         records with coloured noise the BIC alone calls almost any term
         significant; the held-out check does not.
 
+    A model whose skeleton has states ``X`` neither measures nor lets be
+    reconstructed (a tank's level no sensor reads) is judged by simulating
+    each experiment whole from :meth:`estimate_initial_state
+    <sklearn_pycc.PolyCCRegressor.estimate_initial_state>` and comparing what
+    is measured; the candidates are a hard limit on each state that has
+    none (``overflow``), refitted by output error and confirmed on each half
+    of the record (``held_out``), and the diagnosis is an
+    ``UnmeasuredDiagnosis`` (a :class:`Diagnosis` without derivatives,
+    residual maps or resamples: ``horizon``, ``n_refit``, ``n_bootstrap``,
+    ``open_curves``, ``simulate``, ``max_steps`` and ``n_jobs`` do not apply).
+
     Parameters
     ----------
     model : CCRegressor
