@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -56,6 +56,7 @@ class LimitTrial:
     failure: str = ""
 
 
+@dataclass(repr=False)
 class UnmeasuredDiagnosis(Diagnosis):
     """A :class:`Diagnosis` of a model with unmeasured states (see :func:`diagnose`).
 
@@ -66,7 +67,7 @@ class UnmeasuredDiagnosis(Diagnosis):
     and :attr:`ranking` the limits tried.
     """
 
-    hidden: list
+    hidden: list = field(default_factory=list)
 
     def summary(self) -> str:
         """The diagnosis in plain words."""
@@ -167,22 +168,16 @@ def _compared(model, X: pd.DataFrame) -> list[str]:
             if name in X.columns and X[name].notna().any()]
 
 
-def _nrmse(model, X: pd.DataFrame, compared: list[str]) -> float:
-    """Normalised RMSE of ``compared`` simulated whole (inf where the model escapes)."""
+def _nrmse(model, X: pd.DataFrame) -> float:
+    """The simulation scorer's normalised RMSE of what ``X`` measures (inf: it escaped)."""
+    from ..model_selection import make_simulation_scorer
+
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            simulated = simulate_record(model, X)
+            return make_simulation_scorer().nrmse(model, X)
     except (SimulationError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return math.inf
-    errors = []
-    for name in compared:
-        truth = X[name].to_numpy(dtype=float)
-        spread = float(np.nanstd(truth)) or 1.0
-        err = ((simulated[name].to_numpy(dtype=float) - truth) / spread)[np.isfinite(truth)]
-        errors.append(err)
-    err = np.concatenate(errors)
-    return float(np.sqrt(np.mean(err ** 2))) if np.all(np.isfinite(err)) else math.inf
 
 
 def _fresh_param(skeleton) -> str:
@@ -214,8 +209,7 @@ def _halves(X: pd.DataFrame) -> list[tuple[pd.DataFrame, pd.DataFrame, str]]:
     return [(first, second, "second half"), (second, first, "first half")]
 
 
-def _held_out(model, trial_skeleton, X: pd.DataFrame, compared: list[str],
-              init: dict, cache: dict) -> HeldOut:
+def _held_out(model, trial_skeleton, X: pd.DataFrame, init: dict, cache: dict) -> HeldOut:
     """The model with and without the limit, each fitted without a fold, judged on it.
 
     ``cache`` keeps the model's own held-out errors for the next limit.
@@ -225,9 +219,9 @@ def _held_out(model, trial_skeleton, X: pd.DataFrame, compared: list[str],
     for k, (train, test, _) in enumerate(folds):
         if k not in cache:
             base = _refit(model, train, model.skeleton_, dict(model.params_))
-            cache[k] = _nrmse(base, test, compared)
+            cache[k] = _nrmse(base, test)
         trial = _refit(model, train, trial_skeleton, init)
-        b, a = cache[k], _nrmse(trial, test, compared)
+        b, a = cache[k], _nrmse(trial, test)
         before.append(b)
         after.append(a)
         wins += int(a < b)
@@ -273,7 +267,7 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
             frame[f"{name}_sim"] = simulated[name].to_numpy(dtype=float)
     trajectories = pd.DataFrame(rows, index=pd.Index(compared if rows else [], name="state"))
     trajectories["unit"] = [units.get(s, "") for s in trajectories.index]
-    base = _nrmse(model, X, compared)
+    base = _nrmse(model, X)
     n = sum(int(X[name].notna().sum()) for name in compared)
 
     trials = []
@@ -291,7 +285,7 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
             trials.append(LimitTrial(state, term, None, math.nan, math.nan, math.nan,
                                      failure=str(error)))
             continue
-        error = _nrmse(refit, X, compared)
+        error = _nrmse(refit, X)
         removed = 1 - error / base if base > 0 and math.isfinite(error) else math.nan
         delta = (n * math.log(error ** 2 / base ** 2) + math.log(n)
                  if math.isfinite(error) and error > 0 and base > 0 else math.nan)
@@ -305,26 +299,25 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
                 or (trial.removed < min_improvement and not held_out):
             continue
         if held_out:
-            trial.held_out = _held_out(model, trial.refit.skeleton_, X, compared,
+            trial.held_out = _held_out(model, trial.refit.skeleton_, X,
                                        dict(trial.refit.params_), cache)
             if not trial.held_out.confirmed:
                 continue
         best = _limit_suggestion(trial)
         break
     ranking = pd.DataFrame([{
-        "equation": f"{t.state}_dot", "variable": t.state, "effect": OVERFLOW[0],
+        "equation": f"{t.state}_dot", "variable": t.state, "effect": OVERFLOW[0], "move": "limit",
         "suggested_term": t.term, "simulation_nrmse": t.nrmse, "delta_bic": t.delta_bic,
         "error_removed": t.removed,
         "held_out_change": math.nan if t.held_out is None else t.held_out.change(),
         "failure": t.failure} for t in trials],
-        columns=["equation", "variable", "effect", "suggested_term", "simulation_nrmse",
+        columns=["equation", "variable", "effect", "move", "suggested_term", "simulation_nrmse",
                  "delta_bic", "error_removed", "held_out_change", "failure"])
     diagnosis = UnmeasuredDiagnosis(
         model, pd.DataFrame(columns=["rmse", "nrmse", "r2", "fit_percent"]), trajectories,
         frame, pd.DataFrame(), divergences, pd.DataFrame(), pd.DataFrame(), {}, ranking, best,
         float(np.sqrt(np.mean(trajectories["rmse"] ** 2))) if rows else math.nan, notes,
-        None, [], units, [s for s in skeleton.states if s not in hidden])
-    diagnosis.hidden = hidden
+        None, [], units, [s for s in skeleton.states if s not in hidden], hidden=hidden)
     return diagnosis
 
 

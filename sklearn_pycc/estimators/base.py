@@ -293,7 +293,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
                              who=type(self).__name__, trim=False,
                              hidden_ok=self.fit_mode != "equation")
-        if not record.hidden:  # by output error, a measured state's limit is fitted too
+        if not record.hidden:  # with unmeasured states every limit is fitted by output error
             fixed = {**fixed, **_measured_limits(skeleton, record)}
         if record.hidden:
             _check_hidden(skeleton, record.hidden)
