@@ -45,6 +45,10 @@ def test_the_loop_names_the_overflow_of_both_tanks(seed):
     assert {a.effect for a in added} == {"overflow"}
     assert sorted(a.variable for a in added) == ["x1", "x2"]
     assert loop.stopped
+    # a round's model is the limit the round before confirmed on held-out halves: its own
+    # fits to those halves were that check, reused (the same error, not fitted again)
+    checks = [r.diagnosis.best.held_out for r in loop.rounds if r.added is not None]
+    assert checks[1].before["simulation"] == checks[0].after["simulation"]
     errors = loop.table().x2_rmse
     assert errors.iloc[-1] < 0.6 * errors.iloc[0]
     final = loop.final_model

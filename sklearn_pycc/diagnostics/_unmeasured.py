@@ -26,6 +26,7 @@ from sklearn.base import clone
 from ..exceptions import SimulationError
 from ..measurements.experiments import TIME, TRAJECTORY, split_experiments
 from ..measurements.reconstruct import unmeasured_states
+from ..model_selection._scoring import pooled_nrmse
 from ._held_out import HeldOut
 from ._metrics import error_table_row
 from .diagnose import Diagnosis, Suggestion
@@ -209,10 +210,27 @@ def _halves(X: pd.DataFrame) -> list[tuple[pd.DataFrame, pd.DataFrame, str]]:
     return [(first, second, "second half"), (second, first, "first half")]
 
 
-def _held_out(model, trial_skeleton, X: pd.DataFrame, init: dict, cache: dict) -> HeldOut:
+def _record_key(X: pd.DataFrame) -> int:
+    """A fingerprint of a record's values, index and columns."""
+    return int(pd.util.hash_pandas_object(X, index=True).sum()) ^ hash(tuple(X.columns))
+
+
+def _fold_errors(model, X: pd.DataFrame) -> dict:
+    """The held-out errors of ``model`` on ``X``'s folds, where its own diagnosis left them.
+
+    A limit found is the loop's next model; the fits of that model to each
+    fold were the limit's held-out check, so the next round reuses them.
+    """
+    key, errors = getattr(model, "_held_out_folds", (None, {}))
+    return dict(errors) if key == _record_key(X) else {}
+
+
+def _held_out(model, trial_skeleton, X: pd.DataFrame, init: dict, cache: dict
+              ) -> tuple[HeldOut, dict]:
     """The model with and without the limit, each fitted without a fold, judged on it.
 
     ``cache`` keeps the model's own held-out errors for the next limit.
+    Returns the verdict and the trial's error on each fold.
     """
     before, after, wins, n_folds = [], [], 0, 0
     folds = _halves(X)
@@ -233,8 +251,9 @@ def _held_out(model, trial_skeleton, X: pd.DataFrame, init: dict, cache: dict) -
     words = ("each experiment predicted by the fit to the others" if len(folds) > 2
              or folds[0][2].startswith("experiment") else
              "each half of the record predicted by the fit to the other half")
-    return HeldOut(words, "simulation", {"simulation": pooled_before},
-                   {"simulation": pooled_after}, wins, n_folds, confirmed)
+    return (HeldOut(words, "simulation", {"simulation": pooled_before},
+                    {"simulation": pooled_after}, wins, n_folds, confirmed),
+            dict(enumerate(after)))
 
 
 def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
@@ -267,7 +286,9 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
             frame[f"{name}_sim"] = simulated[name].to_numpy(dtype=float)
     trajectories = pd.DataFrame(rows, index=pd.Index(compared if rows else [], name="state"))
     trajectories["unit"] = [units.get(s, "") for s in trajectories.index]
-    base = _nrmse(model, X)
+    base = math.inf if simulated is None else pooled_nrmse(
+        [(X.iloc[e.rows], simulated.iloc[e.rows]) for e in _experiments(X) if e.n_samples >= 2],
+        compared)
     n = sum(int(X[name].notna().sum()) for name in compared)
 
     trials = []
@@ -291,7 +312,7 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
                  if math.isfinite(error) and error > 0 and base > 0 else math.nan)
         trials.append(LimitTrial(state, term, refit, error, delta, removed))
     trials.sort(key=lambda t: (not math.isfinite(t.delta_bic), t.delta_bic))
-    best, cache = None, {}
+    best, cache = None, _fold_errors(model, X)
     for trial in trials:
         # the error includes the noise, which no limit removes: a small share of it may be
         # all a real limit can take; data the fit did not see decide then
@@ -299,10 +320,12 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
                 or (trial.removed < min_improvement and not held_out):
             continue
         if held_out:
-            trial.held_out = _held_out(model, trial.refit.skeleton_, X,
-                                       dict(trial.refit.params_), cache)
+            trial.held_out, errors = _held_out(model, trial.refit.skeleton_, X,
+                                               dict(trial.refit.params_), cache)
             if not trial.held_out.confirmed:
                 continue
+            # the refit was made here: it carries its fold errors to its own diagnosis
+            trial.refit._held_out_folds = (_record_key(X), errors)
         best = _limit_suggestion(trial)
         break
     ranking = pd.DataFrame([{

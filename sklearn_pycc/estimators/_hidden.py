@@ -18,12 +18,13 @@ from scipy.optimize import least_squares
 
 from ..skeleton.nodes import Symbol, walk
 from ..windows import Windows
+from ._projected_start import projected_start
 from ._setup import Problem
 from ._shooting import state_bounds
 
 __all__ = ["START_FACTORS", "WholeRecord", "check_visible", "equilibrium", "hidden_trajectories",
-           "initial_table", "limit_start", "rescaled", "scaled_start", "sensor_readings",
-           "single_shooting", "starting_params", "unseen_directions"]
+           "initial_table", "limit_start", "ratio_start", "rescaled", "scaled_start",
+           "sensor_readings", "single_shooting", "starting_params", "unseen_directions"]
 
 
 def _reads(skeleton) -> dict[str, set[str]]:
@@ -307,6 +308,21 @@ def scaled_start(problem: Problem, params: Mapping[str, float],
     return limit_start(problem, best, given)
 
 
+def ratio_start(problem: Problem, params: Mapping[str, float],
+                given: Sequence[str]) -> dict[str, float] | None:
+    """A second start, for the ratios :func:`scaled_start` leaves at their defaults.
+
+    :func:`~._projected_start.projected_start` from ``params`` (the default
+    start, with the limits to fit where :func:`scaled_start` put them),
+    each point judged as :func:`scaled_start` judges its factors; None
+    where the skeleton has no linear parameters to project out.
+    """
+    whole = WholeRecord(problem)
+    found = projected_start(problem, params, given,
+                            lambda trial: _settled_error(whole, problem, trial)[0])
+    return None if found is None else found[0]
+
+
 #: where a limit to fit starts before its own start is chosen (no state reaches it)
 OPEN_LIMIT = 1e12
 
@@ -386,6 +402,13 @@ def rescaled(problem: Problem, params: Mapping[str, float],
     return best
 
 
+#: relative fall of the whole-record cost below which single shooting stops: a parameter
+#: moved by its standard error changes the cost of n samples by about 1/n of itself, far
+#: more than this on any record up to 10^5 samples (the last steps along a slow valley
+#: took seconds and moved nothing the record can tell)
+WHOLE_RECORD_FTOL = 1e-6
+
+
 def single_shooting(problem: Problem, params: Mapping[str, float], first: np.ndarray,
                     substeps: int, max_iterations: int
                     ) -> tuple[dict, np.ndarray, float, list[str]]:
@@ -428,7 +451,8 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         solution = least_squares(residuals, z0, bounds=(low, high), x_scale="jac",
-                                 max_nfev=int(max_iterations) * (len(z0) + 1))
+                                 max_nfev=int(max_iterations) * (len(z0) + 1),
+                                 ftol=WHOLE_RECORD_FTOL)
     z = solution.x if solution.cost <= 0.5 * float(np.sum(residuals(z0) ** 2)) else z0
     error = residuals(z)
     labels = names + [f"{s}(0)" if first.shape[0] == 1 else f"{s}(0) of experiment {e}"

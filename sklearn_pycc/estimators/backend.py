@@ -23,7 +23,7 @@ from __future__ import annotations
 import copy
 import warnings
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import ClassVar
 
@@ -144,15 +144,19 @@ class Backend(ABC):
         The same for every backend: a skeleton with unmeasured states has
         parameters only. Multiple shooting over the parameters and every
         window's start (with state limits, once holding the starts within
-        them and once not), then every experiment simulated whole from the
-        start, from each estimate and from each one's best common rescaling;
-        the best whole-record fit wins. A limit to fit on an unmeasured state
+        them and once not), then every experiment simulated whole from each
+        estimate and from each one's best common rescaling, and from a
+        second start whose ratios between the parameters were found too
+        (:func:`~._hidden.ratio_start`); the best whole-record fit wins. A
+        start that ``param_init`` gives in full (a refit from a fitted model)
+        is simulated whole itself, with no rescaling and no second start. A
+        limit to fit on an unmeasured state
         is held at its start through all that (where the state's scale is
         free, as a tank's of unknown cross-section, any level does as well
         and the scale is then fixed; where it is not, the level is found
         next), and a last whole-record pass frees it.
         """
-        from ._hidden import initial_table, single_shooting
+        from ._hidden import initial_table, ratio_start, single_shooting, starting_params
 
         result = self.hidden_start(problem)
         limits = problem.skeleton.limit_params
@@ -161,7 +165,19 @@ class Backend(ABC):
         inner = problem if not pinned else replace(
             problem, fixed_params={**problem.fixed_params, **pinned})
         start = {a: v for a, v in result.params.items() if a not in pinned}
-        params, first, info = _multistart(inner, result.functions, start, window, iterations)
+        # a start that gives every rate (a refit from a fitted model) has its time scale
+        # and its ratios; a guessed one gets a second start, its ratios found too
+        init = getattr(self, "param_init", None)
+        guessed = any(a not in (init or {}) and a not in limits for a in problem.free_params)
+        others = []
+        if guessed:
+            defaults = {**starting_params(problem, init),
+                        **{a: result.params[a] for a in limits if a in result.params}}
+            other = ratio_start(problem, defaults, list(init or {}))
+            if other is not None:
+                others.append({a: v for a, v in other.items() if a not in pinned})
+        params, first, info = _multistart(inner, result.functions, start, window, iterations,
+                                          guessed=guessed, others=others)
         unseen = info.pop("unseen")
         if pinned:
             params, first, nrmse, unseen = single_shooting(
@@ -233,12 +249,16 @@ class Backend(ABC):
 
 
 def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float], window: int,
-                iterations: int) -> tuple[dict, np.ndarray, dict]:
+                iterations: int, *, guessed: bool = True,
+                others: Sequence[Mapping[str, float]] = ()) -> tuple[dict, np.ndarray, dict]:
     """The best whole-record fit of ``problem`` from ``start`` and its estimates.
 
     Multiple shooting (with state limits, once holding the windows' starts
     within them and once not), then every experiment simulated whole from
-    ``start``, from each estimate and from each one's best common rescaling.
+    ``start``, from each estimate and from each of ``others`` (more starts,
+    simulated whole only). Where ``start`` was ``guessed`` (not a fitted
+    model's parameters) its own whole-record pass is left to its estimates,
+    and each estimate's best common rescaling is tried too.
     Returns the parameters, each experiment's initial state and the
     stage's summary (with ``unseen``, the directions the measurements do
     not see).
@@ -272,17 +292,26 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
             theta, info = fit_shooting(plan, system_for, theta0, iterations,
                                        bounds=(low, high), limit_starts=limit_starts)
             estimates.append((theta, info["initial_states"]))
+        if guessed:  # its multiple-shooting estimates stand for it
+            estimates = estimates[1:]
     substeps = info["substeps"]
     # the windows' joins are soft: a last pass simulates every experiment whole, from
     # each estimate and from its best common rescaling (multiple shooting may settle
     # on the wrong time scale); the best whole-record fit is kept
-    starts = []
+    starts, seen = [], []
     for theta, initial in estimates:
-        params = dict(zip(names, np.asarray(theta, dtype=float).tolist()))
+        theta = np.asarray(theta, dtype=float)
+        if any(np.allclose(theta, other, rtol=1e-9, atol=0.0) for other in seen):
+            continue  # both multiple-shooting passes may end at the same point
+        seen.append(theta)
+        params = dict(zip(names, theta.tolist()))
         starts.append((params, initial))
-        other = rescaled(problem, params, initial)
+        other = rescaled(problem, params, initial) if guessed else None
         if other is not None:
             starts.append(other)
+    for other in others:  # their time scale was searched with their ratios
+        theta = np.clip(np.array([other[a] for a in names], dtype=float), low, high)
+        starts.append((dict(zip(names, theta.tolist())), whole.first_states(system_for(theta))))
     params, first, nrmse, unseen = min(
         (single_shooting(problem, p, f, substeps, iterations) for p, f in starts),
         key=lambda found: found[2])

@@ -647,7 +647,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         best, best_cost = start, 0.5 * float(np.sum(residuals(start) ** 2))
         for guess in self._initial_guesses(start, unknown):
             solution = least_squares(residuals, guess, x_scale="jac",
-                                     max_nfev=50 * (len(start) + 1))
+                                     max_nfev=50 * (len(start) + 1), ftol=1e-6, xtol=1e-6)
             if solution.cost < best_cost:
                 best, best_cost = solution.x, solution.cost
         z = best
@@ -679,7 +679,11 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                 guess = guesses[0].copy()
                 guess[k] = value
                 guesses.append(guess)
-        return [g for g in guesses if np.all(np.isfinite(g))]
+        out = []
+        for guess in guesses:
+            if np.all(np.isfinite(guess)) and not any(np.array_equal(guess, g) for g in out):
+                out.append(guess)
+        return out
 
     def simulate(
         self,

@@ -111,7 +111,7 @@ class SimulationScorer:
         inputs = [name for name in skeleton.inputs if name != TIME]
         trajectory = X[TRAJECTORY].to_numpy() if TRAJECTORY in X.columns else None
         experiments = split_experiments(len(X), X[TIME].to_numpy(dtype=float), trajectory)
-        total, count = 0.0, 0
+        pairs = []
         for experiment in experiments:
             if experiment.n_samples < 2:
                 continue
@@ -124,18 +124,8 @@ class SimulationScorer:
                     rtol=self.rtol, atol=self.atol, max_steps=self.max_steps)
             except SimulationError:
                 return float("inf")
-            for name in compared:
-                truth = part[name].to_numpy(dtype=float)
-                spread = float(np.nanstd(truth)) or 1.0
-                err = (simulated[name].to_numpy() - truth) / spread
-                err = err[np.isfinite(truth)]
-                if not np.all(np.isfinite(err)):
-                    return float("inf")
-                total += float(err @ err)
-                count += len(err)
-        if count == 0:
-            raise ValueError("no experiment in X has two samples to simulate")
-        return float(np.sqrt(total / count))
+            pairs.append((part, simulated))
+        return pooled_nrmse(pairs, compared)
 
     def _simulated(self, estimator, record) -> np.ndarray | None:
         """The model simulated on every row (the diagnosis's loop); None if it diverged."""
@@ -233,3 +223,27 @@ def make_simulation_scorer(states: Sequence[str] | None = None, *, differentiati
     True
     """
     return SimulationScorer(states, differentiation, rtol, atol, max_steps, horizon)
+
+
+def pooled_nrmse(pairs, compared) -> float:
+    """The NRMSE of ``compared`` over experiments ``(measured, simulated)`` frames.
+
+    Each signal's errors are divided by its standard deviation within the
+    experiment (missing samples skipped); the result is the root of their
+    mean square over every experiment, ``inf`` where a simulation is not
+    finite.
+    """
+    total, count = 0.0, 0
+    for part, simulated in pairs:
+        for name in compared:
+            truth = part[name].to_numpy(dtype=float)
+            spread = float(np.nanstd(truth)) or 1.0
+            err = (simulated[name].to_numpy() - truth) / spread
+            err = err[np.isfinite(truth)]
+            if not np.all(np.isfinite(err)):
+                return float("inf")
+            total += float(err @ err)
+            count += len(err)
+    if count == 0:
+        raise ValueError("no experiment in X has two samples to simulate")
+    return float(np.sqrt(total / count))
