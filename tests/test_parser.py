@@ -1,6 +1,7 @@
 """Grammar of the skeleton language: parse trees, compiled values, error messages, injection."""
 
 import builtins
+import itertools
 import os
 
 import numpy as np
@@ -225,6 +226,19 @@ def test_constant_expressions(text, expected, mode):
 )
 def test_expressions_with_variables(text, expected, mode):
     check_values(text, expected, mode)
+
+
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize("op", ["+", "-", "*", "/"])
+def test_every_operator_with_variables_constants_and_expressions_on_each_side(op, mode):
+    # the compiler reads a variable from its slot and a constant inline: every pairing
+    apply = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide}[op]
+    sides = {"z": Z, "2.5": 2.5, "sin(y)": np.sin(Y), "a1": 0.7}
+    for (left, lv), (right, rv) in itertools.product(sides.items(), repeat=2):
+        if isinstance(lv, float) and isinstance(rv, float):
+            continue  # folded: covered by the constant expressions
+        expected = np.broadcast_to(apply(lv, rv), Z.shape)
+        check_values(f"({left}) {op} ({right})", expected, mode, params={"a1": 0.7})
 
 
 @pytest.mark.parametrize("mode", MODES)

@@ -13,8 +13,9 @@ course is known they follow from the measured states' estimated
 derivatives by least squares, as in an equation-error fit. That course
 depends on the few other parameters only (those of the unmeasured states'
 equations), with the measured states read from the record: those are
-searched on a grid of factors, each point completed by least squares and
-judged by simulating the whole model over the record.
+searched on a grid of factors, each point completed by least squares; the
+points the equation error ranks best are judged by simulating the whole
+model over the record, and the grid is refined around the best.
 """
 
 from __future__ import annotations
@@ -39,6 +40,9 @@ MAX_SEARCHED = 2
 #: powers of ten the searched parameters are scaled by, coarse grid then refinement
 COARSE = np.arange(-4.0, 2.01, 1.0)
 FINE = (-0.5, 0.0, 0.5)
+
+#: points of the coarse grid, best by the equation error, judged by simulation
+JUDGED = 8
 
 
 def projected_start(problem: Problem, params: Mapping[str, float], given: Sequence[str],
@@ -69,33 +73,31 @@ def projected_start(problem: Problem, params: Mapping[str, float], given: Sequen
         return None
     linear, searched, hidden_course = split
     base = {a: float(params[a]) for a in searched}
-    best, best_error = None, np.inf
 
-    def visit(powers) -> None:
-        nonlocal best, best_error
+    def completed(powers) -> tuple[float, dict, tuple] | None:
+        """``(equation error, parameters, powers)`` of a grid point, None if it fails."""
         outer = {a: float(base[a] * 10.0 ** p) for a, p in zip(searched, powers)}
         if not _within(problem, outer):
-            return
+            return None
         course = hidden_course(outer)
-        if course is None:
-            return
-        inner = linear(outer, course)
-        if inner is None:
-            return
-        trial = {**params, **outer, **inner}
-        error = judge(trial)
-        if error < best_error:
-            best, best_error = (trial, powers), error
+        found = None if course is None else linear(outer, course)
+        return None if found is None else (found[1], {**params, **outer, **found[0]}, powers)
 
-    for powers in itertools.product(COARSE, repeat=len(searched)):
-        visit(powers)
-    if best is None:
+    coarse = [point for point in map(completed, itertools.product(COARSE, repeat=len(searched)))
+              if point is not None]
+    # the equation error ranks the grid; the few best are judged by simulation
+    coarse.sort(key=lambda point: point[0])
+    judged = [(judge(trial), powers, trial) for _, trial, powers in coarse[:JUDGED]]
+    if not judged:
         return None
-    centre = best[1]
+    error, centre, best = min(judged, key=lambda found: found[0])
     for step in itertools.product(FINE, repeat=len(searched)):
-        if any(step):
-            visit(tuple(c + s for c, s in zip(centre, step)))
-    return best[0], best_error
+        point = completed(tuple(c + s for c, s in zip(centre, step))) if any(step) else None
+        if point is not None:
+            trial_error = judge(point[1])
+            if trial_error < error:
+                error, best = trial_error, point[1]
+    return best, error
 
 
 def _within(problem: Problem, values: Mapping[str, float]) -> bool:
@@ -184,8 +186,9 @@ def _least_squares(problem: Problem, params: Mapping[str, float], inner: Sequenc
     """``linear(values, course)``: ``inner`` fitted to the measured states' derivatives.
 
     Their equations are affine in ``inner`` (checked on the data); each
-    equation's residuals are scaled by its derivative's spread. None where
-    they are not affine or the fit fails.
+    equation's residuals are scaled by its derivative's spread. Returns the
+    fitted values and the RMS of the scaled residuals; None where the
+    equations are not affine or the fit fails.
     """
     data = {name: problem.data[name] for name in problem.data.columns}
     n = problem.data.n_samples
@@ -200,7 +203,7 @@ def _least_squares(problem: Problem, params: Mapping[str, float], inner: Sequenc
         with np.errstate(all="ignore"):
             return system.evaluate(columns, n, hold=False)[:, measured]
 
-    def linear(values: Mapping[str, float], course) -> dict[str, float] | None:
+    def linear(values: Mapping[str, float], course) -> tuple[dict[str, float], float] | None:
         columns = {**data, **course}
         point = {**params, **values}
         zero = rates({**point, **dict.fromkeys(inner, 0.0)}, columns)
@@ -219,7 +222,9 @@ def _least_squares(problem: Problem, params: Mapping[str, float], inner: Sequenc
             return None
         theta = np.linalg.lstsq(A[keep], b[keep], rcond=None)[0]
         bounds = problem.bounds
-        return {a: float(np.clip(v, *bounds.get(a, (-np.inf, np.inf))))
-                for a, v in zip(inner, theta)}
+        theta = np.array([np.clip(v, *bounds.get(a, (-np.inf, np.inf)))
+                          for a, v in zip(inner, theta)])
+        error = float(np.sqrt(np.mean((A[keep] @ theta - b[keep]) ** 2)))
+        return dict(zip(inner, theta.tolist())), error
 
     return linear

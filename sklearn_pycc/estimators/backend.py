@@ -287,8 +287,10 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
         plan = ShootingPlan(problem, window, hidden=hidden_trajectories(problem, first_system))
         plan.choose_substeps(first_system, plan.columns())
         # the windows' starts held within the states' limits, and left free (where a
-        # state sits on its limit much of the time, either may stall)
-        for limit_starts in (True, False) if problem.skeleton.limits else (True,):
+        # state sits on its limit much of the time, either may stall); a fitted model's
+        # start is refined whole as well, which stands for the second pass
+        both = problem.skeleton.limits and guessed
+        for limit_starts in (True, False) if both else (True,):
             theta, info = fit_shooting(plan, system_for, theta0, iterations,
                                        bounds=(low, high), limit_starts=limit_starts)
             estimates.append((theta, info["initial_states"]))

@@ -57,6 +57,10 @@ RANDOM_STATES = [None, Interval(Integral, 0, 2**32 - 1, closed="both"),
 #: the hyperparameters of a backend that refits on resamples (``n_bootstrap``, ``n_jobs``)
 #: most refits on resamples a fit may ask for (each is a whole fit)
 MAX_BOOTSTRAP = 10_000
+
+#: estimate_initial_state runs least squares from this many of its guesses, those whose
+#: simulation follows the record best as they stand
+INITIAL_STATE_STARTS = 2
 RESAMPLING = {"n_bootstrap": [Interval(Integral, 0, MAX_BOOTSTRAP, closed="both")],
               "n_jobs": [Integral, None]}
 
@@ -566,8 +570,9 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         not hold (unmeasured, such as a tank's level no sensor reads) is
         chosen so that the model, simulated over the first ``n_samples`` rows
         with ``X``'s inputs, follows the measured states best (least
-        squares, started from rest). The result is ready for
-        :meth:`simulate`'s ``y0``.
+        squares, from the two best of several guesses: rest with the first
+        sample, the training experiments' fitted initial states, the state's
+        limits). The result is ready for :meth:`simulate`'s ``y0``.
 
         Parameters
         ----------
@@ -644,8 +649,12 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             error = (simulated - targets) / scale
             return np.where(np.isfinite(error), error, 1e3).ravel()
 
-        best, best_cost = start, 0.5 * float(np.sum(residuals(start) ** 2))
-        for guess in self._initial_guesses(start, unknown):
+        # every guess simulated once; least squares from the best few
+        guesses = sorted(((0.5 * float(np.sum(residuals(g) ** 2)), k, g)
+                          for k, g in enumerate(self._initial_guesses(start, unknown))),
+                         key=lambda item: item[:2])
+        best_cost, _, best = guesses[0]
+        for _, _, guess in guesses[:INITIAL_STATE_STARTS]:
             solution = least_squares(residuals, guess, x_scale="jac",
                                      max_nfev=50 * (len(start) + 1), ftol=1e-6, xtol=1e-6)
             if solution.cost < best_cost:

@@ -83,6 +83,40 @@ _FUSED = {
     "/": lambda f, g: lambda env: f(env) / g(env),
 }
 
+# the same with a constant on the right (c), or on the left
+_FUSED_CONSTANT = {
+    "+": lambda f, c: lambda env: f(env) + c,
+    "-": lambda f, c: lambda env: f(env) - c,
+    "*": lambda f, c: lambda env: f(env) * c,
+    "/": lambda f, c: lambda env: f(env) / c,
+}
+_CONSTANT_FUSED = {
+    "+": lambda c, g: lambda env: c + g(env),
+    "-": lambda c, g: lambda env: c - g(env),
+    "*": lambda c, g: lambda env: c * g(env),
+    "/": lambda c, g: lambda env: c / g(env),
+}
+
+# a variable read straight from its slot i (no closure call for the leaf)
+_VARIABLE_CONSTANT = {
+    "+": lambda i, c: lambda env: env[i] + c,
+    "-": lambda i, c: lambda env: env[i] - c,
+    "*": lambda i, c: lambda env: env[i] * c,
+    "/": lambda i, c: lambda env: env[i] / c,
+}
+_CONSTANT_VARIABLE = {
+    "+": lambda c, i: lambda env: c + env[i],
+    "-": lambda c, i: lambda env: c - env[i],
+    "*": lambda c, i: lambda env: c * env[i],
+    "/": lambda c, i: lambda env: c / env[i],
+}
+_VARIABLES = {
+    "+": lambda i, j: lambda env: env[i] + env[j],
+    "-": lambda i, j: lambda env: env[i] - env[j],
+    "*": lambda i, j: lambda env: env[i] * env[j],
+    "/": lambda i, j: lambda env: env[i] / env[j],
+}
+
 
 class _Compiler:
     def __init__(self, slots, params, functions, mode):
@@ -121,6 +155,9 @@ class _Compiler:
             if c is not None:
                 value = float(scalar(c))
                 return (lambda env, v=value: v), value
+            if isinstance(node.arg, Symbol):
+                i = self.slots[node.arg.name]
+                return (lambda env: func(env[i])), None
             return (lambda env: func(fn(env))), None
         if isinstance(node, Unknown):
             curve = self.functions[node.name]
@@ -150,18 +187,26 @@ class _Compiler:
         if lc is not None and rc is not None:
             value = _folded(op, lc, rc)
             return (lambda env, v=value: v), value
+        i = self.slots[node.left.name] if isinstance(node.left, Symbol) else None
+        j = self.slots[node.right.name] if isinstance(node.right, Symbol) else None
         if rc is not None:
             if node.op == "*" and rc == 1.0:
                 return left, None
             if node.op in "+-" and rc == 0.0:
                 return left, None
-            return (lambda env, r=rc: op(left(env), r)), None
+            if i is not None:
+                return _VARIABLE_CONSTANT[node.op](i, rc), None
+            return _FUSED_CONSTANT[node.op](left, rc), None
         if lc is not None:
             if node.op == "*" and lc == 1.0:
                 return right, None
             if node.op == "+" and lc == 0.0:
                 return right, None
-            return (lambda env, c=lc: op(c, right(env))), None
+            if j is not None:
+                return _CONSTANT_VARIABLE[node.op](lc, j), None
+            return _CONSTANT_FUSED[node.op](lc, right), None
+        if i is not None and j is not None:
+            return _VARIABLES[node.op](i, j), None
         return _FUSED[node.op](left, right), None
 
 
