@@ -59,6 +59,9 @@ def test_a_limit_to_fit_on_a_measured_state_is_read_from_the_record():
     assert model.params_["a5"] == pytest.approx(truth.rims["x1"], abs=0.15)
     assert model.params_["a6"] == pytest.approx(truth.rims["x2"], abs=0.15)
     assert frame.x2.max() > model.params_["a6"]
+    # the model written out states its limits, at their fitted values
+    assert model.equations()[2:] == [f"x1 <= {model.params_['a5']:.6g}",
+                                     f"x2 <= {model.params_['a6']:.6g}"]
     simulated = model.simulate(frame.t, [frame.x1.iloc[0], frame.x2.iloc[0]],
                                inputs={"u": frame.u.to_numpy()})
     assert simulated.x2.max() <= model.params_["a6"] + 1e-9

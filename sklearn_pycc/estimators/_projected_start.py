@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import itertools
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -46,7 +46,8 @@ JUDGED = 8
 
 
 def projected_start(problem: Problem, params: Mapping[str, float], given: Sequence[str],
-                    judge) -> tuple[dict[str, float], float] | None:
+                    judge: Callable[[Mapping[str, float]], float]
+                    ) -> tuple[dict[str, float], float] | None:
     """The best start found by projecting out the measured equations' linear parameters.
 
     Parameters

@@ -918,7 +918,9 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         list of str
             One line per equation with the fitted parameters substituted,
             then one line per curve with its fitted expression (a curve of
-            an expression argument is written over ``u``, with ``u`` given).
+            an expression argument is written over ``u``, with ``u`` given),
+            then one line per state with a hard limit (``x2 <= 13.0004``, a
+            fitted end at its value).
         """
         check_is_fitted(self, "functions_")
         lines = []
@@ -934,6 +936,10 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                 args = sorted({to_text(a) for a in self._arguments(name)})
                 line += f"  with u = {' or '.join(args)}"
             lines.append(line)
+        for state, (low, high) in self.skeleton_.limits_at(self.params_).items():
+            ends = ([f"{low:.{precision}g} <="] if np.isfinite(low) else []) + [state] + (
+                [f"<= {high:.{precision}g}"] if np.isfinite(high) else [])
+            lines.append(" ".join(ends))
         return lines
 
     def to_sympy(self) -> list:
