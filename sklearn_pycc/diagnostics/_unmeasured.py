@@ -286,9 +286,10 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
             frame[f"{name}_sim"] = simulated[name].to_numpy(dtype=float)
     trajectories = pd.DataFrame(rows, index=pd.Index(compared if rows else [], name="state"))
     trajectories["unit"] = [units.get(s, "") for s in trajectories.index]
-    base = math.inf if simulated is None else pooled_nrmse(
-        [(X.iloc[e.rows], simulated.iloc[e.rows]) for e in _experiments(X) if e.n_samples >= 2],
-        compared)
+    # the simulation scorer's error, on the simulation drawn above
+    pairs = [] if simulated is None else [(X.iloc[e.rows], simulated.iloc[e.rows])
+                                          for e in _experiments(X) if e.n_samples >= 2]
+    base = pooled_nrmse(pairs, compared) if pairs else math.inf
     n = sum(int(X[name].notna().sum()) for name in compared)
 
     trials = []
