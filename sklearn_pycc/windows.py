@@ -62,14 +62,13 @@ def jacobian_eigenvalues(system, data: Mapping[str, np.ndarray], states: Sequenc
     sample = {name: np.asarray(values)[rows] if np.ndim(values) else values
               for name, values in data.items()}
     m = len(rows)
-    options = {"hold": False} if getattr(system, "limits", None) else {}
-    base = system.evaluate(sample, m, **options)
+    base = system.evaluate(sample, m, hold=False)
     jacobian = np.empty((m, len(states), len(states)))
     for q, state in enumerate(states):
         delta = 1e-6 * scale[q]
         bumped = dict(sample)
         bumped[state] = sample[state] + delta
-        jacobian[:, :, q] = (system.evaluate(bumped, m, **options) - base) / delta
+        jacobian[:, :, q] = (system.evaluate(bumped, m, hold=False) - base) / delta
     jacobian = np.nan_to_num(jacobian, nan=0.0, posinf=0.0, neginf=0.0)
     return np.linalg.eigvals(jacobian)
 

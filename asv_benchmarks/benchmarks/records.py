@@ -198,5 +198,5 @@ class UnmeasuredTankLoop:
         self._run()
 
     def track_rounds(self):
-        """Rounds until nothing is missing (3: overflow of x1, of x2, then stop)."""
+        """Rounds until nothing is missing (3: the overflow of each tank, then stop)."""
         return len(self._run().rounds)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -215,13 +216,18 @@ def _record_key(X: pd.DataFrame) -> int:
     return int(pd.util.hash_pandas_object(X, index=True).sum()) ^ hash(tuple(X.columns))
 
 
+#: refit -> (record key, its error on each held-out fold), for the refits a diagnosis
+#: suggests: the loop's next model, whose own held-out fits were the limit's check
+_FOLD_ERRORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def _fold_errors(model, X: pd.DataFrame) -> dict:
-    """The held-out errors of ``model`` on ``X``'s folds, where its own diagnosis left them.
+    """The held-out errors of ``model`` on ``X``'s folds, where a diagnosis left them.
 
     A limit found is the loop's next model; the fits of that model to each
     fold were the limit's held-out check, so the next round reuses them.
     """
-    key, errors = getattr(model, "_held_out_folds", (None, {}))
+    key, errors = _FOLD_ERRORS.get(model, (None, {}))
     return dict(errors) if key == _record_key(X) else {}
 
 
@@ -325,8 +331,7 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
                                                dict(trial.refit.params_), cache)
             if not trial.held_out.confirmed:
                 continue
-            # the refit was made here: it carries its fold errors to its own diagnosis
-            trial.refit._held_out_folds = (_record_key(X), errors)
+            _FOLD_ERRORS[trial.refit] = (_record_key(X), errors)
         best = _limit_suggestion(trial)
         break
     ranking = pd.DataFrame([{

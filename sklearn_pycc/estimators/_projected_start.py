@@ -116,7 +116,7 @@ def _split(problem: Problem, params: Mapping[str, float], given: Sequence[str]):
         return None
     free = [a for a in params if a not in given and a not in skeleton.limit_params]
     in_hidden = set().union(*(unknown_names(eq.residual)[1] for eq in hidden))
-    elsewhere = set().union(set(), *(unknown_names(eq.residual)[1]
+    elsewhere = set().union(*(unknown_names(eq.residual)[1]
                                      for eq in problem.equations if getattr(eq, "output", None)))
     in_measured = set().union(*(unknown_names(problem.dynamic[i].residual)[1]
                                 for i in measured))

@@ -149,10 +149,10 @@ class Backend(ABC):
         second start whose ratios between the parameters were found too
         (:func:`~._hidden.ratio_start`); the best whole-record fit wins. A
         start that ``param_init`` gives in full (a refit from a fitted model)
-        is simulated whole itself, with no rescaling and no second start. A
-        limit to fit on an unmeasured state
-        is held at its start through all that (where the state's scale is
-        free, as a tank's of unknown cross-section, any level does as well
+        gets one multiple-shooting pass and is simulated whole itself, with
+        no rescaling and no second start. A limit to fit on an unmeasured
+        state is held at its start through all that (where the state's scale
+        is free, as a tank's of unknown cross-section, any level does as well
         and the scale is then fixed; where it is not, the level is found
         next), and a last whole-record pass frees it.
         """
@@ -253,12 +253,13 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
                 others: Sequence[Mapping[str, float]] = ()) -> tuple[dict, np.ndarray, dict]:
     """The best whole-record fit of ``problem`` from ``start`` and its estimates.
 
-    Multiple shooting (with state limits, once holding the windows' starts
-    within them and once not), then every experiment simulated whole from
-    ``start``, from each estimate and from each of ``others`` (more starts,
-    simulated whole only). Where ``start`` was ``guessed`` (not a fitted
-    model's parameters) its own whole-record pass is left to its estimates,
-    and each estimate's best common rescaling is tried too.
+    Multiple shooting, then every experiment simulated whole from ``start``,
+    from each estimate and from each of ``others`` (more starts, simulated
+    whole only). Where ``start`` was ``guessed`` (not a fitted model's
+    parameters), multiple shooting runs twice with state limits (once
+    holding the windows' starts within them, once not), the start's own
+    whole-record pass is left to its estimates, and each estimate's best
+    common rescaling is tried too.
     Returns the parameters, each experiment's initial state and the
     stage's summary (with ``unseen``, the directions the measurements do
     not see).

@@ -49,6 +49,10 @@ OUTPUT_ERROR_SETTINGS = ("fit_mode", "shooting_window", "shooting_iterations", "
 #: equation fit by output error: derivatives of such records bias the fit by per cents
 AUTO_SIMULATION_SNR_DB = 45.0
 _NEEDS_TIME = "fit_mode='simulation' needs the time column 't' in X"
+
+#: estimate_initial_state runs least squares from this many of its guesses, those whose
+#: simulation follows the record best as they stand
+INITIAL_STATE_STARTS = 2
 #: private fitted state, cleared with the public fitted attributes when fit starts again
 _PRIVATE_STATE = ("_compiled", "_y_1d", "_covariance")
 #: what ``random_state`` may be: a Generator is honoured like a RandomState
@@ -57,10 +61,6 @@ RANDOM_STATES = [None, Interval(Integral, 0, 2**32 - 1, closed="both"),
 #: the hyperparameters of a backend that refits on resamples (``n_bootstrap``, ``n_jobs``)
 #: most refits on resamples a fit may ask for (each is a whole fit)
 MAX_BOOTSTRAP = 10_000
-
-#: estimate_initial_state runs least squares from this many of its guesses, those whose
-#: simulation follows the record best as they stand
-INITIAL_STATE_STARTS = 2
 RESAMPLING = {"n_bootstrap": [Interval(Integral, 0, MAX_BOOTSTRAP, closed="both")],
               "n_jobs": [Integral, None]}
 
@@ -297,12 +297,12 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
                              who=type(self).__name__, trim=False,
                              hidden_ok=self.fit_mode != "equation")
-        if not record.hidden:  # with unmeasured states every limit is fitted by output error
-            fixed = {**fixed, **_measured_limits(skeleton, record)}
-        if record.hidden:
+        if record.hidden:  # every limit is then fitted by output error
             _check_hidden(skeleton, record.hidden)
-        elif self.fit_mode == "simulation":
-            _check_simulable(skeleton)
+        else:
+            fixed = {**fixed, **_measured_limits(skeleton, record)}
+            if self.fit_mode == "simulation":
+                _check_simulable(skeleton)
         weights = _equation_weights(self.equation_weights, skeleton)
         mode, why = self._resolve_mode(skeleton, record, backend)
         facts = {"fit_mode_": mode, "derivative_source_": record.source + why,
