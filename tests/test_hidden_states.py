@@ -105,6 +105,25 @@ def test_where_an_unmeasured_state_cannot_be_fitted_the_error_says_why(tanks):
         diagnose(model, frame.drop(columns="t"))
 
 
+def test_an_output_error_fit_says_how_sure_it_is(tanks):
+    _, truth, model = tanks
+    expected = {"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}
+    assert list(model.covariance_.index) == ["a1", "a2", "a3"]
+    spread = model.params_std_
+    for name, (low, high) in model.params_interval(0.99).items():
+        assert low < expected[name] < high, name
+        assert 0.002 < spread[name] / model.params_[name] < 1.0, name
+    # the record fixes a2 (the lower tank's inflow) far better than a1 and a3, which trade
+    # off along a valley below the rims
+    assert spread["a2"] / model.params_["a2"] < 0.02 < spread["a1"] / model.params_["a1"]
+    # four times the noise (28 dB against 40): about four times a2's spread, more for all
+    noisy = datasets.make_two_tanks(n_samples=512, rims=(100.0, 100.0), noise=28.0,
+                                    random_state=0)
+    wider = PolyCCRegressor(equations=CASCADE, constraints=POSITIVE).fit(noisy).params_std_
+    assert 2.5 < wider["a2"] / spread["a2"] < 6.5
+    assert all(wider[name] > 1.5 * spread[name] for name in expected)
+
+
 def test_a_scale_the_measurements_cannot_see_is_named(tanks):
     # the issue's skeleton: with a3 free, x1 -> c x1 is absorbed by a1, a2 and a3
     frame = tanks[0]
@@ -114,6 +133,9 @@ def test_a_scale_the_measurements_cannot_see_is_named(tanks):
         model = PolyCCRegressor(equations=skeleton, constraints=POSITIVE).fit(frame)
     assert len(model.shooting_["unseen"]) == 1
     assert tanks[2].shooting_["unseen"] == []  # the identifiable form sees everything
+    # the estimate is one of many: no spread describes it
+    assert not hasattr(model, "covariance_")
+    assert all(np.isnan(v) for v in model.params_std_.values())
 
 
 @pytest.mark.parametrize("estimator", [NeuralCCRegressor, InterpolatedCCRegressor])

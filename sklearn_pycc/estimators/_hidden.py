@@ -429,6 +429,9 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     unseen : list of str
         Directions of the parameters and initial states that the
         measurements do not see (:func:`unseen_directions`), in words.
+    covariance : DataFrame or None
+        Of the free parameters (:func:`whole_record_covariance`); None where
+        the fit did not move from its start or the model escaped.
     """
     whole = WholeRecord(problem)
     whole.windows.substeps = int(substeps)
@@ -453,15 +456,68 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
         solution = least_squares(residuals, z0, bounds=(low, high), x_scale="jac",
                                  max_nfev=int(max_iterations) * (len(z0) + 1),
                                  ftol=WHOLE_RECORD_FTOL)
-    z = solution.x if solution.cost <= 0.5 * float(np.sum(residuals(z0) ** 2)) else z0
+    moved = solution.cost <= 0.5 * float(np.sum(residuals(z0) ** 2))
+    z = solution.x if moved else z0
     error = residuals(z)
     labels = names + [f"{s}(0)" if first.shape[0] == 1 else f"{s}(0) of experiment {e}"
                       for e in range(first.shape[0]) for s in whole.states]
     # where the model escapes, the errors are held at a cap that no unknown moves
     escaped = bool(np.any(error == _ESCAPED))
     unseen = [] if escaped else unseen_directions(solution.jac, z, labels, problem.hidden)
+    covariance = None
+    if moved and not escaped:
+        covariance = whole_record_covariance(whole, solution.jac, error, z, (low, high), names,
+                                             unseen=bool(unseen))
     return (dict(zip(names, z[:p].tolist())), z[p:].reshape(first.shape),
-            float(np.sqrt(np.mean(error ** 2))), unseen)
+            float(np.sqrt(np.mean(error ** 2))), unseen, covariance)
+
+
+def whole_record_covariance(whole: WholeRecord, jacobian: np.ndarray, error: np.ndarray,
+                            z: np.ndarray, bounds: tuple[np.ndarray, np.ndarray],
+                            names: Sequence[str], *, unseen: bool = False
+                            ) -> pd.DataFrame | None:
+    """Covariance of the parameters of a whole-record fit, the initial states marginalised.
+
+    The least-squares sandwich of the simulation errors (Newey-West over
+    each experiment's samples, so coloured measurement noise widens it) in
+    the parameters and every experiment's initial state, linearised at the
+    fit (``jacobian`` of the errors in ``z``); an unknown on one of its
+    ``bounds`` is held there.
+
+    Returns
+    -------
+    DataFrame or None
+        Indexed by ``names``; None when there are none, or where the
+        measurements leave a direction ``unseen`` (the estimate is then one
+        of many, and no spread describes it).
+    """
+    from ._uncertainty import sandwich_covariance
+
+    if not names or unseen:
+        return None
+    p = len(names)
+    valid = whole.windows.valid
+    per_experiment = valid.sum(axis=1)
+    m = whole.targets.shape[-1]
+    n = int(per_experiment.sum())
+    J = np.asarray(jacobian, dtype=float)
+    # rows come sample by sample (each sample's outputs together); the sandwich reads them
+    # output by output, each block in time order
+    order = np.arange(n * m).reshape(n, m).T.ravel()
+    J, r = J[order], np.asarray(error, dtype=float)[order]
+    groups = np.repeat(np.arange(len(per_experiment)), per_experiment)
+    low, high = bounds
+    held = [np.eye(J.shape[1])[j] for j in range(J.shape[1])
+            if np.isclose(z[j], low[j]) or np.isclose(z[j], high[j])]
+    # unknowns of very different sizes (a rate of 0.02, a level of 10): each column to unit
+    # length, so that the pseudo-inverse drops only what the data truly leave unseen
+    norms = np.linalg.norm(J, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    cov, lag = sandwich_covariance(J / norms, r, n, groups, np.array(held) if held else None)
+    cov = cov / np.outer(norms, norms)
+    frame = pd.DataFrame(cov[:p, :p], index=list(names), columns=list(names))
+    frame.attrs["lag"] = lag
+    return frame
 
 
 #: a direction of the parameters (in relative terms) along which the measurements change

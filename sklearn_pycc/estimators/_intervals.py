@@ -61,7 +61,9 @@ class IntervalsMixin:
         """Covariance of the fitted parameters (and curve coefficients) by name.
 
         Only after a fit that estimated one (equation error, no
-        ``n_bootstrap``); its expensive part, the long-run covariance of the
+        ``n_bootstrap``; or output error with unmeasured states, linearised
+        at the whole-record fit, where the measurements see every
+        direction); its expensive part, the long-run covariance of the
         per-sample scores, is worked out when it is first read.
         """
         try:

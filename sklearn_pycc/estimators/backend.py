@@ -178,9 +178,9 @@ class Backend(ABC):
                 others.append({a: v for a, v in other.items() if a not in pinned})
         params, first, info = _multistart(inner, result.functions, start, window, iterations,
                                           guessed=guessed, others=others)
-        unseen = info.pop("unseen")
+        unseen, covariance = info.pop("unseen"), info.pop("covariance")
         if pinned:
-            params, first, nrmse, unseen = single_shooting(
+            params, first, nrmse, unseen, covariance = single_shooting(
                 problem, {**params, **pinned}, first, info["substeps"], iterations)
             info["nrmse_whole"] = nrmse
         info.update(initial_states=first, unseen=unseen)
@@ -191,8 +191,10 @@ class Backend(ABC):
                 "values found are one of many). Write a known value or ratio into the "
                 "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=4)
         table = initial_table(problem, first, problem.skeleton.states)
-        return FitResult(result.functions, params,
-                         {"shooting_": info, "initial_states_": table})
+        attributes = {"shooting_": info, "initial_states_": table}
+        if covariance is not None:
+            attributes["covariance_"] = covariance
+        return FitResult(result.functions, params, attributes)
 
     def hidden_start(self, problem: Problem) -> FitResult:
         """Where the output-error fit of a problem with unmeasured states starts.
@@ -315,8 +317,9 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
     for other in others:  # their time scale was searched with their ratios
         theta = np.clip(np.array([other[a] for a in names], dtype=float), low, high)
         starts.append((dict(zip(names, theta.tolist())), whole.first_states(system_for(theta))))
-    params, first, nrmse, unseen = min(
+    params, first, nrmse, unseen, covariance = min(
         (single_shooting(problem, p, f, substeps, iterations) for p, f in starts),
         key=lambda found: found[2])
-    info.update(nrmse_whole=nrmse, unseen=unseen, whole_record_starts=len(starts))
+    info.update(nrmse_whole=nrmse, unseen=unseen, covariance=covariance,
+                whole_record_starts=len(starts))
     return params, first, info
