@@ -97,6 +97,11 @@ def test_the_overflowing_tanks_are_fitted_from_the_lower_level_alone():
     true = {"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}
     for name, value in true.items():
         assert model.params_[name] == pytest.approx(value, rel=0.05), name
+    # the rims fix the upper tank's level: a1 and a3 to a fraction of a per cent (a
+    # Jacobian through the limits' events at the solver's own tiny step read 0.0 %)
+    for name, (low, high) in model.params_interval(0.99).items():
+        assert low < true[name] < high, name
+        assert 0.001 < model.params_std_[name] / model.params_[name] < 0.02, name
     reference = from_tables(skeleton, {}, true, constraints=limits)
 
     def validation(m):
@@ -119,6 +124,10 @@ def test_a_known_rim_lets_the_cross_section_ratio_be_fitted_too(seed):
     model = PolyCCRegressor(equations=TORRICELLI, constraints=limits).fit(frame)
     for name, value in truth.params.items():
         assert model.params_[name] == pytest.approx(value, rel=0.08), name
+        # the record fixes them to about 5-10 %, and the fit says so
+        spread = model.params_std_[name]
+        assert 0.03 < spread / model.params_[name] < 0.12, name
+        assert abs(model.params_[name] - value) < 2.5 * spread, name
     assert model.shooting_["nrmse_whole"] < 0.011  # at the noise
     assert 0 <= model.initial_states_.x1.iloc[0] <= 12
     reference = from_tables(TORRICELLI, {}, truth.params, constraints=limits)

@@ -429,9 +429,6 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     unseen : list of str
         Directions of the parameters and initial states that the
         measurements do not see (:func:`unseen_directions`), in words.
-    covariance : DataFrame or None
-        Of the free parameters (:func:`whole_record_covariance`); None where
-        the fit did not move from its start or the model escaped.
     """
     whole = WholeRecord(problem)
     whole.windows.substeps = int(substeps)
@@ -456,66 +453,91 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
         solution = least_squares(residuals, z0, bounds=(low, high), x_scale="jac",
                                  max_nfev=int(max_iterations) * (len(z0) + 1),
                                  ftol=WHOLE_RECORD_FTOL)
-    moved = solution.cost <= 0.5 * float(np.sum(residuals(z0) ** 2))
-    z = solution.x if moved else z0
+    z = solution.x if solution.cost <= 0.5 * float(np.sum(residuals(z0) ** 2)) else z0
     error = residuals(z)
     labels = names + [f"{s}(0)" if first.shape[0] == 1 else f"{s}(0) of experiment {e}"
                       for e in range(first.shape[0]) for s in whole.states]
     # where the model escapes, the errors are held at a cap that no unknown moves
     escaped = bool(np.any(error == _ESCAPED))
     unseen = [] if escaped else unseen_directions(solution.jac, z, labels, problem.hidden)
-    covariance = None
-    if moved and not escaped:
-        covariance = whole_record_covariance(whole, solution.jac, error, z, (low, high), names,
-                                             unseen=bool(unseen))
     return (dict(zip(names, z[:p].tolist())), z[p:].reshape(first.shape),
-            float(np.sqrt(np.mean(error ** 2))), unseen, covariance)
+            float(np.sqrt(np.mean(error ** 2))), unseen)
 
 
-def whole_record_covariance(whole: WholeRecord, jacobian: np.ndarray, error: np.ndarray,
-                            z: np.ndarray, bounds: tuple[np.ndarray, np.ndarray],
-                            names: Sequence[str], *, unseen: bool = False
-                            ) -> pd.DataFrame | None:
-    """Covariance of the parameters of a whole-record fit, the initial states marginalised.
+#: relative step of the central differences behind a whole-record fit's covariance: a
+#: state limit's events are located to a tolerance that a step near machine precision
+#: (the solver's own) turns into noise in the Jacobian
+COVARIANCE_STEP = 1e-5
+
+
+def whole_record_covariance(problem: Problem, params: Mapping[str, float], first: np.ndarray,
+                            substeps: int) -> pd.DataFrame | None:
+    """Covariance of the free parameters of a whole-record fit, the initial states marginalised.
 
     The least-squares sandwich of the simulation errors (Newey-West over
     each experiment's samples, so coloured measurement noise widens it) in
     the parameters and every experiment's initial state, linearised at the
-    fit (``jacobian`` of the errors in ``z``); an unknown on one of its
-    ``bounds`` is held there.
+    fit by central differences (:data:`COVARIANCE_STEP`); an unknown on its
+    bound is held there. Call it only where the measurements see every
+    direction (no ``unseen`` from :func:`single_shooting`): otherwise the
+    estimate is one of many and no spread describes it.
 
     Returns
     -------
     DataFrame or None
-        Indexed by ``names``; None when there are none, or where the
-        measurements leave a direction ``unseen`` (the estimate is then one
-        of many, and no spread describes it).
+        Indexed by the free parameters; None when there are none or the
+        model escapes near the fit.
     """
     from ._uncertainty import sandwich_covariance
 
-    if not names or unseen:
+    names = list(problem.free_params)
+    if not names:
         return None
+    whole = WholeRecord(problem)
+    whole.windows.substeps = int(substeps)
+    functions = _zero_curves(problem)
     p = len(names)
-    valid = whole.windows.valid
-    per_experiment = valid.sum(axis=1)
-    m = whole.targets.shape[-1]
-    n = int(per_experiment.sum())
-    J = np.asarray(jacobian, dtype=float)
+    z = np.r_[[float(params[a]) for a in names], np.asarray(first, dtype=float).ravel()]
+
+    def residuals(at: np.ndarray) -> np.ndarray:
+        values = {**problem.fixed_params, **dict(zip(names, at[:p]))}
+        return whole.errors(problem.skeleton.compile(functions, values),
+                            at[p:].reshape(first.shape))
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = residuals(z)
+        columns = []
+        for j, value in enumerate(z):
+            h = COVARIANCE_STEP * (abs(value) or 1.0)
+            up, down = z.copy(), z.copy()
+            up[j] += h
+            down[j] -= h
+            columns.append((residuals(up) - residuals(down)) / (2 * h))
+    J = np.column_stack(columns)
+    if np.any(r == _ESCAPED) or not np.all(np.isfinite(J)):
+        return None
+    bounds = problem.bounds
+    low_s, high_s = state_bounds(problem.skeleton)
+    low = np.r_[[bounds.get(a, (-np.inf, np.inf))[0] for a in names], np.tile(low_s, len(first))]
+    high = np.r_[[bounds.get(a, (-np.inf, np.inf))[1] for a in names],
+                 np.tile(high_s, len(first))]
+    held = [np.eye(z.size)[j] for j in range(z.size)
+            if np.isclose(z[j], low[j]) or np.isclose(z[j], high[j])]
+    per_experiment = whole.windows.valid.sum(axis=1)
+    n, m = int(per_experiment.sum()), whole.targets.shape[-1]
     # rows come sample by sample (each sample's outputs together); the sandwich reads them
     # output by output, each block in time order
     order = np.arange(n * m).reshape(n, m).T.ravel()
-    J, r = J[order], np.asarray(error, dtype=float)[order]
     groups = np.repeat(np.arange(len(per_experiment)), per_experiment)
-    low, high = bounds
-    held = [np.eye(J.shape[1])[j] for j in range(J.shape[1])
-            if np.isclose(z[j], low[j]) or np.isclose(z[j], high[j])]
     # unknowns of very different sizes (a rate of 0.02, a level of 10): each column to unit
     # length, so that the pseudo-inverse drops only what the data truly leave unseen
     norms = np.linalg.norm(J, axis=0)
     norms = np.where(norms > 0, norms, 1.0)
-    cov, lag = sandwich_covariance(J / norms, r, n, groups, np.array(held) if held else None)
+    cov, lag = sandwich_covariance(J[order] / norms, r[order], n, groups,
+                                   np.array(held) if held else None)
     cov = cov / np.outer(norms, norms)
-    frame = pd.DataFrame(cov[:p, :p], index=list(names), columns=list(names))
+    frame = pd.DataFrame(cov[:p, :p], index=names, columns=names)
     frame.attrs["lag"] = lag
     return frame
 

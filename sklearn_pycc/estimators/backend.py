@@ -156,7 +156,13 @@ class Backend(ABC):
         and the scale is then fixed; where it is not, the level is found
         next), and a last whole-record pass frees it.
         """
-        from ._hidden import initial_table, ratio_start, single_shooting, starting_params
+        from ._hidden import (
+            initial_table,
+            ratio_start,
+            single_shooting,
+            starting_params,
+            whole_record_covariance,
+        )
 
         result = self.hidden_start(problem)
         limits = problem.skeleton.limit_params
@@ -178,9 +184,9 @@ class Backend(ABC):
                 others.append({a: v for a, v in other.items() if a not in pinned})
         params, first, info = _multistart(inner, result.functions, start, window, iterations,
                                           guessed=guessed, others=others)
-        unseen, covariance = info.pop("unseen"), info.pop("covariance")
+        unseen = info.pop("unseen")
         if pinned:
-            params, first, nrmse, unseen, covariance = single_shooting(
+            params, first, nrmse, unseen = single_shooting(
                 problem, {**params, **pinned}, first, info["substeps"], iterations)
             info["nrmse_whole"] = nrmse
         info.update(initial_states=first, unseen=unseen)
@@ -192,6 +198,8 @@ class Backend(ABC):
                 "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=4)
         table = initial_table(problem, first, problem.skeleton.states)
         attributes = {"shooting_": info, "initial_states_": table}
+        covariance = None if unseen else whole_record_covariance(problem, params, first,
+                                                                  info["substeps"])
         if covariance is not None:
             attributes["covariance_"] = covariance
         return FitResult(result.functions, params, attributes)
@@ -317,9 +325,8 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
     for other in others:  # their time scale was searched with their ratios
         theta = np.clip(np.array([other[a] for a in names], dtype=float), low, high)
         starts.append((dict(zip(names, theta.tolist())), whole.first_states(system_for(theta))))
-    params, first, nrmse, unseen, covariance = min(
+    params, first, nrmse, unseen = min(
         (single_shooting(problem, p, f, substeps, iterations) for p, f in starts),
         key=lambda found: found[2])
-    info.update(nrmse_whole=nrmse, unseen=unseen, covariance=covariance,
-                whole_record_starts=len(starts))
+    info.update(nrmse_whole=nrmse, unseen=unseen, whole_record_starts=len(starts))
     return params, first, info
