@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from sklearn_pycc import PolyCCRegressor, Skeleton, datasets, from_tables
-from sklearn_pycc.exceptions import SkeletonError
+from sklearn_pycc.exceptions import RankDeficiencyWarning, SkeletonError
 from sklearn_pycc.skeleton.constraints import StateLimit
 
 TORRICELLI = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
@@ -110,6 +110,24 @@ def test_the_overflowing_tanks_are_fitted_from_the_lower_level_alone():
         return float(np.sqrt(np.mean((simulated.x2 - fresh.states.x2) ** 2)))
 
     assert validation(model) <= 1.5 * validation(reference)
+
+
+def test_the_upper_tanks_rim_is_fitted_with_its_unseen_scale():
+    # x1 -> c x1 with a1 c, a2 c^0.5, a3 c^-0.5 and the rim a5 c: only combinations are
+    # fixed, and the fit must find one of them at the noise (the limit's start placed on the
+    # upper tank's course before its ratios were searched, its error ended 26 % above)
+    frame, truth = datasets.make_two_tanks(random_state=2, return_truth=True)
+    with pytest.warns(RankDeficiencyWarning, match="scaling a1 by c"):
+        model = PolyCCRegressor(equations=TORRICELLI,
+                                constraints=["x1 <= a5", "x2 <= 13"]).fit(frame)
+    assert model.shooting_["nrmse_whole"] < 0.0105  # the noise is 0.0100
+    a, true = model.params_, truth.params
+    assert a["a4"] == pytest.approx(true["a4"], rel=0.05)
+    assert a["a2"] * a["a3"] == pytest.approx(true["a2"] * true["a3"], rel=0.05)
+    assert a["a1"] / a["a2"] ** 2 == pytest.approx(true["a1"] / true["a2"] ** 2, rel=0.1)
+    level = truth.rims["x1"] * (true["a2"] / true["a1"]) ** 2
+    assert a["a5"] * (a["a2"] / a["a1"]) ** 2 == pytest.approx(level, rel=0.1)
+    assert not hasattr(model, "covariance_")
 
 
 @pytest.mark.slow

@@ -154,10 +154,15 @@ class Backend(ABC):
         state is held at its start through all that (where the state's scale
         is free, as a tank's of unknown cross-section, any level does as well
         and the scale is then fixed; where it is not, the level is found
-        next), and a last whole-record pass frees it.
+        next), and a last whole-record pass frees it. That start is chosen on
+        the state's course with the second start's parameters where there is
+        one (the second start is searched with the limit open), as the ratios
+        set the level the state runs at; else with the first's.
         """
         from ._hidden import (
+            OPEN_LIMIT,
             initial_table,
+            limit_start,
             ratio_start,
             single_shooting,
             starting_params,
@@ -166,22 +171,29 @@ class Backend(ABC):
 
         result = self.hidden_start(problem)
         limits = problem.skeleton.limit_params
-        pinned = {a: float(result.params[a]) for a in problem.free_params
-                  if a in limits and limits[a][0] in problem.hidden}
-        inner = problem if not pinned else replace(
-            problem, fixed_params={**problem.fixed_params, **pinned})
-        start = {a: v for a, v in result.params.items() if a not in pinned}
+        hidden_limits = [a for a in problem.free_params
+                         if a in limits and limits[a][0] in problem.hidden]
         # a start that gives every rate (a refit from a fitted model) has its time scale
         # and its ratios; a guessed one gets a second start, its ratios found too
         init = getattr(self, "param_init", None)
+        given = list(init or {})
         guessed = any(a not in (init or {}) and a not in limits for a in problem.free_params)
-        others = []
+        other = None
         if guessed:
             defaults = {**starting_params(problem, init),
                         **{a: result.params[a] for a in limits if a in result.params}}
-            other = ratio_start(problem, defaults, list(init or {}))
+            # the ratios set the level an unmeasured state runs at: its limit is placed
+            # on the course of the start found with them, the limit open meanwhile
+            defaults.update({a: OPEN_LIMIT for a in hidden_limits if a not in given})
+            other = ratio_start(problem, defaults, given)
             if other is not None:
-                others.append({a: v for a, v in other.items() if a not in pinned})
+                other = limit_start(problem, other, given)
+        pinned = {a: float((result.params if other is None else other)[a])
+                  for a in hidden_limits}
+        inner = problem if not pinned else replace(
+            problem, fixed_params={**problem.fixed_params, **pinned})
+        start = {a: v for a, v in result.params.items() if a not in pinned}
+        others = [] if other is None else [{a: v for a, v in other.items() if a not in pinned}]
         params, first, info = _multistart(inner, result.functions, start, window, iterations,
                                           guessed=guessed, others=others)
         unseen = info.pop("unseen")
