@@ -464,6 +464,146 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
             float(np.sqrt(np.mean(error ** 2))), unseen)
 
 
+#: shares of the record an unmeasured state below its known limit is moved, along its
+#: scale's family, to spend at the limit (each move then polished)
+LIMIT_SHARES = (0.02, 0.05, 0.15)
+
+#: a family of parameters leaves the measured states unchanged when its first-order
+#: residual is below this share of the equations' rates
+FAMILY_TOLERANCE = 1e-6
+
+
+def scale_family(problem: Problem, params: Mapping[str, float], state: str,
+                 course: Mapping[str, np.ndarray]) -> dict[str, float] | None:
+    """The powers ``k`` with which ``state -> c state``, ``a -> a c^k`` keeps what is measured.
+
+    Linearised at ``c = 1`` on ``course`` (every state, input and ``t`` on
+    the record's rows): the measured states' rates and the static outputs
+    unchanged, the other unmeasured states' too, ``state``'s rate times
+    ``c``. Solved by least squares over the rows; None where no powers of
+    the free parameters (limits aside) do it to :data:`FAMILY_TOLERANCE`
+    (the state's scale is then seen, or moved otherwise).
+    """
+    skeleton = problem.skeleton
+    names = [a for a in problem.free_params if a not in skeleton.limit_params]
+    if not names:
+        return None
+    functions = _zero_curves(problem)
+    n = len(course["t"])
+    q = list(skeleton.states).index(state)
+
+    def rates(values: Mapping[str, float], columns) -> np.ndarray:
+        system = skeleton.compile(functions, {**problem.fixed_params, **values})
+        with np.errstate(all="ignore"):
+            derivatives = system.evaluate(columns, n, hold=False)
+            static = system.evaluate_outputs(columns, n) if system.outputs else np.zeros((n, 0))
+        return np.concatenate([derivatives, static], axis=1)
+
+    base = rates(params, course)
+    step = 1e-6
+    design = []
+    for a in names:  # d rates / d log a
+        up, down = dict(params), dict(params)
+        up[a], down[a] = params[a] * (1 + step), params[a] * (1 - step)
+        design.append((rates(up, course) - rates(down, course)) / (2 * step))
+    up, down = dict(course), dict(course)
+    up[state], down[state] = course[state] * (1 + step), course[state] * (1 - step)
+    moved = (rates(params, up) - rates(params, down)) / (2 * step)  # d rates / d log state
+    target = np.zeros_like(base)
+    target[:, q] = base[:, q]
+    b = target - moved
+    scale = np.nanstd(base, axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    A = np.stack([d / scale for d in design], axis=-1).reshape(-1, len(names))
+    b = (b / scale).ravel()
+    keep = np.isfinite(b) & np.all(np.isfinite(A), axis=1)
+    if keep.sum() <= len(names):
+        return None
+    powers = np.linalg.lstsq(A[keep], b[keep], rcond=None)[0]
+    residual = float(np.sqrt(np.mean((A[keep] @ powers - b[keep]) ** 2)))
+    if not residual < FAMILY_TOLERANCE:
+        return None
+    return dict(zip(names, powers.tolist()))
+
+
+def along_hidden_scale(problem: Problem, params: Mapping[str, float], first: np.ndarray,
+                       substeps: int, max_iterations: int
+                       ) -> tuple[dict, np.ndarray, float, list[str]] | None:
+    """A better whole-record fit found by moving an unmeasured state's scale, if there is one.
+
+    Where an unmeasured state's scale is free but for a limit at a known
+    level (a tank of unknown cross-section with a known rim), a fit can end
+    with the state running below its limit, on the family that the limit
+    alone should pick from. Each such state, at its limit on almost no row,
+    is moved along that family (:func:`scale_family`: the measured states
+    stay as they are while it does not reach the limit) until it spends each
+    share of :data:`LIMIT_SHARES` of the record there, each experiment's
+    initial value with it, and each move is polished by
+    :func:`single_shooting`. Returns the best polished fit where it beats
+    the fit, else None.
+    """
+    skeleton = problem.skeleton
+    limited = [s for s in problem.hidden
+               if any(not isinstance(end, str) and np.isfinite(end)
+                      for end in skeleton.limits.get(s, (-np.inf, np.inf)))]
+    if not limited:
+        return None
+    whole = WholeRecord(problem)
+    whole.windows.substeps = int(substeps)
+    functions = _zero_curves(problem)
+
+    def error_of(values: Mapping[str, float], start: np.ndarray) -> float:
+        system = skeleton.compile(functions, {**problem.fixed_params, **values})
+        return float(np.sqrt(np.mean(whole.errors(system, start) ** 2)))
+
+    system = skeleton.compile(functions, {**problem.fixed_params, **params})
+    with np.errstate(all="ignore"):
+        simulated, _ = whole.windows.simulate(system, first)
+    windows = whole.windows
+    course = {name: np.asarray(problem.signals[name], dtype=float) for name in whole.inputs}
+    n = len(next(iter({**problem.measured, **problem.observed}.values())))
+    times = np.zeros(n)
+    for experiment in problem.experiments:
+        times[experiment.rows] = experiment.t
+    course["t"] = times
+    for q, name in enumerate(whole.states):
+        values = np.full(n, np.nan)
+        for k in range(windows.n_segments):
+            valid = windows.valid[k]
+            values[windows.rows[k, valid]] = simulated[k, valid, q]
+        course[name] = values
+    low, high = state_bounds(skeleton)
+    fitted = error_of(params, first)
+    best = None
+    for state in limited:
+        q = whole.states.index(state)
+        values = course[state][np.isfinite(course[state])]
+        at_limit = np.mean((values >= high[q]) | (values <= low[q])) if values.size else 1.0
+        if at_limit > LIMIT_SHARES[0] / 2:
+            continue  # the limit is reached: it holds the scale
+        powers = scale_family(problem, params, state, course)
+        if powers is None:
+            continue
+        for share in LIMIT_SHARES:
+            factors = []
+            if np.isfinite(high[q]) and np.quantile(values, 1 - share) > 0:
+                factors.append(high[q] / np.quantile(values, 1 - share))
+            if np.isfinite(low[q]) and np.quantile(values, share) < 0:
+                factors.append(low[q] / np.quantile(values, share))
+            for c in factors:
+                trial = {a: (v * c ** powers[a] if a in powers else v)
+                         for a, v in params.items()}
+                if any(not lo <= trial[a] <= hi for a, (lo, hi) in problem.bounds.items()
+                       if a in trial):
+                    continue
+                start = first.copy()
+                start[:, q] = np.clip(first[:, q] * c, low[q], high[q])
+                found = single_shooting(problem, trial, start, substeps, max_iterations)
+                if found[2] < (fitted if best is None else best[2]):
+                    best = found
+    return best
+
+
 #: relative step of the central differences behind a whole-record fit's covariance: a
 #: state limit's events are located to a tolerance that a step near machine precision
 #: (the solver's own) turns into noise in the Jacobian

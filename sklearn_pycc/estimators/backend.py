@@ -161,6 +161,7 @@ class Backend(ABC):
         """
         from ._hidden import (
             OPEN_LIMIT,
+            along_hidden_scale,
             initial_table,
             limit_start,
             ratio_start,
@@ -201,6 +202,10 @@ class Backend(ABC):
             params, first, nrmse, unseen = single_shooting(
                 problem, {**params, **pinned}, first, info["substeps"], iterations)
             info["nrmse_whole"] = nrmse
+        if guessed:  # a state below a known limit its scale should have reached
+            moved = along_hidden_scale(problem, params, first, info["substeps"], iterations)
+            if moved is not None:
+                params, first, info["nrmse_whole"], unseen = moved
         info.update(initial_states=first, unseen=unseen)
         for words in unseen:
             warnings.warn(
