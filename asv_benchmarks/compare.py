@@ -771,7 +771,7 @@ def _tank_timings() -> list[Timing]:
         # each error beside the fit's own standard error (NaN where a scale is unseen)
         spread = model.params_std_
         errors = ", ".join(f"{a} {100 * (model.params_[a] / v - 1):+.1f} % "
-                           f"(SE {100 * spread[a] / abs(model.params_[a]):.1f} %)"
+                           f"(SE {100 * spread[a] / (abs(model.params_[a]) or np.nan):.1f} %)"
                            for a, v in true.items())
         ratio = validation(model) / validation(reference)
         out.append(Timing(f"w. two tanks, x1 unmeasured, {label}", run, None,

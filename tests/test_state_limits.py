@@ -1,5 +1,7 @@
 """Hard limits on states: a tank that overflows at its rim, an end stop."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -110,6 +112,17 @@ def test_the_overflowing_tanks_are_fitted_from_the_lower_level_alone():
         return float(np.sqrt(np.mean((simulated.x2 - fresh.states.x2) ** 2)))
 
     assert validation(model) <= 1.5 * validation(reference)
+
+
+def test_a_lower_limit_to_fit_on_an_unmeasured_state_waits_below_the_state():
+    # opened the wrong way (held above 1e12) it ruined every start: error 0.263, a4 < 0
+    frame = datasets.make_two_tanks(n_samples=300, random_state=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RankDeficiencyWarning)
+        model = PolyCCRegressor(equations=TORRICELLI,
+                                constraints=["x1 >= a5", "x2 <= 13"]).fit(frame)
+    assert model.shooting_["nrmse_whole"] < 0.0115  # the noise is 0.0100
+    assert all(value > 0 for value in model.params_.values())
 
 
 def test_an_upper_tank_left_below_its_known_rim_is_moved_up_to_it():

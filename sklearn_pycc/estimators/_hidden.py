@@ -22,9 +22,11 @@ from ._projected_start import projected_start
 from ._setup import Problem
 from ._shooting import state_bounds
 
-__all__ = ["START_FACTORS", "WholeRecord", "check_visible", "equilibrium", "hidden_trajectories",
-           "initial_table", "limit_start", "ratio_start", "rescaled", "scaled_start",
-           "sensor_readings", "single_shooting", "starting_params", "unseen_directions"]
+__all__ = ["START_FACTORS", "WholeRecord", "along_hidden_scale", "check_visible", "equilibrium",
+           "hidden_trajectories", "initial_table", "limit_start", "opened_limits",
+           "ratio_start", "rescaled", "scale_family", "scaled_start", "sensor_readings",
+           "single_shooting", "starting_params", "unseen_directions",
+           "whole_record_covariance"]
 
 
 def _reads(skeleton) -> dict[str, set[str]]:
@@ -292,9 +294,7 @@ def scaled_start(problem: Problem, params: Mapping[str, float],
     """
     limits = problem.skeleton.limit_params
     free = [a for a in params if a not in given and a not in limits]
-    open_ends = {a: float(np.clip(-OPEN_LIMIT if limits[a][1] == "low" else OPEN_LIMIT,
-                                  *problem.bounds.get(a, (-np.inf, np.inf))))
-                 for a in params if a in limits and a not in given}
+    open_ends = opened_limits(problem, [a for a in params if a in limits and a not in given])
     params = {**params, **open_ends}  # a limit to fit waits for the time scale
     if not free:
         return limit_start(problem, params, given)
@@ -325,6 +325,16 @@ def ratio_start(problem: Problem, params: Mapping[str, float],
 
 #: where a limit to fit starts before its own start is chosen (no state reaches it)
 OPEN_LIMIT = 1e12
+
+def opened_limits(problem: Problem, names: Sequence[str]) -> dict[str, float]:
+    """The limits to fit ``names`` put out of the states' reach (within their bounds).
+
+    An upper end at :data:`OPEN_LIMIT`, a lower one at ``-OPEN_LIMIT``.
+    """
+    limits = problem.skeleton.limit_params
+    return {a: float(np.clip(-OPEN_LIMIT if limits[a][1] == "low" else OPEN_LIMIT,
+                             *problem.bounds.get(a, (-np.inf, np.inf)))) for a in names}
+
 
 #: quantiles of a state, simulated without its limit, where a limit to fit may start
 LIMIT_QUANTILES = (0.3, 0.5, 0.7, 0.8, 0.9, 0.95)
@@ -578,18 +588,21 @@ def along_hidden_scale(problem: Problem, params: Mapping[str, float], first: np.
     for state in limited:
         q = whole.states.index(state)
         values = course[state][np.isfinite(course[state])]
-        at_limit = np.mean((values >= high[q]) | (values <= low[q])) if values.size else 1.0
-        if at_limit > LIMIT_SHARES[0] / 2:
+        # a limit at zero stays where it is when the state is rescaled: only the others
+        ends = [end for end in (low[q], high[q]) if np.isfinite(end) and end != 0]
+        reached = [np.mean(values >= end if end == high[q] else values <= end)
+                   for end in ends]
+        if not values.size or not ends or max(reached) > LIMIT_SHARES[0] / 2:
             continue  # the limit is reached: it holds the scale
         powers = scale_family(problem, params, state, course)
         if powers is None:
             continue
         for share in LIMIT_SHARES:
-            factors = []
-            if np.isfinite(high[q]) and np.quantile(values, 1 - share) > 0:
-                factors.append(high[q] / np.quantile(values, 1 - share))
-            if np.isfinite(low[q]) and np.quantile(values, share) < 0:
-                factors.append(low[q] / np.quantile(values, share))
+            # the factor that puts that share of the course beyond each end
+            levels = [np.quantile(values, 1 - share if end == high[q] else share)
+                      for end in ends]
+            factors = [end / level for end, level in zip(ends, levels)
+                       if level != 0 and end / level > 0]
             for c in factors:
                 trial = {a: (v * c ** powers[a] if a in powers else v)
                          for a, v in params.items()}
@@ -644,26 +657,30 @@ def whole_record_covariance(problem: Problem, params: Mapping[str, float], first
         return whole.errors(problem.skeleton.compile(functions, values),
                             at[p:].reshape(first.shape))
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        r = residuals(z)
-        columns = []
-        for j, value in enumerate(z):
-            h = COVARIANCE_STEP * (abs(value) or 1.0)
-            up, down = z.copy(), z.copy()
-            up[j] += h
-            down[j] -= h
-            columns.append((residuals(up) - residuals(down)) / (2 * h))
-    J = np.column_stack(columns)
-    if np.any(r == _ESCAPED) or not np.all(np.isfinite(J)):
-        return None
     bounds = problem.bounds
     low_s, high_s = state_bounds(problem.skeleton)
     low = np.r_[[bounds.get(a, (-np.inf, np.inf))[0] for a in names], np.tile(low_s, len(first))]
     high = np.r_[[bounds.get(a, (-np.inf, np.inf))[1] for a in names],
                  np.tile(high_s, len(first))]
+    steps = COVARIANCE_STEP * np.where(z != 0, np.abs(z), 1.0)
+    # an unknown a step from its bound is held there (the fit could not move it across)
     held = [np.eye(z.size)[j] for j in range(z.size)
-            if np.isclose(z[j], low[j]) or np.isclose(z[j], high[j])]
+            if z[j] - steps[j] < low[j] or z[j] + steps[j] > high[j]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = residuals(z)
+        columns = []
+        for j, h in enumerate(steps):
+            up, down = z.copy(), z.copy()
+            up[j] += h
+            down[j] -= h
+            ahead, behind = residuals(up), residuals(down)
+            if np.any(ahead == _ESCAPED) or np.any(behind == _ESCAPED):
+                return None  # the model escapes beside the fit: no linearisation holds
+            columns.append((ahead - behind) / (2 * h))
+    J = np.column_stack(columns)
+    if np.any(r == _ESCAPED) or not np.all(np.isfinite(J)):
+        return None
     per_experiment = whole.windows.valid.sum(axis=1)
     n, m = int(per_experiment.sum()), whole.targets.shape[-1]
     # rows come sample by sample (each sample's outputs together); the sandwich reads them

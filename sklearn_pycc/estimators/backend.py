@@ -160,10 +160,10 @@ class Backend(ABC):
         set the level the state runs at; else with the first's.
         """
         from ._hidden import (
-            OPEN_LIMIT,
             along_hidden_scale,
             initial_table,
             limit_start,
+            opened_limits,
             ratio_start,
             single_shooting,
             starting_params,
@@ -185,7 +185,8 @@ class Backend(ABC):
                         **{a: result.params[a] for a in limits if a in result.params}}
             # the ratios set the level an unmeasured state runs at: its limit is placed
             # on the course of the start found with them, the limit open meanwhile
-            defaults.update({a: OPEN_LIMIT for a in hidden_limits if a not in given})
+            defaults.update(opened_limits(problem, [a for a in hidden_limits
+                                                    if a not in given]))
             other = ratio_start(problem, defaults, given)
             if other is not None:
                 other = limit_start(problem, other, given)
