@@ -124,6 +124,12 @@ def test_an_output_error_fit_says_how_sure_it_is(tanks):
     assert all(wider[name] > 1.5 * spread[name] for name in expected)
 
 
+def test_resampling_says_to_use_the_output_error_fits_own_covariance(tanks):
+    model = PolyCCRegressor(equations=CASCADE, constraints=POSITIVE, n_bootstrap=3)
+    with pytest.raises(ValueError, match=r"x1 is not: fit with n_bootstrap=0.*covariance_"):
+        model.fit(tanks[0])
+
+
 def test_a_scale_the_measurements_cannot_see_is_named(tanks):
     # the skeleton: with a3 free, x1 -> c x1 is absorbed by a1, a2 and a3
     frame = tanks[0]

@@ -383,6 +383,13 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         backend = self._make_backend()
         problem, facts = self._problem(X, y, backend)
         problem.check_enough_rows()
+        if n_bootstrap and problem.hidden:
+            raise ValueError(
+                f"n_bootstrap resamples the residuals of equations whose states are all "
+                f"measured, and {', '.join(problem.hidden)} "
+                f"{'is' if len(problem.hidden) == 1 else 'are'} not: fit with n_bootstrap=0; "
+                "the output-error fit gives its own covariance_ (params_std_, "
+                "params_interval, simulate(..., level=...))")
         result = backend.estimate(problem, shooting_window=self.shooting_window,
                                   shooting_iterations=self.shooting_iterations)
         if n_bootstrap:
