@@ -21,6 +21,7 @@ from ..windows import Windows
 from ._projected_start import projected_start
 from ._setup import Problem
 from ._shooting import state_bounds
+from ._uncertainty import sandwich_covariance
 
 __all__ = ["START_FACTORS", "WholeRecord", "along_hidden_scale", "check_visible", "equilibrium",
            "hidden_trajectories", "initial_table", "limit_start", "opened_limits",
@@ -122,7 +123,7 @@ def hidden_trajectories(problem: Problem, system) -> dict[str, np.ndarray]:
     windows = whole.windows
     with np.errstate(all="ignore"):
         simulated, _ = windows.simulate(system, first)
-    n = len(next(iter({**problem.measured, **problem.observed}.values())))
+    n = whole.n_rows
     out = {}
     for s in problem.hidden:
         q = whole.states.index(s)
@@ -182,6 +183,7 @@ class WholeRecord:
         times = np.zeros(n)
         for experiment in problem.experiments:
             times[experiment.rows] = experiment.t
+        self.n_rows, self.times = n, times
         self.drive = {name: problem.signals[name][rows] for name in self.inputs}
         self.drive["t"] = times[rows]
 
@@ -202,6 +204,51 @@ class WholeRecord:
             valid = valid & (steps >= skip * valid.sum(axis=1, keepdims=True))
         error = ((compared - self.targets) / self.scale)[valid]
         return np.where(np.isfinite(error), error, _ESCAPED).ravel()
+
+    def course(self, system, first: np.ndarray) -> dict[str, np.ndarray]:
+        """Every state simulated from ``first``, the inputs and ``t``, on the record's rows.
+
+        A row no experiment simulates is NaN.
+        """
+        with np.errstate(all="ignore"):
+            simulated, _ = self.windows.simulate(system, first)
+        windows = self.windows
+        out = {name: np.asarray(self.problem.signals[name], dtype=float)
+               for name in self.inputs}
+        out["t"] = self.times
+        for q, name in enumerate(self.states):
+            values = np.full(self.n_rows, np.nan)
+            for k in range(windows.n_segments):
+                valid = windows.valid[k]
+                values[windows.rows[k, valid]] = simulated[k, valid, q]
+            out[name] = values
+        return out
+
+    def unknowns(self, first_shape: tuple[int, int]):
+        """``(names, residuals, low, high)`` of a fit of the free parameters and initial states.
+
+        ``residuals(z)`` are the scaled errors (:meth:`errors`) with ``z``
+        the free parameters then each experiment's initial state; ``low``
+        and ``high`` bound ``z`` (an experiment starts within the states'
+        hard limits).
+        """
+        problem = self.problem
+        names = list(problem.free_params)
+        p = len(names)
+        functions = _zero_curves(problem)
+
+        def residuals(z: np.ndarray) -> np.ndarray:
+            values = {**problem.fixed_params, **dict(zip(names, z[:p]))}
+            return self.errors(problem.skeleton.compile(functions, values),
+                               z[p:].reshape(first_shape))
+
+        bounds = problem.bounds
+        low_s, high_s = state_bounds(problem.skeleton)
+        low = np.r_[[bounds.get(a, (-np.inf, np.inf))[0] for a in names],
+                    np.tile(low_s, first_shape[0])]
+        high = np.r_[[bounds.get(a, (-np.inf, np.inf))[1] for a in names],
+                     np.tile(high_s, first_shape[0])]
+        return names, residuals, low, high
 
     def outputs_of(self, system, simulated: np.ndarray) -> np.ndarray:
         """The static outputs along simulated states ``(K, L + 1, n_states)``."""
@@ -442,21 +489,8 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     """
     whole = WholeRecord(problem)
     whole.windows.substeps = int(substeps)
-    names = list(problem.free_params)
+    names, residuals, low, high = whole.unknowns(first.shape)
     p = len(names)
-    bounds = problem.bounds
-    low = np.r_[[bounds.get(a, (-np.inf, np.inf))[0] for a in names], np.full(first.size, -np.inf)]
-    high = np.r_[[bounds.get(a, (-np.inf, np.inf))[1] for a in names], np.full(first.size, np.inf)]
-    functions = _zero_curves(problem)
-
-    def residuals(z: np.ndarray) -> np.ndarray:
-        values = {**problem.fixed_params, **dict(zip(names, z[:p]))}
-        return whole.errors(problem.skeleton.compile(functions, values),
-                            z[p:].reshape(first.shape))
-
-    # an experiment starts within the states' hard limits
-    low_s, high_s = state_bounds(problem.skeleton)
-    low[p:], high[p:] = np.tile(low_s, len(first)), np.tile(high_s, len(first))
     z0 = np.clip(np.r_[[float(params[a]) for a in names], first.ravel()], low, high)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -560,30 +594,10 @@ def along_hidden_scale(problem: Problem, params: Mapping[str, float], first: np.
         return None
     whole = WholeRecord(problem)
     whole.windows.substeps = int(substeps)
-    functions = _zero_curves(problem)
-
-    def error_of(values: Mapping[str, float], start: np.ndarray) -> float:
-        system = skeleton.compile(functions, {**problem.fixed_params, **values})
-        return float(np.sqrt(np.mean(whole.errors(system, start) ** 2)))
-
-    system = skeleton.compile(functions, {**problem.fixed_params, **params})
-    with np.errstate(all="ignore"):
-        simulated, _ = whole.windows.simulate(system, first)
-    windows = whole.windows
-    course = {name: np.asarray(problem.signals[name], dtype=float) for name in whole.inputs}
-    n = len(next(iter({**problem.measured, **problem.observed}.values())))
-    times = np.zeros(n)
-    for experiment in problem.experiments:
-        times[experiment.rows] = experiment.t
-    course["t"] = times
-    for q, name in enumerate(whole.states):
-        values = np.full(n, np.nan)
-        for k in range(windows.n_segments):
-            valid = windows.valid[k]
-            values[windows.rows[k, valid]] = simulated[k, valid, q]
-        course[name] = values
+    system = skeleton.compile(_zero_curves(problem), {**problem.fixed_params, **params})
+    course = whole.course(system, first)
     low, high = state_bounds(skeleton)
-    fitted = error_of(params, first)
+    fitted = float(np.sqrt(np.mean(whole.errors(system, first) ** 2)))
     best = None
     for state in limited:
         q = whole.states.index(state)
@@ -641,27 +655,13 @@ def whole_record_covariance(problem: Problem, params: Mapping[str, float], first
         Indexed by the free parameters; None when there are none or the
         model escapes near the fit.
     """
-    from ._uncertainty import sandwich_covariance
-
-    names = list(problem.free_params)
-    if not names:
+    if not problem.free_params:
         return None
     whole = WholeRecord(problem)
     whole.windows.substeps = int(substeps)
-    functions = _zero_curves(problem)
+    names, residuals, low, high = whole.unknowns(first.shape)
     p = len(names)
     z = np.r_[[float(params[a]) for a in names], np.asarray(first, dtype=float).ravel()]
-
-    def residuals(at: np.ndarray) -> np.ndarray:
-        values = {**problem.fixed_params, **dict(zip(names, at[:p]))}
-        return whole.errors(problem.skeleton.compile(functions, values),
-                            at[p:].reshape(first.shape))
-
-    bounds = problem.bounds
-    low_s, high_s = state_bounds(problem.skeleton)
-    low = np.r_[[bounds.get(a, (-np.inf, np.inf))[0] for a in names], np.tile(low_s, len(first))]
-    high = np.r_[[bounds.get(a, (-np.inf, np.inf))[1] for a in names],
-                 np.tile(high_s, len(first))]
     steps = COVARIANCE_STEP * np.where(z != 0, np.abs(z), 1.0)
     # an unknown a step from its bound is held there (the fit could not move it across)
     held = [np.eye(z.size)[j] for j in range(z.size)
