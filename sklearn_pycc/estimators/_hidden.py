@@ -24,7 +24,7 @@ from ._shooting import state_bounds
 from ._uncertainty import sandwich_covariance
 
 __all__ = ["START_FACTORS", "WholeRecord", "along_hidden_scale", "check_visible", "equilibrium",
-           "hidden_trajectories", "initial_table", "limit_start", "opened_limits",
+           "hidden_trajectories", "initial_table", "limit_start", "opened_limits", "rates_on",
            "ratio_start", "rescaled", "scale_family", "scaled_start", "sensor_readings",
            "single_shooting", "starting_params", "unseen_directions",
            "whole_record_covariance"]
@@ -517,6 +517,22 @@ LIMIT_SHARES = (0.02, 0.05, 0.15)
 FAMILY_TOLERANCE = 1e-6
 
 
+def rates_on(problem: Problem, values: Mapping[str, float],
+             columns: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Every state's rate, then every static output, at ``columns``' rows under ``values``.
+
+    ``columns`` holds every state, input and ``t`` (a course on the
+    record's rows); the free parameters are ``values``, the fixed ones the
+    problem's. NaN where the model cannot be evaluated.
+    """
+    system = problem.skeleton.compile(_zero_curves(problem), {**problem.fixed_params, **values})
+    n = len(columns["t"])
+    with np.errstate(all="ignore"):
+        derivatives = system.evaluate(columns, n, hold=False)
+        static = system.evaluate_outputs(columns, n) if system.outputs else np.zeros((n, 0))
+    return np.concatenate([derivatives, static], axis=1)
+
+
 def scale_family(problem: Problem, params: Mapping[str, float], state: str,
                  course: Mapping[str, np.ndarray]) -> dict[str, float] | None:
     """The powers ``k`` with which ``state -> c state``, ``a -> a c^k`` keeps what is measured.
@@ -532,16 +548,10 @@ def scale_family(problem: Problem, params: Mapping[str, float], state: str,
     names = [a for a in problem.free_params if a not in skeleton.limit_params]
     if not names:
         return None
-    functions = _zero_curves(problem)
-    n = len(course["t"])
     q = list(skeleton.states).index(state)
 
     def rates(values: Mapping[str, float], columns) -> np.ndarray:
-        system = skeleton.compile(functions, {**problem.fixed_params, **values})
-        with np.errstate(all="ignore"):
-            derivatives = system.evaluate(columns, n, hold=False)
-            static = system.evaluate_outputs(columns, n) if system.outputs else np.zeros((n, 0))
-        return np.concatenate([derivatives, static], axis=1)
+        return rates_on(problem, values, columns)
 
     base = rates(params, course)
     step = 1e-6

@@ -157,7 +157,13 @@ class Backend(ABC):
         next), and a last whole-record pass frees it. That start is chosen on
         the state's course with the second start's parameters where there is
         one (the second start is searched with the limit open), as the ratios
-        set the level the state runs at; else with the first's.
+        set the level the state runs at; else with the first's. From a
+        guessed start, the fit is then polished once more with an unmeasured
+        stage's speed and another's swapped
+        (:func:`~._swapped_speeds.swapped_starts`: a cascade's second
+        minimum) and moved along an unmeasured state's scale toward its
+        known limit (:func:`~._hidden.along_hidden_scale`); the best
+        whole-record fit wins.
         """
         from ._hidden import (
             along_hidden_scale,
@@ -169,6 +175,7 @@ class Backend(ABC):
             starting_params,
             whole_record_covariance,
         )
+        from ._swapped_speeds import swapped_starts
 
         result = self.hidden_start(problem)
         limits = problem.skeleton.limit_params
@@ -203,6 +210,11 @@ class Backend(ABC):
             params, first, nrmse, unseen = single_shooting(
                 problem, {**params, **pinned}, first, info["substeps"], iterations)
             info["nrmse_whole"] = nrmse
+        if guessed:  # a cascade's stages may have settled in each other's speed
+            for swapped, initial in swapped_starts(problem, params, first, info["substeps"]):
+                found = single_shooting(problem, swapped, initial, info["substeps"], iterations)
+                if found[2] < info["nrmse_whole"]:
+                    params, first, info["nrmse_whole"], unseen = found
         if guessed:  # a state below a known limit its scale should have reached
             moved = along_hidden_scale(problem, params, first, info["substeps"], iterations)
             if moved is not None:
