@@ -37,14 +37,19 @@ def tanks():
 def test_an_unmeasured_state_is_fitted_by_output_error_with_defaults(tanks):
     frame, truth, model = tanks
     assert list(frame.columns) == ["t", "u", "x2"]
-    expected = {"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}
-    for name, value in expected.items():
-        assert model.params_[name] == pytest.approx(value, rel=0.05), name
+    # a2 sets the time scale, to a fraction of a per cent; below the rims a1 and a3 trade
+    # along a valley (each about 10 % uncertain), and the fit says so
+    assert model.params_["a2"] == pytest.approx(truth.params["a2"], rel=0.01)
+    for name, value in {"a1": truth.params["a1"], "a3": truth.params["a4"]}.items():
+        assert model.params_[name] == pytest.approx(value, rel=0.15), name
+        assert abs(model.params_[name] - value) < 2 * model.params_std_[name], name
     assert model.fit_mode_ == "simulation" and model.measured_states_ == ["x2"]
     assert "x1 not measured: fitted by output error on x2" in model.derivative_source_
+    # the pump is held between samples, and the fit reads it so
+    assert model.input_hold_ == "zoh"
     table = model.initial_states_
     assert list(table.columns) == ["x1"] and len(table) == 1
-    assert table.x1.iloc[0] == pytest.approx(truth.y0[0], rel=0.1)
+    assert table.x1.iloc[0] == pytest.approx(truth.y0[0], rel=0.15)
     assert model.shooting_["nrmse_whole"] < 0.02  # the noise is 0.01 of the level's RMS
 
 
@@ -224,9 +229,12 @@ def test_the_fit_finds_the_cascades_time_scale_on_every_draw(seed):
     frame, truth = datasets.make_two_tanks(rims=(100.0, 100.0), random_state=seed,
                                            return_truth=True)
     model = PolyCCRegressor(equations=CASCADE, constraints=POSITIVE).fit(frame)
-    expected = {"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}
-    for name, value in expected.items():
-        assert model.params_[name] == pytest.approx(value, rel=0.04), name
+    # the time scale, a2, to a per cent; a1 and a3 trade along a valley below the rims, to
+    # about a tenth, and the fit says how far
+    assert model.params_["a2"] == pytest.approx(truth.params["a2"], rel=0.01)
+    for name, value in {"a1": truth.params["a1"], "a3": truth.params["a4"]}.items():
+        assert model.params_[name] == pytest.approx(value, rel=0.15), name
+        assert abs(model.params_[name] - value) < 2.5 * model.params_std_[name], name
     assert model.shooting_["nrmse_whole"] < 0.011  # the sensor's noise: 40 dB
 
 

@@ -188,8 +188,13 @@ def _fresh_param(skeleton) -> str:
 
 
 def _refit(model, X: pd.DataFrame, skeleton, init: dict):
-    """``model`` refitted with ``skeleton`` from the starting values ``init``."""
+    """``model`` refitted with ``skeleton`` from the starting values ``init``.
+
+    The input hold an ``"auto"`` model chose on the record is kept.
+    """
     settings = {"equations": skeleton, "constraints": None}
+    if model.get_params().get("input_hold") == "auto":  # the record's hold, chosen once
+        settings["input_hold"] = model.input_hold_
     if "param_init" in model.get_params():
         settings["param_init"] = {a: v for a, v in init.items() if a in skeleton.params}
     with warnings.catch_warnings():

@@ -138,6 +138,10 @@ class Problem:
         fitted by output error (``fit_mode`` is then "simulation").
     input_hold : {"bandlimited", "foh", "zoh"}
         How an output-error stage reads the inputs between samples.
+    hold_chosen : bool
+        Whether the output-error fit with unmeasured states chooses the
+        hold itself (the estimator's ``input_hold="auto"``), starting from
+        ``input_hold``.
     observed : dict
         Static outputs (``y = ...``: what a sensor reads) as measured on
         every row of the record, compared with the simulated ones when
@@ -162,6 +166,7 @@ class Problem:
     covariance: bool = True
     hidden: tuple = ()
     input_hold: str = "bandlimited"
+    hold_chosen: bool = False
     observed: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property

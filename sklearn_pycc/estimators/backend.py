@@ -30,6 +30,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..exceptions import RankDeficiencyWarning
+from ..simulation import INPUT_HOLDS
 from ..skeleton.curves import as_curve
 from ._setup import FitResult, Problem
 
@@ -163,7 +164,10 @@ class Backend(ABC):
         (:func:`~._swapped_speeds.swapped_starts`: a cascade's second
         minimum) and moved along an unmeasured state's scale toward its
         known limit (:func:`~._hidden.along_hidden_scale`); the best
-        whole-record fit wins.
+        whole-record fit wins. Where the problem's hold is to be chosen
+        (``input_hold="auto"``), the fit is last polished under each other
+        input hold, and the hold of the best whole-record fit is kept
+        (``input_hold_``).
         """
         from ._hidden import (
             along_hidden_scale,
@@ -219,6 +223,17 @@ class Backend(ABC):
             moved = along_hidden_scale(problem, params, first, info["substeps"], iterations)
             if moved is not None:
                 params, first, info["nrmse_whole"], unseen = moved
+        hold = problem.input_hold
+        if problem.hold_chosen:  # a held pump or a smooth one: the record tells
+            for other_hold in INPUT_HOLDS:
+                if other_hold == hold:
+                    continue
+                trial_problem = replace(problem, input_hold=other_hold)
+                found = single_shooting(trial_problem, params, first, info["substeps"],
+                                        iterations)
+                if found[2] < info["nrmse_whole"]:
+                    params, first, info["nrmse_whole"], unseen = found
+                    problem, hold = trial_problem, other_hold
         info.update(initial_states=first, unseen=unseen)
         for words in unseen:
             warnings.warn(
@@ -227,7 +242,7 @@ class Backend(ABC):
                 "values found are one of many). Write a known value or ratio into the "
                 "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=4)
         table = initial_table(problem, first, problem.skeleton.states)
-        attributes = {"shooting_": info, "initial_states_": table}
+        attributes = {"shooting_": info, "initial_states_": table, "input_hold_": hold}
         covariance = None if unseen else whole_record_covariance(problem, params, first,
                                                                   info["substeps"])
         if covariance is not None:

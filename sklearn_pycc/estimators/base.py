@@ -104,6 +104,12 @@ class _EquationsParameter:
         obj.__dict__["equations"] = value
 
 
+def _given_hold(estimator) -> str:
+    """The estimator's ``input_hold``, ``"auto"`` read as band-limited until a fit chooses."""
+    hold = getattr(estimator, "input_hold", "auto")
+    return "bandlimited" if hold == "auto" else hold
+
+
 class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMeta):
     """Abstract base class of the characteristic-curve estimators.
 
@@ -169,14 +175,18 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         part without unknowns), then multiplied by its weight: raise the
         weight of a relation the fit must honour more closely, such as a
         conserved quantity.
-    input_hold : {"bandlimited", "foh", "zoh"}, default="bandlimited"
+    input_hold : {"auto", "bandlimited", "foh", "zoh"}, default="auto"
         How the inputs were applied between samples, for the output-error
         stage, the diagnosis's simulations and :meth:`simulate`'s default: a
         measured or generated signal (band-limited), straight lines, or
         steps held from one sample to the next (``"zoh"``: a digital
         controller's or a plant's logged setpoints). A held input read as
         band-limited rings at its steps and biases an output-error fit by
-        per cents.
+        per cents. ``"auto"``: where states are unmeasured, the whole-record
+        fit is polished under each hold and the one that follows the record
+        best is kept (the record tells a held pump from a smooth one by its
+        steps' mark on the measured states); elsewhere band-limited. The
+        hold used is ``input_hold_``.
 
     Attributes
     ----------
@@ -234,14 +244,14 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         "shooting_window": [Interval(Integral, 2, None, closed="left")],
         "shooting_iterations": [Interval(Integral, 1, None, closed="left")],
         "equation_weights": ["array-like", None],
-        "input_hold": [StrOptions(set(INPUT_HOLDS))],
+        "input_hold": [StrOptions({*INPUT_HOLDS, "auto"})],
     }
 
     def __init__(self, *, equations=None, constraints=None, gauge: str = "auto",
                  differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, equation_weights=None,
-                 input_hold: str = "bandlimited") -> None:
+                 input_hold: str = "auto") -> None:
         self.equations = equations
         self.constraints = constraints
         self.equation_weights = equation_weights
@@ -306,6 +316,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         weights = _equation_weights(self.equation_weights, skeleton)
         mode, why = self._resolve_mode(skeleton, record, backend)
         facts = {"fit_mode_": mode, "derivative_source_": record.source + why,
+                 "input_hold_": _given_hold(self),
                  "measured_states_": list(record.measured),
                  "_y_1d": record.y_ndim == 1 and len(skeleton.targets) == 1}
         # the equations are fitted where the derivatives can be trusted; an
@@ -317,7 +328,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                           equation_weights=weights,
                           rows=None if record.trusted is None else np.flatnonzero(record.trusted),
                           hidden=record.hidden,
-                          input_hold=getattr(self, "input_hold", "bandlimited"),
+                          input_hold=_given_hold(self),
+                          hold_chosen=getattr(self, "input_hold", "auto") == "auto",
                           observed=({o: record.data[o] for o in skeleton.outputs}
                                     if record.hidden else {}))
         return problem, facts
@@ -485,6 +497,10 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                           "n_parameters_": int(n_parameters)})
 
     # -- using a fitted model --------------------------------------------------
+    def _hold(self) -> str:
+        """The input hold the fit used (``input_hold_``), else the one given."""
+        return getattr(self, "input_hold_", None) or _given_hold(self)
+
     def _system(self) -> CompiledSystem:
         check_is_fitted(self, "functions_")
         compiled = getattr(self, "_compiled", None)
@@ -629,7 +645,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             return state
         system = self._system()
         if input_hold is None:
-            input_hold = getattr(self, "input_hold", "bandlimited")
+            input_hold = self._hold()
         drive = {name: stretch[name].to_numpy(dtype=float) for name in inputs}
         point = {**state, **{name: values[0] for name, values in drive.items()}, "t": t[0]}
         start = np.array([equilibrium(system, unknown, point)[s] for s in unknown])
@@ -782,7 +798,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         system = self._system()
         skeleton = self.skeleton_
         if input_hold is None:
-            input_hold = getattr(self, "input_hold", "bandlimited")
+            input_hold = self._hold()
         if not skeleton.states:
             raise ValueError(
                 "the skeleton has no differential equation, so there is nothing to "

@@ -482,7 +482,7 @@ default="lbfgs"
                  shooting_iterations: int = 30, shooting_start_epochs: int | None = 10,
                  equation_weights=None, random_state=None, n_bootstrap: int = 0,
                  n_jobs: int | None = None, verbose: int = 0,
-                 input_hold: str = "bandlimited") -> None:
+                 input_hold: str = "auto") -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,

@@ -588,7 +588,7 @@ class PolyCCRegressor(CCRegressor):
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, equation_weights=None,
                  random_state=None, n_bootstrap: int = 0,
-                 n_jobs: int | None = None, input_hold: str = "bandlimited") -> None:
+                 n_jobs: int | None = None, input_hold: str = "auto") -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
