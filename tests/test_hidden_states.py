@@ -176,6 +176,15 @@ def test_a_thermal_core_no_sensor_reads_is_fitted_from_the_surface():
     for name, value in true.items():
         assert model.params_[name] == pytest.approx(value, rel=0.03), name
     assert model.initial_states_.x2.iloc[0] == pytest.approx(20.0, abs=0.2)
+    assert model.input_hold_ == "bandlimited"  # a smooth heater: the record says so
+
+
+def test_a_fit_with_every_state_measured_reads_inputs_as_given_or_band_limited():
+    frame = datasets.make_two_tanks(n_samples=200, rims=(100.0, 100.0), measured=("x1", "x2"),
+                                    random_state=0)
+    for given, used in (("auto", "bandlimited"), ("foh", "foh")):
+        model = PolyCCRegressor(equations=CASCADE, input_hold=given).fit(frame)
+        assert model.input_hold_ == used
 
 
 def test_held_inputs_are_integrated_as_steps_when_the_estimator_says_so():
@@ -193,7 +202,8 @@ def test_held_inputs_are_integrated_as_steps_when_the_estimator_says_so():
         assert np.allclose(path, steps, atol=1e-12) == exact
 
 
-def test_a_heater_held_in_steps_is_fitted_with_input_hold_zoh():
+@pytest.mark.parametrize("input_hold", ["zoh", "auto"])
+def test_a_heater_held_in_steps_is_fitted_with_input_hold_zoh(input_hold):
     skeleton = ["x1_dot = a1 (x2 - x1) + a2 (20 - x1) + a3 u", "x2_dot = a4 (x1 - x2)"]
     true = {"a1": 0.02, "a2": 0.01, "a3": 0.05, "a4": 0.005}
     rng = np.random.default_rng(0)
@@ -202,8 +212,10 @@ def test_a_heater_held_in_steps_is_fitted_with_input_hold_zoh():
     exact = Skeleton(skeleton).simulate(t, [20.0, 20.0], params=true, inputs={"u": u},
                                         input_hold="zoh")
     frame = pd.DataFrame({"t": t, "u": u, "x1": exact.x1 + 0.05 * rng.standard_normal(len(t))})
-    model = PolyCCRegressor(equations=skeleton, input_hold="zoh",
+    model = PolyCCRegressor(equations=skeleton, input_hold=input_hold,
                             constraints=["a1 >= 0", "a2 >= 0", "a3 >= 0", "a4 >= 0"]).fit(frame)
+    # given, or chosen by the record (read as band-limited, a3 came out 6 % off)
+    assert model.input_hold_ == "zoh"
     for name, value in true.items():
         assert model.params_[name] == pytest.approx(value, rel=0.02), name
     # the model simulates as it was fitted: held steps
