@@ -60,11 +60,32 @@ def test_the_loop_names_the_overflow_of_both_tanks(seed):
     truth = from_tables(TORRICELLI, {}, dict(fresh.params),
                         constraints=[f"{s} <= {v}" for s, v in fresh.rims.items()])
 
-    def validation(model):
-        y0 = model.estimate_initial_state(new)
-        simulated = model.simulate(new.t, y0, inputs={"u": new.u.to_numpy()})
-        return np.sqrt(np.mean((simulated.x2 - fresh.states.x2) ** 2))
+    def validation(model, hold=None):
+        y0 = model.estimate_initial_state(new, input_hold=hold)
+        simulated = model.simulate(new.t, y0, inputs={"u": new.u.to_numpy()}, input_hold=hold)
+        return np.array([np.sqrt(np.mean((simulated.x2 - level) ** 2))
+                         for level in (fresh.states.x2, new.x2)])
 
-    assert validation(final) < 1.5 * validation(truth)
+    # the truth driven as the generator drives it (the pump held): on the exact level its
+    # error is its initial state's, a twentieth of the sensor's noise
+    ratio = validation(final) / validation(truth, "zoh")
+    assert ratio[0] < 2.5 and ratio[1] < 1.02
     page = loop.to_html()
     assert "add the limit" in page and "x1 not measured" in page
+
+
+@pytest.mark.slow
+def test_a_half_at_the_rim_does_not_outweigh_the_half_that_shows_the_limit():
+    # a lower tank twice as wide: in the record's second half it sits at its rim a quarter
+    # of the time and its level hardly varies; judged in that half's own spread, the upper
+    # rim's small held-out loss there outweighed its gain in the first half, and the loop
+    # named nothing (a fresh record's measured level 1.55 times the truth's error)
+    params = {"a1": 0.02, "a2": 0.04, "a3": 0.02, "a4": 0.018}
+    frame = datasets.make_two_tanks(params=params, random_state=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = HypothesisLoop(PolyCCRegressor(equations=TORRICELLI), frame).run()
+    added = [r.added for r in loop.rounds if r.added is not None]
+    assert sorted(a.variable for a in added) == ["x1", "x2"]
+    first = added[0].held_out
+    assert first.confirmed and first.wins == 1 and first.n_folds == 2
