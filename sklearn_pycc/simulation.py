@@ -22,7 +22,7 @@ from ._bandlimited import bandlimited_slopes
 from .exceptions import SimulationError
 
 __all__ = ["DEFAULT_MAX_STEPS", "INPUT_HOLDS", "Diverged", "InputSignals", "check_time_grid",
-           "integrate_sampled", "integrate_system", "progress_bar"]
+           "fitted_hold", "given_hold", "integrate_sampled", "integrate_system", "progress_bar"]
 
 _SOLVERS = {
     "LSODA": integrate.LSODA,
@@ -44,6 +44,17 @@ class Diverged(ArithmeticError):
 
 #: how a sampled input is held between its samples
 INPUT_HOLDS = ("bandlimited", "foh", "zoh")
+
+
+def given_hold(estimator) -> str:
+    """An estimator's ``input_hold``, ``"auto"`` read as band-limited until a fit chooses."""
+    hold = getattr(estimator, "input_hold", "auto")
+    return "bandlimited" if hold == "auto" else hold
+
+
+def fitted_hold(model) -> str:
+    """The input hold a fitted model used (``input_hold_``), else the one it was given."""
+    return getattr(model, "input_hold_", None) or given_hold(model)
 
 
 class _Sampled:

@@ -21,7 +21,7 @@ from numbers import Real
 import numpy as np
 
 from .exceptions import SimulationError
-from .simulation import Diverged, InputSignals
+from .simulation import Diverged, InputSignals, fitted_hold
 
 __all__ = ["Divergence", "Horizon", "Windows", "choose_horizon", "jacobian_eigenvalues",
            "simulate_rows", "simulate_windows"]
@@ -484,12 +484,6 @@ class Divergence:
                 f"{where}: {self.reason}")
 
 
-def _hold_of(model) -> str:
-    """The input hold a fitted model used (``input_hold_``), else the one it was given."""
-    hold = getattr(model, "input_hold_", None) or getattr(model, "input_hold", "bandlimited")
-    return "bandlimited" if hold == "auto" else hold
-
-
 def simulate_rows(model, columns: Mapping[str, np.ndarray], signals: Mapping[str, np.ndarray],
                   experiments: Sequence[tuple[object, np.ndarray, np.ndarray]],
                   horizon: Horizon, n_samples: int, *, max_steps: int, rtol: float = 1e-6,
@@ -539,7 +533,7 @@ def simulate_rows(model, columns: Mapping[str, np.ndarray], signals: Mapping[str
         simulated, escaped = simulate_windows(
             system, states, inputs, "t" in skeleton.variables, columns, drive,
             [(rows, t) for _, rows, t in experiments], horizon, n_samples,
-            hold=_hold_of(model))
+            hold=fitted_hold(model))
         stops = [Divergence(experiments[e][0], start, end,
                       f"{count} of {total} windows of the horizon left the states' range")
                  for e, (start, end, count, total) in escaped.items()]

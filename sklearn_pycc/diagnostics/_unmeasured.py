@@ -248,18 +248,9 @@ def _held_out_error(model, X: pd.DataFrame, spreads: dict[str, float]) -> float:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             simulated = simulate_record(model, X)
+        return pooled_nrmse([(X, simulated)], list(spreads), spreads)
     except (SimulationError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return math.inf
-    total, count = 0.0, 0
-    for name, spread in spreads.items():
-        measured = X[name].to_numpy(dtype=float)
-        seen = np.isfinite(measured)
-        errors = (simulated[name].to_numpy(dtype=float)[seen] - measured[seen]) / spread
-        if not np.all(np.isfinite(errors)):
-            return math.inf
-        total += float(errors @ errors)
-        count += errors.size
-    return math.sqrt(total / count) if count else math.inf
 
 
 def _held_out(model, trial_skeleton, X: pd.DataFrame, init: dict, cache: dict

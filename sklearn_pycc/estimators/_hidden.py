@@ -549,20 +549,18 @@ def scale_family(problem: Problem, params: Mapping[str, float], state: str,
     if not names:
         return None
     q = list(skeleton.states).index(state)
-
-    def rates(values: Mapping[str, float], columns) -> np.ndarray:
-        return rates_on(problem, values, columns)
-
-    base = rates(params, course)
+    base = rates_on(problem, params, course)
     step = 1e-6
     design = []
     for a in names:  # d rates / d log a
         up, down = dict(params), dict(params)
         up[a], down[a] = params[a] * (1 + step), params[a] * (1 - step)
-        design.append((rates(up, course) - rates(down, course)) / (2 * step))
+        design.append((rates_on(problem, up, course) - rates_on(problem, down, course))
+                      / (2 * step))
     up, down = dict(course), dict(course)
     up[state], down[state] = course[state] * (1 + step), course[state] * (1 - step)
-    moved = (rates(params, up) - rates(params, down)) / (2 * step)  # d rates / d log state
+    # d rates / d log state
+    moved = (rates_on(problem, params, up) - rates_on(problem, params, down)) / (2 * step)
     target = np.zeros_like(base)
     target[:, q] = base[:, q]
     b = target - moved

@@ -108,10 +108,9 @@ def swapped_starts(problem: Problem, params: Mapping[str, float], first: np.ndar
     own = speed_parameters(problem, params, course)
     speeds = {state: _self_rate(problem, params, course, state) for state in own}
     starts = []
-    for hidden in problem.hidden:
+    for hidden in [s for s in problem.hidden if s in own and speeds[s] < 0]:
         for other in own:
-            if hidden not in own or other == hidden or not (speeds[hidden] < 0
-                                                            and speeds[other] < 0):
+            if other == hidden or not speeds[other] < 0:
                 continue
             ratio = speeds[other] / speeds[hidden]
             if max(ratio, 1 / ratio) < LEAST_SWAP:

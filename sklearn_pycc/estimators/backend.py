@@ -219,7 +219,7 @@ class Backend(ABC):
                 found = single_shooting(problem, swapped, initial, info["substeps"], iterations)
                 if found[2] < info["nrmse_whole"]:
                     params, first, info["nrmse_whole"], unseen = found
-        if guessed:  # a state below a known limit its scale should have reached
+            # a state below a known limit its scale should have reached
             moved = along_hidden_scale(problem, params, first, info["substeps"], iterations)
             if moved is not None:
                 params, first, info["nrmse_whole"], unseen = moved

@@ -26,7 +26,7 @@ from ..measurements.differentiation import (
     resolve_differentiation,
 )
 from ..measurements.record import targets_in_y
-from ..simulation import INPUT_HOLDS
+from ..simulation import INPUT_HOLDS, fitted_hold, given_hold
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.curves import as_curve
@@ -102,12 +102,6 @@ class _EquationsParameter:
 
     def __set__(self, obj, value) -> None:
         obj.__dict__["equations"] = value
-
-
-def _given_hold(estimator) -> str:
-    """The estimator's ``input_hold``, ``"auto"`` read as band-limited until a fit chooses."""
-    hold = getattr(estimator, "input_hold", "auto")
-    return "bandlimited" if hold == "auto" else hold
 
 
 class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMeta):
@@ -316,7 +310,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         weights = _equation_weights(self.equation_weights, skeleton)
         mode, why = self._resolve_mode(skeleton, record, backend)
         facts = {"fit_mode_": mode, "derivative_source_": record.source + why,
-                 "input_hold_": _given_hold(self),
+                 "input_hold_": given_hold(self),
                  "measured_states_": list(record.measured),
                  "_y_1d": record.y_ndim == 1 and len(skeleton.targets) == 1}
         # the equations are fitted where the derivatives can be trusted; an
@@ -328,7 +322,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                           equation_weights=weights,
                           rows=None if record.trusted is None else np.flatnonzero(record.trusted),
                           hidden=record.hidden,
-                          input_hold=_given_hold(self),
+                          input_hold=given_hold(self),
                           hold_chosen=getattr(self, "input_hold", "auto") == "auto",
                           observed=({o: record.data[o] for o in skeleton.outputs}
                                     if record.hidden else {}))
@@ -497,10 +491,6 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                           "n_parameters_": int(n_parameters)})
 
     # -- using a fitted model --------------------------------------------------
-    def _hold(self) -> str:
-        """The input hold the fit used (``input_hold_``), else the one given."""
-        return getattr(self, "input_hold_", None) or _given_hold(self)
-
     def _system(self) -> CompiledSystem:
         check_is_fitted(self, "functions_")
         compiled = getattr(self, "_compiled", None)
@@ -645,7 +635,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             return state
         system = self._system()
         if input_hold is None:
-            input_hold = self._hold()
+            input_hold = fitted_hold(self)
         drive = {name: stretch[name].to_numpy(dtype=float) for name in inputs}
         point = {**state, **{name: values[0] for name, values in drive.items()}, "t": t[0]}
         start = np.array([equilibrium(system, unknown, point)[s] for s in unknown])
@@ -798,7 +788,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         system = self._system()
         skeleton = self.skeleton_
         if input_hold is None:
-            input_hold = self._hold()
+            input_hold = fitted_hold(self)
         if not skeleton.states:
             raise ValueError(
                 "the skeleton has no differential equation, so there is nothing to "

@@ -225,19 +225,20 @@ def make_simulation_scorer(states: Sequence[str] | None = None, *, differentiati
     return SimulationScorer(states, differentiation, rtol, atol, max_steps, horizon)
 
 
-def pooled_nrmse(pairs, compared) -> float:
+def pooled_nrmse(pairs, compared, spreads=None) -> float:
     """The NRMSE of ``compared`` over experiments ``(measured, simulated)`` frames.
 
     Each signal's errors are divided by its standard deviation within the
-    experiment (missing samples skipped); the result is the root of their
-    mean square over every experiment, ``inf`` where a simulation is not
-    finite.
+    experiment, or by ``spreads[name]`` where given (missing samples
+    skipped); the result is the root of their mean square over every
+    experiment, ``inf`` where a simulation is not finite.
     """
     total, count = 0.0, 0
     for part, simulated in pairs:
         for name in compared:
             truth = part[name].to_numpy(dtype=float)
-            spread = float(np.nanstd(truth)) or 1.0
+            spread = (spreads[name] if spreads is not None
+                      else float(np.nanstd(truth)) or 1.0)
             err = (simulated[name].to_numpy() - truth) / spread
             err = err[np.isfinite(truth)]
             if not np.all(np.isfinite(err)):
