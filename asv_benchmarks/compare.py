@@ -98,7 +98,9 @@ r.    Not timed: the loop's right-answer and false-alarm rates over the
 w.    ``PolyCCRegressor.fit`` of the two-tank cascade (``make_two_tanks``,
       1,024 samples every 4 s, the lower level only at 40 dB, the upper one
       unmeasured): below the rims; overflowing, without and with the rims as
-      state limits; and the cross-section ratio free (a1-a4) with the rims;
+      state limits; and the cross-section ratio free (a1-a4) with the rims,
+      on the default tanks (whose time constants nearly meet) and on a lower
+      tank twice the upper one's cross-section;
       the checks give the parameter errors and the validation RMSE on a
       second record, simulated from ``estimate_initial_state``, over that of
       the true parameters (driven with the pump held, as it was), on the
@@ -739,6 +741,11 @@ def _axis_loop_timings() -> list[Timing]:
 TANKS = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = 1.25 a2 sqrt(x1) - a3 sqrt(x2)"]
 
 
+#: the lower tank's inflow and outflow rates for a cross-section twice the upper one's
+#: (time constants about 160 s and 400 s, where the default's nearly meet at 160 s)
+WIDE_LOWER_TANK = {"a3": 0.02, "a4": 0.018}
+
+
 def _validation_errors(model, new, fresh, hold=None) -> np.ndarray:
     """RMSE of the lower level simulated on a new record, on its exact and measured level.
 
@@ -759,14 +766,16 @@ def _tank_timings() -> list[Timing]:
     positive = ["a1 >= 0", "a2 >= 0", "a3 >= 0"]
     rims = ["x1 <= 12", "x2 <= 13"]
     issue = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
-    cases = [("below the rims", (100.0, 100.0), TANKS, positive),
-             ("overflowing, no limits", None, TANKS, positive),
-             ("overflowing, rims as limits", None, TANKS, positive + rims),
-             ("overflowing, a1-a4 free, rims as limits", None, issue,
+    cases = [("below the rims", {"rims": (100.0, 100.0)}, TANKS, positive),
+             ("overflowing, no limits", {}, TANKS, positive),
+             ("overflowing, rims as limits", {}, TANKS, positive + rims),
+             ("overflowing, a1-a4 free, rims as limits", {}, issue,
+              [*positive, "a4 >= 0", *rims]),
+             ("overflowing, a1-a4 free, rims as limits, the lower tank twice the upper "
+              "one's cross-section", {"params": WIDE_LOWER_TANK}, issue,
               [*positive, "a4 >= 0", *rims])]
     out = []
-    for label, rim, skeleton, constraints in cases:
-        settings = {} if rim is None else {"rims": rim}
+    for label, settings, skeleton, constraints in cases:
         frame, truth = datasets.make_two_tanks(random_state=0, return_truth=True, **settings)
         new, fresh = datasets.make_two_tanks(random_state=1, return_truth=True, **settings)
         true = ({"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}

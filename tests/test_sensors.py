@@ -49,6 +49,22 @@ def test_a_spring_measured_by_an_accelerometer_alone_is_fitted():
     assert np.sqrt(np.mean((simulated.acc - new.acc) ** 2)) < 1.5 * noise
 
 
+def test_refits_on_redrawn_noise_read_the_sensor_too():
+    # the accelerometer's errors are drawn again and added to the simulated reading
+    frame, _ = accelerometer_record(0, n_samples=600)
+    before = frame.copy()
+    skeleton = [*SPRING, "acc = -a1 x1 - a2 x2 + a3 u + a4"]
+    model = PolyCCRegressor(equations=skeleton, n_bootstrap=12, random_state=0).fit(frame)
+    pd.testing.assert_frame_equal(frame, before)
+    table = model.bootstrap_params_
+    assert table.shape == (12, 4)
+    for name in table:
+        # about the linearised spread (30 refits: 0.82-1.08 times it; 12 spread more)
+        spread = model.params_std_[name]
+        assert 0.4 < spread / np.sqrt(model.covariance_.loc[name, name]) < 2.0, name
+        assert abs(table[name].mean() - model.params_[name]) < 1.5 * spread, name
+
+
 def test_where_nothing_is_measured_the_error_names_the_sensor_it_lacks():
     frame = accelerometer_record(0, n_samples=100)[0].drop(columns="acc")
     with pytest.raises(ValueError, match="no static output"):

@@ -157,6 +157,29 @@ def test_the_upper_tanks_rim_is_fitted_with_its_unseen_scale():
     assert not hasattr(model, "covariance_")
 
 
+#: the lower tank's rates for a cross-section twice the upper one's (time constants about
+#: 160 s and 400 s: the default tanks' nearly meet)
+WIDE_LOWER_TANK = {"a3": 0.02, "a4": 0.018}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 5])
+def test_tanks_of_different_speeds_give_a1_to_a4_within_five_per_cent(seed):
+    # the issue's record: both tanks overflow, 1,024 samples every 4 s, the pump held, 40 dB
+    # on the lower level only, the initial levels unknown; the rims known
+    frame, truth = datasets.make_two_tanks(random_state=seed, params=WIDE_LOWER_TANK,
+                                           return_truth=True)
+    assert min(truth.overflowing.values()) > 0.01
+    limits = ["x1 <= 12", "x2 <= 13"]
+    model = PolyCCRegressor(equations=TORRICELLI, constraints=limits).fit(frame)
+    for name, value in truth.params.items():
+        assert model.params_[name] == pytest.approx(value, rel=0.05), name
+        # and the fit says how sure it is (draws 0-9: 0.8-1.2 times the refits' spread)
+        spread = model.params_std_[name]
+        assert 0.003 < spread / model.params_[name] < 0.05, name
+        assert abs(model.params_[name] - value) < 3 * spread, name
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 2])
 def test_a_known_rim_lets_the_cross_section_ratio_be_fitted_too(seed):
@@ -173,11 +196,13 @@ def test_a_known_rim_lets_the_cross_section_ratio_be_fitted_too(seed):
                                                            rel=1e-5)
     for name, value in truth.params.items():
         assert model.params_[name] == pytest.approx(truths.params_[name], rel=0.01), name
-        # the record fixes them to about 5-10 %, and the fit says so: with equal time
-        # constants which tank is the faster is told by the upper rim's mark alone
+        # the record fixes them to about 5-10 %, and the fit says about so: with equal time
+        # constants the record fixes the speeds' sum and product, their split poorly, and
+        # the linearisation understates the spread (ten records with this input, the noise
+        # drawn anew: a1-a4 scatter by 8-9 %, the standard errors average 5-6 %)
         spread = model.params_std_[name]
         assert 0.03 < spread / model.params_[name] < 0.12, name
-        assert abs(model.params_[name] - value) < 3 * spread, name
+        assert abs(model.params_[name] - value) < 4 * spread, name
     assert model.shooting_["nrmse_whole"] < 0.011  # at the noise
     assert 0 <= model.initial_states_.x1.iloc[0] <= 12
     reference = from_tables(TORRICELLI, {}, truth.params, constraints=limits)

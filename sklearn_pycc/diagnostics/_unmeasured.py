@@ -191,9 +191,12 @@ def _refit(model, X: pd.DataFrame, skeleton, init: dict):
     """``model`` refitted with ``skeleton`` from the starting values ``init``.
 
     The input hold an ``"auto"`` model chose is kept: ``init`` was fitted
-    with it, and a limit's search from there stays on that course.
+    with it, and a limit's search from there stays on that course. The
+    refit is judged by its errors alone, so it makes no refits on resamples.
     """
     settings = {"equations": skeleton, "constraints": None}
+    if model.get_params().get("n_bootstrap"):
+        settings["n_bootstrap"] = 0
     if model.get_params().get("input_hold") == "auto":
         settings["input_hold"] = model.input_hold_
     if "param_init" in model.get_params():

@@ -389,13 +389,6 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         backend = self._make_backend()
         problem, facts = self._problem(X, y, backend)
         problem.check_enough_rows()
-        if n_bootstrap and problem.hidden:
-            raise ValueError(
-                f"n_bootstrap resamples the residuals of equations whose states are all "
-                f"measured, and {', '.join(problem.hidden)} "
-                f"{'is' if len(problem.hidden) == 1 else 'are'} not: fit with n_bootstrap=0; "
-                "the output-error fit gives its own covariance_ (params_std_, "
-                "params_interval, simulate(..., level=...))")
         result = backend.estimate(problem, shooting_window=self.shooting_window,
                                   shooting_iterations=self.shooting_iterations)
         if n_bootstrap:
@@ -412,25 +405,37 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         """Refits on ``n`` resamples that respect time: the ``bootstrap_`` attributes."""
         from ._resampling import Resampler, fit_members
 
+        seed = next(seeds(getattr(self, "random_state", None)))
+        if problem.hidden:  # a block cannot fix its own hidden states: the noise is redrawn
+            from ._hidden_bootstrap import hidden_members
+
+            members, failures, method = hidden_members(
+                problem, dict(result.params), dict(result.functions), result.attributes, n,
+                seed, getattr(self, "n_jobs", None), self.shooting_iterations)
+            return self._bootstrap_facts(result, members, failures, n, method)
         residuals = np.nan_to_num(problem.residual_values(result.params, result.functions))
         simulation = problem.fit_mode == "simulation"
         resampler = Resampler(problem, residuals,
                               min_block=2 * self.shooting_window if simulation else 2)
-        seed = next(seeds(getattr(self, "random_state", None)))
         members, failures = fit_members(backend, problem, resampler, n, seed,
                                         getattr(self, "n_jobs", None), self.shooting_window,
                                         self.shooting_iterations)
+        return self._bootstrap_facts(result, members, failures, n, resampler.describe())
+
+    @staticmethod
+    def _bootstrap_facts(result: FitResult, members: list, failures: list[str], n: int,
+                         method: str) -> dict:
+        """The ``bootstrap_`` attributes from the refits, or why there are none."""
         if len(members) < 2:
             raise ValueError(f"{len(failures)} of {n} refits on resamples failed, so the "
                              f"fit has no bootstrap estimate; the first said: {failures[0]}")
         if failures:
             warnings.warn(f"{len(failures)} of {n} refits on resamples failed and are left out "
                           f"of the bootstrap estimate; the first said: {failures[0]}",
-                          UserWarning, stacklevel=4)
+                          UserWarning, stacklevel=5)
         free = list(result.params)
         table = pd.DataFrame([[m.params[a] for a in free] for m in members], columns=free)
-        return {"bootstrap_": members, "bootstrap_params_": table,
-                "bootstrap_method_": resampler.describe()}
+        return {"bootstrap_": members, "bootstrap_params_": table, "bootstrap_method_": method}
 
     def _store(self, problem: Problem, result: FitResult, facts: Mapping) -> None:
         """Store a backend's result: the only way a fit becomes fitted state."""

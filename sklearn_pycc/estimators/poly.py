@@ -534,10 +534,13 @@ class PolyCCRegressor(CCRegressor):
     n_bootstrap : int, default=0
         Refit on this many resamples of the record (blocks of consecutive
         samples within each experiment, or whole experiments when there are
-        many): ``params_std_``, ``params_interval``, the bands of
-        ``cc_curves`` and ``simulate`` then come from their spread. 0 makes
+        many; with unmeasured states, the fit's simulation errors drawn
+        again in blocks, each resample refitted from the fit):
+        ``params_std_``, ``params_interval``, the bands of ``cc_curves`` and
+        ``simulate`` then come from their spread. 0 makes
         none: the covariance of the least-squares estimate answers then
-        (equation-error fits).
+        (equation-error fits), or that of the whole-record simulation
+        linearised at the fit (unmeasured states).
     n_jobs : int or None, default=None
         Processes for the refits on resamples (joblib; None is one, -1
         every core). The result does not depend on it.

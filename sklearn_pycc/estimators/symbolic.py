@@ -535,8 +535,10 @@ class SymbolicCCRegressor(CCRegressor):
     n_bootstrap : int, default=0
         Refit on this many resamples of the record (blocks of consecutive
         samples within each experiment, or whole experiments when there are
-        many): ``params_std_``, ``params_interval``, the bands of
-        ``cc_curves`` and ``simulate`` then come from their spread. 0 makes
+        many; with unmeasured states, the fit's simulation errors drawn
+        again in blocks, each resample refitted from the fit):
+        ``params_std_``, ``params_interval``, the bands of ``cc_curves`` and
+        ``simulate`` then come from their spread. 0 makes
         none (a fit without them has no uncertainty estimate); each refit
         searches its own expressions.
     n_jobs : int or None, default=None
