@@ -340,12 +340,11 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
         term = f"{state} <= {name}"
         extended = skeleton.with_constraints([term])
         try:
-            refit = _refit(model, X, extended, dict(model.params_))
+            refit, error = _limit_refit(model, X, extended, base)
         except (ValueError, SimulationError, ArithmeticError, np.linalg.LinAlgError) as error:
             trials.append(LimitTrial(state, term, None, math.nan, math.nan, math.nan,
                                      failure=str(error)))
             continue
-        error = _nrmse(refit, X)
         removed = 1 - error / base if base > 0 and math.isfinite(error) else math.nan
         delta = (n * math.log(error ** 2 / base ** 2) + math.log(n)
                  if math.isfinite(error) and error > 0 and base > 0 else math.nan)
@@ -380,6 +379,29 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
         float(np.sqrt(np.mean(trajectories["rmse"] ** 2))) if rows else math.nan, notes,
         None, [], units, [s for s in skeleton.states if s not in hidden], hidden=hidden)
     return diagnosis
+
+
+def _limit_refit(model, X: pd.DataFrame, extended, base: float) -> tuple[object, float]:
+    """The model refitted with a limit added, and its simulation error.
+
+    Refitted first from the model's parameters. Where that takes less than
+    :data:`LIMIT_GAIN` of the error, the search may have stayed on the
+    course the limitless model found (with an unmeasured state's scale free,
+    that course may never reach any level a rim could sit at): the skeleton
+    is then also fitted from the default start, as a fresh fit would be, and
+    the better of the two is kept.
+    """
+    refit = _refit(model, X, extended, dict(model.params_))
+    error = _nrmse(refit, X)
+    if base > 0 and math.isfinite(base) and not error <= (1 - LIMIT_GAIN) * base:
+        try:
+            fresh = _refit(model, X, extended, {})
+        except (ValueError, SimulationError, ArithmeticError, np.linalg.LinAlgError):
+            return refit, error
+        fresh_error = _nrmse(fresh, X)
+        if fresh_error < error:
+            return fresh, fresh_error
+    return refit, error
 
 
 def _limit_suggestion(trial: LimitTrial) -> Suggestion:

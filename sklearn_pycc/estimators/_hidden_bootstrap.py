@@ -4,13 +4,14 @@ A record with an unmeasured state cannot be cut into blocks and refitted
 block by block (each block would need its own initial hidden states, which
 a short stretch does not fix). Instead the fit's own simulation of what
 was measured is kept, and its errors are drawn again in blocks of
-consecutive samples within each experiment (a moving-block bootstrap of
-the residuals, so coloured noise keeps its colour). Each resample is then
-refitted by whole-record output error, started from the fit, under the
-hold the fit chose. The spread of those refits is how far the noise moves
-the estimate. The linearised covariance understates it where the error is
-far from quadratic in the parameters, as for two stages of a cascade with
-nearly the same speed.
+consecutive samples within each experiment, the experiment read as a
+circle (a moving-block bootstrap of the residuals, so coloured noise keeps
+its colour, and an experiment no longer than a block is still redrawn).
+Each resample is then refitted by whole-record output error, started from
+the fit, under the hold the fit chose. The spread of those refits is how
+far the noise moves the estimate near the fit; a second minimum far from
+it, as where a cascade's two stages have nearly the same speed, is not
+seen.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from dataclasses import replace
 import numpy as np
 from joblib import Parallel, delayed
 
-from .._blocks import block_length, draw_blocks
+from .._blocks import block_length
 from ._hidden import _ESCAPED, WholeRecord, single_shooting
 from ._resampling import Member
 from ._setup import Problem
@@ -56,17 +57,22 @@ class NoiseResampler:
             raise ValueError("the fitted model escapes along the record, so it has no errors "
                              "to draw again: fit with n_bootstrap=0")
         valid = whole.windows.valid
-        m = whole.targets.shape[-1]
-        self.problem, self.whole = problem, whole
+        scaled = scaled.reshape(-1, whole.targets.shape[-1])
+        self.problem = problem
         # errors as measured minus simulated, in the record's units, one row per valid sample
-        self.errors = -scaled.reshape(-1, m) * whole.scale
+        self.errors = -scaled * whole.scale
         self.rows = whole.windows.rows[valid]
-        counts = valid.sum(axis=1)
-        ends = np.cumsum(counts)
-        self.runs = [slice(int(end - count), int(end)) for count, end in zip(counts, ends)
-                     if count >= 2]
-        self.block = block_length(self.errors, self.runs)
-        self.measured = [whole.states[q] for q in whole.index]
+        ends = np.cumsum(valid.sum(axis=1))
+        self.runs = [np.arange(end - count, end)
+                     for count, end in zip(valid.sum(axis=1), ends) if count >= 2]
+        if not self.runs:
+            raise ValueError("no experiment has two measured samples to draw the errors of "
+                             "again: fit with n_bootstrap=0")
+        self.columns = [whole.states[q] for q in whole.index] + list(whole.outputs)
+        self.n_measured = len(whole.index)
+        # the block from the errors in units of each signal, as the fit weighs them
+        self.block = block_length(-scaled, [slice(int(r[0]), int(r[-1]) + 1)
+                                            for r in self.runs])
 
     def describe(self) -> str:
         """How the resamples are drawn, in words."""
@@ -75,10 +81,17 @@ class NoiseResampler:
                 "refitted by whole-record output error from the fit")
 
     def draw(self, rng: np.random.Generator) -> np.ndarray:
-        """One resample's errors: for each valid sample, the row of ``errors`` it takes."""
+        """One resample: for each valid sample, the row of ``errors`` it takes.
+
+        Each experiment is read as a circle, so a block may wrap from its
+        end to its start, and one no longer than a block is still shifted.
+        """
         picks = np.arange(len(self.errors))
         for run in self.runs:
-            picks[run] = np.concatenate(draw_blocks(rng, [picks[run]], self.block))
+            size = min(self.block, len(run))
+            starts = rng.integers(0, len(run), -(-len(run) // size))
+            offsets = (starts[:, None] + np.arange(size)).ravel()[: len(run)] % len(run)
+            picks[run] = run[offsets]
         return picks
 
     def resampled(self, picks: np.ndarray) -> Problem:
@@ -87,13 +100,17 @@ class NoiseResampler:
         shift = self.errors[picks] - self.errors
         measured = dict(self.problem.measured)
         observed = dict(self.problem.observed)
-        columns = [*self.measured, *self.whole.outputs]
-        for j, name in enumerate(columns):
-            table = measured if j < len(self.measured) else observed
+        for j, name in enumerate(self.columns):
+            table = measured if j < self.n_measured else observed
             values = np.array(table[name], dtype=float)
             values[self.rows] += shift[:, j]
             table[name] = values
-        return replace(self.problem, measured=measured, observed=observed, covariance=False)
+        return replace(self.problem, measured=measured, observed=observed)
+
+    def escaped(self, nrmse: float) -> bool:
+        """Whether a refit's whole-record error holds a sample where it escaped."""
+        # one escaped sample alone adds _ESCAPED squared to the errors' sum of squares
+        return not nrmse < _ESCAPED / np.sqrt(self.errors.size)
 
 
 def _refit(resampler: NoiseResampler, picks: np.ndarray, params: dict, first: np.ndarray,
@@ -102,10 +119,12 @@ def _refit(resampler: NoiseResampler, picks: np.ndarray, params: dict, first: np
     with warnings.catch_warnings():  # the full fit has said what there is to say
         warnings.simplefilter("ignore")
         try:
-            found, _, _, _ = single_shooting(resampler.resampled(picks), params, first,
-                                             substeps, iterations)
+            found, _, nrmse, _ = single_shooting(resampler.resampled(picks), params, first,
+                                                 substeps, iterations)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
             return f"{type(error).__name__}: {error}"
+    if resampler.escaped(nrmse):
+        return "SimulationError: the refit's model escapes along the record"
     return Member(dict(functions), {k: float(v) for k, v in found.items()})
 
 
@@ -113,6 +132,9 @@ def hidden_members(problem: Problem, params: dict, functions: dict, attributes: 
                    seed: int, n_jobs, iterations: int
                    ) -> tuple[list[Member], list[str], str]:
     """``n`` refits of an output-error fit with unmeasured states on redrawn noise.
+
+    The refits run in processes (``n_jobs``): their integration holds
+    Python's lock.
 
     Returns
     -------
@@ -130,7 +152,7 @@ def hidden_members(problem: Problem, params: dict, functions: dict, attributes: 
     resampler = NoiseResampler(fitted, params, first, substeps)
     rng = np.random.default_rng(seed)
     draws = [resampler.draw(rng) for _ in range(n)]
-    outcomes = Parallel(n_jobs=n_jobs)(
+    outcomes = Parallel(n_jobs=n_jobs, prefer="processes")(
         delayed(_refit)(resampler, picks, params, first, substeps, iterations, functions)
         for picks in draws)
     members = [o for o in outcomes if isinstance(o, Member)]

@@ -63,8 +63,9 @@ class IntervalsMixin:
         Only after a fit that estimated one (equation error, no
         ``n_bootstrap``; or output error with unmeasured states, linearised
         at the whole-record fit, where the measurements see every
-        direction); its expensive part, the long-run covariance of the
-        per-sample scores, is worked out when it is first read.
+        direction, kept beside the refits when there are some); its
+        expensive part, the long-run covariance of the per-sample scores,
+        is worked out when it is first read.
         """
         try:
             value = self.__dict__["_covariance"]

@@ -240,7 +240,7 @@ class Backend(ABC):
                 f"{', '.join(problem.hidden)} not measured, and the measurements cannot fix "
                 f"every parameter: {words}, so only combinations of those are determined (the "
                 "values found are one of many). Write a known value or ratio into the "
-                "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=4)
+                "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=5)
         table = initial_table(problem, first, problem.skeleton.states)
         attributes = {"shooting_": info, "initial_states_": table, "input_hold_": hold}
         covariance = None if unseen else whole_record_covariance(problem, params, first,

@@ -409,6 +409,12 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         if problem.hidden:  # a block cannot fix its own hidden states: the noise is redrawn
             from ._hidden_bootstrap import hidden_members
 
+            if result.attributes["shooting_"].get("unseen"):
+                warnings.warn("no refits on resamples: the measurements leave a direction of "
+                              "the parameters unseen, so the estimate is one of many and no "
+                              "spread describes it (params_std_ is NaN)", UserWarning,
+                              stacklevel=4)
+                return {}
             members, failures, method = hidden_members(
                 problem, dict(result.params), dict(result.functions), result.attributes, n,
                 seed, getattr(self, "n_jobs", None), self.shooting_iterations)

@@ -406,7 +406,8 @@ default="lbfgs"
         ``simulate`` then come from their spread. 0 makes
         none (a fit without them has no uncertainty estimate); each refit
         trains its networks from its own seed, so the spread holds that of
-        training too.
+        training too (with unmeasured states, a skeleton of parameters
+        only, each refit polishes them from the fit).
     n_jobs : int or None, default=None
         Processes for the refits on resamples (joblib; None is one, -1
         every core). The result does not depend on it.

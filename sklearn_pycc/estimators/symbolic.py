@@ -540,7 +540,8 @@ class SymbolicCCRegressor(CCRegressor):
         ``params_std_``, ``params_interval``, the bands of ``cc_curves`` and
         ``simulate`` then come from their spread. 0 makes
         none (a fit without them has no uncertainty estimate); each refit
-        searches its own expressions.
+        searches its own expressions (with unmeasured states, a skeleton of
+        parameters only, each refit polishes them from the fit).
     n_jobs : int or None, default=None
         Processes for the refits on resamples (joblib; None is one, -1
         every core). The result does not depend on it.
