@@ -642,8 +642,8 @@ def along_hidden_scale(problem: Problem, params: Mapping[str, float], first: np.
 #: relative step of the central differences behind a whole-record fit's covariance: a
 #: state limit's events are located, and the solver's steps chosen, to tolerances that a
 #: smaller step turns into noise in the Jacobian (at 1e-5, the slow lower tank's draw 6
-#: read a1 to 0.24 % where refits on redrawn noise spread it by 3.8 %; 1e-4 and 1e-3 both
-#: read 3.4-3.5 %)
+#: read a1 to 0.24 % where refits on redrawn noise spread it by 3 to 4 %; 1e-4 and 1e-3
+#: both read 3.4-3.5 %)
 COVARIANCE_STEP = 1e-3
 
 
