@@ -11,6 +11,7 @@ from sklearn.exceptions import NotFittedError
 from sklearn.model_selection import KFold
 
 from sklearn_pycc import (
+    HypothesisLoop,
     NeuralCCRegressor,
     PolyCCRegressor,
     Skeleton,
@@ -475,3 +476,27 @@ def test_stick_slip_two_rounds_across_noise_draws(seed):
     found, reports = loop(frame, truth.base_equations, rounds=4)
     assert [effect for effect, _ in found] == ["coulomb_friction", "cubic_stiffness"]
     assert reports[0].simulation_rmse / reports[-1].simulation_rmse >= 10
+
+
+def test_the_diagnosis_refits_without_resamples_and_the_loop_keeps_the_users(monkeypatch):
+    # a model fitted with n_bootstrap: each candidate's refit and held-out fit is judged by
+    # its errors alone (it made n_bootstrap refits each, 6 times the time with 10), while
+    # each round's model of the loop keeps the refits the user asked for
+    from sklearn_pycc.estimators.base import CCRegressor
+
+    frame = datasets.make_oscillator(noise=NOISE, random_state=0)
+    fitted_with_resamples = []
+    bootstrap = CCRegressor._bootstrap
+
+    def counted(self, *args, **kwargs):
+        fitted_with_resamples.append(self)
+        return bootstrap(self, *args, **kwargs)
+
+    monkeypatch.setattr(CCRegressor, "_bootstrap", counted)
+    model = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"],
+                            n_bootstrap=4, random_state=0)
+    loop = HypothesisLoop(model, frame, n_bootstrap=0).run(max_rounds=2, refine=False)
+    assert loop.rounds[0].added.effect == "coulomb_friction"
+    assert "n_bootstrap" not in loop.rounds[0].added.settings
+    assert len(fitted_with_resamples) == len(loop.rounds)
+    assert all(len(r.model.bootstrap_) == 4 for r in loop.rounds)

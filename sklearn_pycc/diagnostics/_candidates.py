@@ -539,6 +539,8 @@ def refit_candidate(model, candidate: Candidate, data: DiagnosisData, residuals:
     if candidate.move == "open" and params.get("extrapolation") == "polynomial":
         # a free curve judged by simulations that may stray beyond its data
         new["extrapolation"] = "linear"
+    if params.get("n_bootstrap"):  # judged by its residuals: no refits on resamples
+        new["n_bootstrap"] = 0
     estimator = clone(model).set_params(**new)
     rows = np.arange(data.n_samples)
     if params.get("fit_mode") != "simulation":  # an output-error fit needs every sample

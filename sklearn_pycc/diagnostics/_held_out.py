@@ -158,6 +158,8 @@ def _fit(estimator, data: DiagnosisData, train: np.ndarray, labels: np.ndarray,
     estimator = clone(estimator)
     mode = "simulation" if output_error else "equation"
     settings = {"fit_mode": mode} if "fit_mode" in estimator.get_params() else {}
+    if estimator.get_params().get("n_bootstrap"):  # judged by its errors alone
+        settings["n_bootstrap"] = 0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         # the derivatives the record gave (measured, or estimated once on the whole record)

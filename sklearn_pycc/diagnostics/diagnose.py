@@ -1230,10 +1230,15 @@ def _suggestion(c: Candidate, base: Skeleton, model, formula: Candidate | None =
 
 
 def _settings(refit, model) -> dict:
-    """The hyperparameters ``refit`` was fitted with that differ from ``model``'s."""
+    """The hyperparameters ``refit`` was fitted with that differ from ``model``'s.
+
+    Not ``n_bootstrap``: the diagnosis refits without resamples, and the
+    model it suggests keeps the user's.
+    """
     own = model.get_params(deep=False)
     return {k: v for k, v in refit.get_params(deep=False).items()
-            if k not in ("equations", "constraints", "param_init") and own.get(k) != v}
+            if k not in ("equations", "constraints", "param_init", "n_bootstrap")
+            and own.get(k) != v}
 
 
 def _open_suggestion(c: Candidate, model, formula: Candidate | None,
