@@ -121,3 +121,18 @@ def test_a_rim_the_refit_from_the_model_misses_is_found_by_a_fresh_fit():
     assert report.best is not None and report.best.variable == "x1"
     assert report.best.error_removed > 0.05
     assert report.best.held_out.confirmed and report.best.held_out.wins == 2
+
+
+@pytest.mark.slow
+def test_a_limit_suggested_keeps_the_refits_on_resamples_the_model_was_given():
+    # the trials are judged without resamples; the limit chosen, the loop's next model, is
+    # fitted again with the model's n_bootstrap
+    frame = datasets.make_two_tanks(random_state=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=TORRICELLI, n_bootstrap=3, random_state=0).fit(frame)
+        report = diagnose(model, frame)
+    refit = report.best.refit
+    assert report.best.move == "limit"
+    assert refit.n_bootstrap == 3 and len(refit.bootstrap_) >= 2
+    assert set(refit.bootstrap_params_.columns) == set(refit.params_)

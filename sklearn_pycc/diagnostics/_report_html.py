@@ -36,8 +36,9 @@ CAPTIONS = {
     "simulation": "What is measured against its simulation, each experiment whole from the "
                   "initial state estimated on its first samples; the unmeasured states as "
                   "simulated.",
-    "open_curve": "Outside the catalogue: the free curve with its 95 % band, the terms it "
-                  "would replace, and the formula proposed for it.",
+    "open_curve": "Outside the catalogue: the free curve (with its 95 % band where the "
+                  "refit has one), the terms it would replace, and the formula proposed "
+                  "for it.",
 }
 
 

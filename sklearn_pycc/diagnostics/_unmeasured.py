@@ -6,7 +6,8 @@ whole from the state :meth:`~sklearn_pycc.CCRegressor.estimate_initial_state`
 finds on its first samples, and the measured states and sensor readings are
 compared with the record. The candidates are hard limits on each state that
 has none (``overflow``: a tank's rim, an end stop), each refitted by output
-error from the diagnosed model's parameters and kept when it lowers the
+error from the diagnosed model's parameters (and from the default start too
+where that takes little of the error) and kept when it lowers the
 simulation error in the record (by the BIC) and, by at least
 :data:`LIMIT_GAIN`, on data its fit did not see (each half of the record, or
 each experiment, predicted by the fit to the rest).
@@ -332,6 +333,8 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
 
     trials = []
     limits = skeleton.limits
+    # the least share of the error a limit must take to be judged further
+    bar = LIMIT_GAIN if held_out else max(LIMIT_GAIN, min_improvement)
     for state in skeleton.states:
         high = limits.get(state, (-math.inf, math.inf))[1]
         if isinstance(high, str) or math.isfinite(high):
@@ -340,14 +343,16 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
         term = f"{state} <= {name}"
         extended = skeleton.with_constraints([term])
         try:
-            refit, error = _limit_refit(model, X, extended, base)
+            refit, error = _limit_refit(model, X, extended, base, bar)
         except (ValueError, SimulationError, ArithmeticError, np.linalg.LinAlgError) as error:
             trials.append(LimitTrial(state, term, None, math.nan, math.nan, math.nan,
                                      failure=str(error)))
             continue
-        removed = 1 - error / base if base > 0 and math.isfinite(error) else math.nan
-        delta = (n * math.log(error ** 2 / base ** 2) + math.log(n)
-                 if math.isfinite(error) and error > 0 and base > 0 else math.nan)
+        # against a model that escapes (base inf) neither share nor BIC has a meaning
+        comparable = math.isfinite(error) and math.isfinite(base) and base > 0
+        removed = 1 - error / base if comparable else math.nan
+        delta = (2 * n * math.log(error / base) + math.log(n)
+                 if comparable and error > 0 else math.nan)
         trials.append(LimitTrial(state, term, refit, error, delta, removed))
     trials.sort(key=lambda t: (not math.isfinite(t.delta_bic), t.delta_bic))
     best, cache = None, _fold_errors(model, X)
@@ -363,6 +368,7 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
             if not trial.held_out.confirmed:
                 continue
             _FOLD_ERRORS[trial.refit] = (_record_key(X), errors)
+        trial.refit = _as_asked(model, trial.refit, X)
         best = _limit_suggestion(trial)
         break
     ranking = pd.DataFrame([{
@@ -381,27 +387,51 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
     return diagnosis
 
 
-def _limit_refit(model, X: pd.DataFrame, extended, base: float) -> tuple[object, float]:
+def _limit_refit(model, X: pd.DataFrame, extended, base: float,
+                 bar: float) -> tuple[object, float]:
     """The model refitted with a limit added, and its simulation error.
 
     Refitted first from the model's parameters. Where that takes less than
-    :data:`LIMIT_GAIN` of the error, the search may have stayed on the
-    course the limitless model found (with an unmeasured state's scale free,
-    that course may never reach any level a rim could sit at): the skeleton
-    is then also fitted from the default start, as a fresh fit would be, and
-    the better of the two is kept.
+    ``bar`` of the error, the search may have stayed on the course the
+    limitless model found (with an unmeasured state's scale free, that
+    course may never reach any level a rim could sit at): the skeleton is
+    then also fitted from the backend's default start (under the model's
+    input hold, without resamples), and the better of the two is kept; a
+    failure of that second fit leaves the first.
     """
     refit = _refit(model, X, extended, dict(model.params_))
     error = _nrmse(refit, X)
-    if base > 0 and math.isfinite(base) and not error <= (1 - LIMIT_GAIN) * base:
+    if not (math.isfinite(base) and base > 0 and error <= (1 - bar) * base):
         try:
             fresh = _refit(model, X, extended, {})
-        except (ValueError, SimulationError, ArithmeticError, np.linalg.LinAlgError):
+        except Exception:  # the first fit stands, whatever this one meets
             return refit, error
         fresh_error = _nrmse(fresh, X)
         if fresh_error < error:
             return fresh, fresh_error
     return refit, error
+
+
+def _as_asked(model, refit, X: pd.DataFrame):
+    """``refit`` with the refits on resamples the diagnosed model was given.
+
+    The trial refits make none (they are judged by their errors alone); the
+    limit suggested is the loop's next model, fitted again here, from its
+    own parameters, with the model's ``n_bootstrap``. Its held-out fits
+    carry over.
+    """
+    wanted = model.get_params().get("n_bootstrap")
+    if not wanted or refit.get_params().get("n_bootstrap"):
+        return refit
+    settings = {"n_bootstrap": wanted}
+    if "param_init" in refit.get_params():
+        settings["param_init"] = dict(refit.params_)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        again = clone(refit).set_params(**settings).fit(X)
+    if refit in _FOLD_ERRORS:
+        _FOLD_ERRORS[again] = _FOLD_ERRORS[refit]
+    return again
 
 
 def _limit_suggestion(trial: LimitTrial) -> Suggestion:
