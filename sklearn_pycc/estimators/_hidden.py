@@ -23,11 +23,11 @@ from ._setup import Problem
 from ._shooting import state_bounds
 from ._uncertainty import sandwich_covariance
 
-__all__ = ["START_FACTORS", "WholeRecord", "along_hidden_scale", "check_visible", "equilibrium",
-           "hidden_trajectories", "initial_table", "limit_start", "opened_limits", "rates_on",
-           "ratio_start", "rescaled", "scale_family", "scaled_start", "sensor_readings",
-           "single_shooting", "starting_params", "unseen_directions",
-           "whole_record_covariance"]
+__all__ = ["ESCAPED", "START_FACTORS", "WholeRecord", "along_hidden_scale", "check_visible",
+           "equilibrium", "hidden_trajectories", "initial_table", "limit_start",
+           "opened_limits", "rates_on", "ratio_start", "rescaled", "scale_family",
+           "scaled_start", "sensor_readings", "single_shooting", "starting_params",
+           "unseen_directions", "whole_record_covariance"]
 
 
 def _reads(skeleton) -> dict[str, set[str]]:
@@ -150,7 +150,7 @@ def initial_table(problem: Problem, first: np.ndarray, states: Sequence[str]) ->
 
 
 #: the scaled error of a sample where the simulation has escaped
-_ESCAPED = 1e3
+ESCAPED = 1e3
 
 
 class WholeRecord:
@@ -203,7 +203,7 @@ class WholeRecord:
             steps = np.arange(valid.shape[1])
             valid = valid & (steps >= skip * valid.sum(axis=1, keepdims=True))
         error = ((compared - self.targets) / self.scale)[valid]
-        return np.where(np.isfinite(error), error, _ESCAPED).ravel()
+        return np.where(np.isfinite(error), error, ESCAPED).ravel()
 
     def course(self, system, first: np.ndarray) -> dict[str, np.ndarray]:
         """Every state simulated from ``first``, the inputs and ``t``, on the record's rows.
@@ -502,7 +502,7 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     labels = names + [f"{s}(0)" if first.shape[0] == 1 else f"{s}(0) of experiment {e}"
                       for e in range(first.shape[0]) for s in whole.states]
     # where the model escapes, the errors are held at a cap that no unknown moves
-    escaped = bool(np.any(error == _ESCAPED))
+    escaped = bool(np.any(error == ESCAPED))
     unseen = [] if escaped else unseen_directions(solution.jac, z, labels, problem.hidden)
     return (dict(zip(names, z[:p].tolist())), z[p:].reshape(first.shape),
             float(np.sqrt(np.mean(error ** 2))), unseen)
@@ -685,11 +685,11 @@ def whole_record_covariance(problem: Problem, params: Mapping[str, float], first
             up[j] += h
             down[j] -= h
             ahead, behind = residuals(up), residuals(down)
-            if np.any(ahead == _ESCAPED) or np.any(behind == _ESCAPED):
+            if np.any(ahead == ESCAPED) or np.any(behind == ESCAPED):
                 return None  # the model escapes beside the fit: no linearisation holds
             columns.append((ahead - behind) / (2 * h))
     J = np.column_stack(columns)
-    if np.any(r == _ESCAPED) or not np.all(np.isfinite(J)):
+    if np.any(r == ESCAPED) or not np.all(np.isfinite(J)):
         return None
     per_experiment = whole.windows.valid.sum(axis=1)
     n, m = int(per_experiment.sum()), whole.targets.shape[-1]

@@ -20,11 +20,11 @@ import warnings
 from dataclasses import replace
 
 import numpy as np
-from joblib import Parallel, delayed
+from joblib import delayed
 
 from .._blocks import block_length
-from ._hidden import _ESCAPED, WholeRecord, single_shooting
-from ._resampling import Member
+from ._hidden import ESCAPED, WholeRecord, single_shooting
+from ._resampling import REFIT_FAILURES, Member, run_refits
 from ._setup import Problem
 
 __all__ = ["NoiseResampler", "hidden_members"]
@@ -53,7 +53,7 @@ class NoiseResampler:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             scaled = residuals(z)
-        if np.any(scaled == _ESCAPED):
+        if np.any(scaled == ESCAPED):
             raise ValueError("the fitted model escapes along the record, so it has no errors "
                              "to draw again: fit with n_bootstrap=0")
         valid = whole.windows.valid
@@ -109,8 +109,8 @@ class NoiseResampler:
 
     def escaped(self, nrmse: float) -> bool:
         """Whether a refit's whole-record error holds a sample where it escaped."""
-        # one escaped sample alone adds _ESCAPED squared to the errors' sum of squares
-        return not nrmse < _ESCAPED / np.sqrt(self.errors.size)
+        # one escaped sample alone adds ESCAPED squared to the errors' sum of squares
+        return not nrmse < ESCAPED / np.sqrt(self.errors.size)
 
 
 def _refit(resampler: NoiseResampler, picks: np.ndarray, params: dict, first: np.ndarray,
@@ -121,7 +121,7 @@ def _refit(resampler: NoiseResampler, picks: np.ndarray, params: dict, first: np
         try:
             found, _, nrmse, _ = single_shooting(resampler.resampled(picks), params, first,
                                                  substeps, iterations)
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
+        except REFIT_FAILURES as error:
             return f"{type(error).__name__}: {error}"
     if resampler.escaped(nrmse):
         return "SimulationError: the refit's model escapes along the record"
@@ -152,9 +152,7 @@ def hidden_members(problem: Problem, params: dict, functions: dict, attributes: 
     resampler = NoiseResampler(fitted, params, first, substeps)
     rng = np.random.default_rng(seed)
     draws = [resampler.draw(rng) for _ in range(n)]
-    outcomes = Parallel(n_jobs=n_jobs, prefer="processes")(
-        delayed(_refit)(resampler, picks, params, first, substeps, iterations, functions)
-        for picks in draws)
-    members = [o for o in outcomes if isinstance(o, Member)]
-    failures = [o for o in outcomes if not isinstance(o, Member)]
+    members, failures = run_refits(
+        [delayed(_refit)(resampler, picks, params, first, substeps, iterations, functions)
+         for picks in draws], n_jobs, "processes")
     return members, failures, resampler.describe()

@@ -28,7 +28,10 @@ from ..measurements.columns import FitData
 from ..measurements.experiments import Experiment
 from .backend import Backend, FitResult, Problem
 
-__all__ = ["Member", "Resampler", "fit_members"]
+__all__ = ["REFIT_FAILURES", "Member", "Resampler", "fit_members", "run_refits"]
+
+#: what a refit on a resample may meet: a failure to count, not to raise
+REFIT_FAILURES = (ValueError, ArithmeticError, np.linalg.LinAlgError, RuntimeError)
 
 @dataclass
 class Member:
@@ -143,7 +146,7 @@ def _fit_one(backend: Backend, problem: Problem, blocks: list[np.ndarray], seed:
         try:
             result: FitResult = member.estimate(sample, shooting_window=window,
                                                 shooting_iterations=iterations)
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError, RuntimeError) as error:
+        except REFIT_FAILURES as error:
             return f"{type(error).__name__}: {error}"
     return Member(dict(result.functions), {k: float(v) for k, v in result.params.items()})
 
@@ -157,9 +160,14 @@ def fit_members(backend: Backend, problem: Problem, resampler: Resampler, n: int
     """
     rng = np.random.default_rng(seed)
     draws = [(resampler.draw(rng), int(rng.integers(0, 2**31 - 1))) for _ in range(n)]
-    outcomes = Parallel(n_jobs=n_jobs, prefer=backend.resample_in)(
-        delayed(_fit_one)(backend, problem, blocks, member_seed, window, iterations)
-        for blocks, member_seed in draws)
+    return run_refits([delayed(_fit_one)(backend, problem, blocks, member_seed, window,
+                                         iterations) for blocks, member_seed in draws],
+                      n_jobs, backend.resample_in)
+
+
+def run_refits(calls: list, n_jobs, prefer: str) -> tuple[list[Member], list[str]]:
+    """Run delayed refits in parallel: the members, and the failures' reasons in words."""
+    outcomes = Parallel(n_jobs=n_jobs, prefer=prefer)(calls)
     members = [o for o in outcomes if isinstance(o, Member)]
     failures = [o for o in outcomes if not isinstance(o, Member)]
     return members, failures
