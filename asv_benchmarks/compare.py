@@ -822,7 +822,7 @@ def _tank_loop_timing() -> Timing:
     reference = from_tables(issue, {}, dict(truth.params),
                             constraints=[f"{s} <= {v}" for s, v in truth.rims.items()])
 
-    ratio = (_validation_errors(loop.final_model, new, fresh)
+    ratio = (_validation_errors(loop.model, new, fresh)
              / _validation_errors(reference, new, fresh, "zoh"))
     return Timing("w. HypothesisLoop on the overflowing tanks (a1-a4, no limits), x1 "
                   "unmeasured", run, 30_000.0,

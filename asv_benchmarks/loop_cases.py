@@ -117,13 +117,13 @@ def run_case(name: str, seed: int = 0) -> None:
         loop = HypothesisLoop(PolyCCRegressor(equations=start), frame).run(max_rounds=5)
         elapsed = time.perf_counter() - began
         reference = PolyCCRegressor(equations=true, **settings).fit(frame)
-    ours, best = _error(loop.final_model, fresh, y0, inputs), _error(reference, fresh, y0, inputs)
+    ours, best = _error(loop.model, fresh, y0, inputs), _error(reference, fresh, y0, inputs)
     print(f"== {name} ({len(frame)} samples, loop {elapsed:.1f} s)")
     for r in loop.rounds:
         print(f"   round {r.index}: {r.decision}")
     if loop.refinement is not None:
         print(f"   final model {loop.refinement}")
-    print("   final:", "; ".join(loop.final_model.equations()[1:]))
+    print("   final:", "; ".join(loop.model.equations()[1:]))
     print(f"   fresh record: simulation RMSE {ours:.4g} against {best:.4g} for the true skeleton"
           f" (ratio {ours / best:.2f})", flush=True)
 

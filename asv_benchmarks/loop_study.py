@@ -93,7 +93,7 @@ def run_case(name: str, snr, seed: int) -> dict:
         elapsed = time.perf_counter() - start
         reference = PolyCCRegressor(equations=true_equations).fit(X)
     named = [r.added.effect for r in loop.rounds if r.added is not None]
-    ours = _simulation_error(loop.final_model, fresh, fresh_truth)
+    ours = _simulation_error(loop.model, fresh, fresh_truth)
     best = _simulation_error(reference, fresh, fresh_truth)
     return {
         "case": name, "snr": snr, "seed": seed, "named": named, "control": control,

@@ -51,7 +51,7 @@ fig = plot_loop(loop)
 # ----------
 # The final model, and the truth it was generated from: ``a1 = 1 / mass`` and
 # every force divided by the mass.
-print("\n".join(loop.final_model.equations()))
+print("\n".join(loop.model.equations()))
 print("true: " + truth.equations[1] + " with "
       + ", ".join(f"{a} = {v:g}" for a, v in truth.params.items()))
 print("      mass {mass} kg, viscous {viscous} N s/m, Coulomb {coulomb} N, "

@@ -113,6 +113,10 @@ def test_a_loop_does_not_go_round_in_circles():
     b = Skeleton(["x1_dot = x2", "x2_dot = F - a1 x2 - a7 x1"])
     c = Skeleton(["x1_dot = x2", "x2_dot = F - a1 x2 + a2 x1"])
     assert _structure(a) == _structure(b) != _structure(c)
+    # a term's factors in another order are the same term; another power is not
+    d = Skeleton(["x1_dot = x2", "x2_dot = F - x1 a5 - x2 a1"])
+    e = Skeleton(["x1_dot = x2", "x2_dot = F - a1 x2 - a2 x1^3"])
+    assert _structure(d) == _structure(a) != _structure(e)
 
 
 # -- a limit cycle before an unmeasured drive -------------------------------------------
@@ -251,16 +255,22 @@ def test_the_loop_refines_its_last_skeleton_by_output_error_when_that_simulates_
                                            random_state=0, return_truth=True)
     loop = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), frame,
                           n_bootstrap=0).run(max_rounds=3)  # refined by default
-    assert loop.stopped and loop.model.fit_mode_ == "equation"
+    last = loop.rounds[-1].model
+    assert loop.stopped and last.fit_mode_ == "equation"
     refinement = loop.refinement
     assert refinement.adopted and refinement.after < refinement.before
-    assert loop.final_model is refinement.model and loop.final_model.fit_mode_ == "simulation"
-    assert loop.final_model.skeleton_ == loop.model.skeleton_
+    # the loop's answer has one name: loop.model (final_model says the same)
+    assert loop.model is refinement.model and loop.model.fit_mode_ == "simulation"
+    assert loop.final_model is loop.model and loop.model.skeleton_ == last.skeleton_
     assert "refined by output error" in loop.summary()
+    assert "The loop's answer (loop.model): round" in loop.summary()
+    assert loop.table()["answer"].tolist()[-1] == "loop.model: refitted by output error"
     # asked not to, the loop keeps its last round's model
     plain = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), frame,
                            n_bootstrap=0).run(max_rounds=3, refine=False)
-    assert plain.refinement is None and plain.final_model is plain.model
+    assert plain.refinement is None and plain.model is plain.rounds[-1].model
+    assert plain.final_model is plain.model
+    assert plain.table()["answer"].tolist()[-1] == "loop.model"
     # a model already fitted by output error is its own refinement
     noisy = datasets.make_pendulum(random_state=0, noise=35.0)
     loop = HypothesisLoop(PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = -a1 x2 - a2 x1"]),

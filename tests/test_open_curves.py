@@ -159,4 +159,4 @@ def test_the_loop_finds_the_formula_and_simulates_a_fresh_record_as_the_truth_do
         simulated = model.simulate(t, [-1.0, 0.5], inputs={"F_ext": fresh["F_ext"].to_numpy()})
         return float(np.sqrt(np.mean((simulated["x1"].to_numpy() - fresh["x1"]) ** 2)))
 
-    assert error(loop.final_model) < 2.0 * error(truth)
+    assert error(loop.model) < 2.0 * error(truth)

@@ -51,7 +51,7 @@ def test_the_loop_names_the_overflow_of_both_tanks(seed):
     assert checks[1].before["simulation"] == checks[0].after["simulation"]
     errors = loop.table().x2_rmse
     assert errors.iloc[-1] < 0.6 * errors.iloc[0]
-    final = loop.final_model
+    final = loop.model
     assert set(final.skeleton_.limits) == {"x1", "x2"}
     # the lower rim is fitted where the level stops; the upper one fixes x1's free scale
     assert final.params_[final.skeleton_.limits["x2"][1]] == pytest.approx(13.0, abs=0.05)

@@ -270,7 +270,13 @@ def _symbols(node: Node) -> set[str]:
 
 
 def _parity_of(factors: list[Node], z: str) -> str | None:
-    """``"odd"``, ``"even"`` or None for the product of ``factors`` as a function of ``z``."""
+    """``"odd"``, ``"even"`` or None for the product of ``factors`` as a function of ``z``.
+
+    A factor with a curve of its own (an open curve's ``f1(x2)``) has no
+    parity to promise: None.
+    """
+    if any(isinstance(n, Unknown) for f in factors for n in walk(f)):
+        return None
     params = {n.name: 0.7 for f in factors for n in walk(f) if isinstance(n, Param)}
     points = np.array([0.3, 0.9, 1.7, 2.6])
     values = {}

@@ -13,7 +13,7 @@ from sklearn.base import clone
 from ..exceptions import SimulationError
 from ..measurements.measurement import Measurement
 from ..skeleton import Skeleton
-from ..skeleton.nodes import Param, rename, signed_terms, walk
+from ..skeleton.nodes import Param, product_factors, rename, signed_terms, walk
 from ..skeleton.printer import to_text
 from .diagnose import Diagnosis, Suggestion, diagnose
 
@@ -68,8 +68,8 @@ class Refinement:
         normalised by its spread) of the last round's model and of ``model``,
         each refitted without every fold of the record.
     adopted : bool
-        Whether ``model`` lowered it by at least 1 %: it is then
-        :attr:`HypothesisLoop.final_model`.
+        Whether ``model`` lowered it by at least 1 %: it is then the loop's
+        answer, :attr:`HypothesisLoop.model`.
     folds : str
         How the record was split.
     """
@@ -87,12 +87,16 @@ class Refinement:
 
 
 def _structure(skeleton: Skeleton) -> tuple:
-    """The skeleton's terms per equation and its state limits, parameters unnamed."""
+    """The skeleton's terms per equation and its state limits, parameters unnamed.
+
+    A term's factors are sorted, so that ``x1*a5`` and ``a2*x1`` are one term.
+    """
     out = []
     for eq in skeleton.parsed:
         same = {n.name: "a" for n in walk(eq.rhs) if isinstance(n, Param)}
         out.append((eq.derivative, tuple(sorted(
-            (sign, to_text(rename(node, same))) for sign, node in signed_terms(eq.rhs)))))
+            (sign, "*".join(sorted(to_text(f) for f in product_factors(rename(node, same)))))
+            for sign, node in signed_terms(eq.rhs)))))
     limits = {state: tuple("a" if isinstance(end, str) else end for end in ends)
               for state, ends in skeleton.limits.items()}
     return (*out, tuple(sorted(limits.items())))
@@ -136,8 +140,11 @@ class HypothesisLoop:
         Whether the last round found nothing missing.
     refinement : Refinement or None
         The last skeleton refitted by output error (see :meth:`refine`).
-    final_model : CCRegressor
-        The refinement when it was adopted, else the last round's model.
+    model : CCRegressor or None
+        The loop's answer: the refinement when it was adopted, else the last
+        round's model (that one is always ``rounds[-1].model``).
+    final_model : CCRegressor or None
+        The same as :attr:`model` (the name earlier scripts use).
 
     Examples
     --------
@@ -184,8 +191,22 @@ class HypothesisLoop:
 
     @property
     def model(self):
-        """The model of the last round (None before the first step)."""
-        return self.rounds[-1].model if self.rounds else None
+        """The loop's answer (None before the first step).
+
+        The output-error refinement of the last skeleton when it was adopted
+        (see :meth:`refine`), else the last round's model; the last round's
+        model itself is ``rounds[-1].model``.
+        """
+        if not self.rounds:
+            return None
+        if self.refinement is not None and self.refinement.adopted:
+            return self.refinement.model
+        return self.rounds[-1].model
+
+    @property
+    def final_model(self):
+        """The loop's answer: the same as :attr:`model`."""
+        return self.model
 
     def __repr__(self) -> str:
         state = "stopped" if self.stopped else "running"
@@ -265,7 +286,8 @@ class HypothesisLoop:
             Most rounds in all (the starting skeleton counts as one).
         refine : bool, default=True
             Then :meth:`refine` the last skeleton by output error: it becomes
-            :attr:`final_model` when it simulates held-out data better.
+            the loop's answer, :attr:`model`, when it simulates held-out data
+            better.
 
         Returns
         -------
@@ -297,7 +319,7 @@ class HypothesisLoop:
         skeleton fitted to its simulated trajectories often follows data it
         has not seen better still. Both fits are judged alike, refitted
         without each held-out fold and simulated over the first round's
-        horizon; the output-error fit becomes :attr:`final_model` when it
+        horizon; the output-error fit becomes the loop's answer, :attr:`model`, when it
         lowers that error by at least 1 %. A model already fitted by output
         error is left as it is (None is returned).
 
@@ -334,14 +356,26 @@ class HypothesisLoop:
         self.refinement = Refinement(refined, before[key], after[key], bool(adopted), folds)
         return self.refinement
 
-    @property
-    def final_model(self):
-        """The loop's answer: the output-error refinement when adopted, else :attr:`model`."""
-        if self.refinement is not None and self.refinement.adopted:
-            return self.refinement.model
-        return self.model
-
     # -- reading -------------------------------------------------------------------------
+    def answer(self) -> str:
+        """Which model :attr:`model` is, in words (the summary, the table and the HTML say it)."""
+        if not self.rounds:
+            return "none yet (the loop has not run)"
+        last = self.rounds[-1].index
+        refinement = self.refinement
+        if refinement is not None and refinement.adopted:
+            return f"round {last}'s skeleton {refinement}"
+        if refinement is not None:
+            return f"round {last}'s model (its skeleton {refinement})"
+        return f"round {last}'s model"
+
+    def _answer_mark(self, index: int) -> str:
+        if index != self.rounds[-1].index:
+            return ""
+        if self.refinement is not None and self.refinement.adopted:
+            return "loop.model: refitted by output error"
+        return "loop.model"
+
     def table(self) -> pd.DataFrame:
         """One row per round's model: size, errors, what its diagnosis suggested, the decision.
 
@@ -350,7 +384,9 @@ class HypothesisLoop:
         round's lacked (None for round 0); ``suggests`` and ``move`` what this
         round's diagnosis found missing (the next round ``adds`` it), with
         ``held_out_change``, its change of the held-out error; ``decision``
-        says it in words. Besides ``simulation_rmse`` (every state pooled,
+        says it in words; ``answer`` marks the round whose skeleton gives the
+        loop's answer, :attr:`model` (and whether that was refitted by output
+        error). Besides ``simulation_rmse`` (every state pooled,
         whatever their units), each measured state has its own
         ``NAME_rmse`` and ``NAME_nrmse`` (simulated over the common horizon);
         ``table.attrs["units"]`` gives their units.
@@ -379,6 +415,7 @@ class HypothesisLoop:
                 "held_out_change": math.nan if held is None else held.change(),
                 "implausible": len(d.implausible),
                 "decision": r.decision,
+                "answer": self._answer_mark(r.index),
             })
             rows.append(row)
         table = pd.DataFrame(rows).set_index("round")
@@ -450,8 +487,9 @@ class HypothesisLoop:
             lines.append(f"    -> {r.decision}")
             if r.added is not None and r.added.held_out is not None:
                 lines.append(f"       ({r.added.held_out})")
-        if self.refinement is not None:
-            lines.append(f"Final model {self.refinement}.")
+        lines.append(f"The loop's answer (loop.model): {self.answer()}.")
+        if self.refinement is not None and self.refinement.adopted:
+            lines.extend(f"    {text}" for text in self.refinement.model.equations())
         if not self.stopped:
             lines.append("The loop can go on: step() or run().")
         return "\n".join(lines)

@@ -1,0 +1,70 @@
+"""The loop's acceptance figures, checked on every run: right, complete, no false alarm.
+
+A reduced form of ``asv_benchmarks/loop_study.py``: four hidden-effect cases
+and two controls, one seed, position only (``t, x1, F_ext``), 40 dB on the
+position, the loop from defaults. Per case:
+
+right
+    the first effect the loop names is the hidden one; on a control the loop
+    names nothing;
+complete
+    the loop's answer simulates a fresh record (another release and forcing
+    frequency) within twice the error of the true skeleton fitted alike.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, SimulationError, datasets
+
+LINEAR = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
+# case -> hidden effects (with their strengths); the controls hide nothing, or start
+# from the true skeleton
+CASES = {
+    "cubic_stiffness": {"cubic_stiffness": None},
+    "saturation": {"saturation": None},
+    "dead_zone": {"dead_zone": {"a1": 2.0, "a2": 0.8}},
+    "pendulum": {"pendulum": None},
+    "control_linear": {},
+    "control_cubic": {"cubic_stiffness": None},
+}
+
+
+def _record(hidden, *, fresh: bool):
+    options = dict(n_samples=1500, t_span=(0.0, 60.0))
+    if fresh:
+        options.update(y0=(2.0, 0.0), omega=1.3, amplitude=0.5)
+    return datasets.make_oscillator(hidden=dict(hidden), noise=40.0, noise_columns=["x1"],
+                                    random_state=1000 if fresh else 0, return_truth=True,
+                                    **options)
+
+
+def _error(model, frame, truth) -> float:
+    t = frame["t"].to_numpy()
+    try:
+        simulated = model.simulate(t, list(truth.y0), inputs={"F_ext": frame["F_ext"].to_numpy()})
+    except SimulationError:
+        return np.inf
+    return float(np.sqrt(np.mean((simulated["x1"].to_numpy() - frame["x1"].to_numpy()) ** 2)))
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_the_loop_is_right_complete_and_quiet(case):
+    hidden = CASES[case]
+    frame, truth = _record(hidden, fresh=False)
+    fresh, fresh_truth = _record(hidden, fresh=True)
+    X = frame[["t", "x1", "F_ext"]]
+    start = truth.parametric_equations if case == "control_cubic" else LINEAR
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = HypothesisLoop(PolyCCRegressor(equations=start), X).run(max_rounds=5)
+        reference = PolyCCRegressor(equations=truth.parametric_equations).fit(X)
+    named = [r.added.effect for r in loop.rounds if r.added is not None]
+    if case.startswith("control"):
+        assert named == [], f"false alarm on {case}: {named}"
+    else:
+        assert named and named[0] in hidden, f"{case}: the loop named {named}"
+    ours, best = _error(loop.model, fresh, fresh_truth), _error(reference, fresh, fresh_truth)
+    assert ours <= 2 * best, f"{case}: fresh-record error {ours:.4g}, the truth {best:.4g}"
