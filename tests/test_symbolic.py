@@ -43,7 +43,8 @@ def test_one_dimensional_tanh_recovered_exactly():
                        atol=1e-6)
     table = model.pareto_["f1"]
     assert table["chosen"].sum() == 1
-    assert list(table.columns) == ["complexity", "search_loss", "loss", "expression", "chosen"]
+    assert list(table.columns) == ["complexity", "nesting", "search_loss", "loss",
+                                   "expression", "chosen"]
 
 
 def test_duffing_expressions_match_the_truth(duffing):

@@ -12,6 +12,7 @@ then proposes a formula for it, ready to fit.
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from dataclasses import dataclass, field
 
@@ -19,6 +20,7 @@ import numpy as np
 import pandas as pd
 import sympy
 
+from ..estimators._readable import Readability
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import Node, Number, Param, Symbol, Unknown, product_factors, walk
@@ -241,9 +243,9 @@ _SYMPY_NAMES = {"sin": "sin", "cos": "cos", "tan": "tan", "tanh": "tanh", "sinh"
 def formula_text(expression: sympy.Expr, variable: sympy.Symbol, name: str) -> tuple[str, list]:
     """``expression`` in the skeleton language, each float a parameter ``a1, a2, ...``.
 
-    Returns the text (in ``name`` for ``variable``) and the parameters'
-    values in the order of their names. Integers and rationals (exponents)
-    stay numbers.
+    Returns the text (in ``name`` for ``variable``), its parameters numbered
+    in reading order, and their values in the order of their names.
+    Integers and rationals (exponents) stay numbers.
     """
     floats = sorted(expression.atoms(sympy.Float), key=lambda c: (float(c), str(c)))
     names = {c: f"a{k + 1}" for k, c in enumerate(floats)}
@@ -272,7 +274,17 @@ def formula_text(expression: sympy.Expr, variable: sympy.Symbol, name: str) -> t
         raise ValueError(f"the expression {e} has no form in the skeleton language")
 
     text = to_text(parse_expression(go(expression), kind="term"))
-    return text, [float(c) for c in floats]
+    return _in_reading_order(text, [float(c) for c in floats])
+
+
+def _in_reading_order(text: str, values: list[float]) -> tuple[str, list[float]]:
+    """The parameters ``a<k>`` of ``text`` renamed ``a1, a2, ...`` as they are read."""
+    order: dict[int, int] = {}
+    for match in re.finditer(r"\ba(\d+)\b", text):
+        order.setdefault(int(match.group(1)), len(order) + 1)
+    renamed = re.sub(r"\ba(\d+)\b", lambda m: f"a{order[int(m.group(1))]}", text)
+    by_new = sorted(order, key=order.get)
+    return renamed, [values[old - 1] for old in by_new]
 
 
 #: the symbolic search behind a proposed formula (small: a learned curve is smooth)
@@ -282,15 +294,21 @@ FORMULA_SEARCH = dict(binary_operators=("+", "-", "*", "/"),
 #: largest expression sizes searched; the data choose among what each finds (a search of
 #: the learned curve alone rewards fitting its wiggles with ever longer expressions)
 FORMULA_SIZES = (7, 10, 13)
+#: what a proposed formula may look like: no function of a function, at most 20 nodes
+FORMULA_READABILITY = Readability(max_nesting=1, max_complexity=20)
 
 
 def formula_candidates(candidate: Candidate, random_state: int = 0) -> list[Candidate]:
     """Formulas for the candidate's free curve, each a candidate of its own.
 
     The learned curve is searched by the symbolic engine at each size of
-    :data:`FORMULA_SIZES`; each distinct expression becomes a parametric
-    term in place of the same terms, its numbers the refit's starting
-    values. Empty when the engine is not installed or finds nothing.
+    :data:`FORMULA_SIZES`, each search choosing its expression by the
+    readability rule of :func:`~sklearn_pycc.estimators.symbolic.select`;
+    an expression beyond :data:`FORMULA_READABILITY` (a function of a
+    function, too many nodes) is never proposed. Each distinct expression
+    becomes a parametric term in place of the same terms, its numbers the
+    refit's starting values. Empty when the engine is not installed or finds
+    nothing readable.
     """
     from ..estimators import to_symbolic
 
@@ -304,9 +322,13 @@ def formula_candidates(candidate: Candidate, random_state: int = 0) -> list[Cand
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 converted = to_symbolic(candidate.refit, random_state=random_state,
-                                        maxsize=size, **FORMULA_SEARCH)
-            text, values = formula_text(converted.functions_[name].to_sympy(symbol), symbol,
-                                        argument)
+                                        maxsize=size,
+                                        max_nesting=FORMULA_READABILITY.max_nesting,
+                                        **FORMULA_SEARCH)
+            expression = converted.functions_[name].to_sympy(symbol)
+            if not FORMULA_READABILITY.allows(expression):
+                continue
+            text, values = formula_text(expression, symbol, argument)
         except (ImportError, ValueError, TypeError, AttributeError, KeyError,
                 ArithmeticError, RuntimeError):
             continue

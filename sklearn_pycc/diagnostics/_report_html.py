@@ -98,9 +98,8 @@ def loop_page(loop, title: str = "Hypothesis loop") -> str:
         body.append("<p>The fitted model:</p>")
         body.append(equations_html(r.model))
         body.append(diagnosis_html(r.diagnosis))
-    if loop.refinement is not None:
-        body.append("<h2>The final model</h2>")
-        body.append(f"<p>The last skeleton {html.escape(str(loop.refinement))}.</p>")
-        if loop.refinement.adopted:
-            body.append(equations_html(loop.refinement.model))
+    body.append("<h2>The loop's answer (<code>loop.model</code>)</h2>")
+    body.append(f"<p>{html.escape(loop.answer())}.</p>")
+    if loop.refinement is not None and loop.refinement.adopted:
+        body.append(equations_html(loop.refinement.model))
     return page(title, "\n".join(body))

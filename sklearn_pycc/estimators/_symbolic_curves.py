@@ -17,6 +17,7 @@ import numpy as np
 import sympy
 
 from ..skeleton.curves import Curve
+from ._readable import rounded
 
 __all__ = ["VARIABLE", "SymbolicCurve", "Template", "constants_of", "with_constants"]
 
@@ -112,8 +113,9 @@ def with_constants(expression: sympy.Expr) -> tuple[sympy.Expr, list[sympy.Symbo
     """
     floats = constants_of(expression)
     symbols = [sympy.Symbol(f"c{k}") for k in range(len(floats))]
-    return (expression.xreplace(dict(zip(floats, symbols))), symbols,
-            np.array([float(c) for c in floats]))
+    with sympy.evaluate(False):  # functions of symbols evaluate slowly and gain nothing
+        shape = expression.xreplace(dict(zip(floats, symbols)))
+    return shape, symbols, np.array([float(c) for c in floats])
 
 
 class SymbolicCurve(Curve):
@@ -179,10 +181,12 @@ class SymbolicCurve(Curve):
             self.expression.atoms(sympy.Symbol, sympy.Number))
 
     def text(self, variable: str, precision: int = 6) -> str:
-        """The expression as text, written in ``variable``."""
-        rounded = self.expression.xreplace({c: sympy.Float(c, precision)
-                                            for c in self.expression.atoms(sympy.Float)})
-        return str(rounded.subs(VARIABLE, sympy.Symbol(variable)))
+        """The expression as text, written in ``variable``, to ``precision`` digits.
+
+        A number that rounds to an integer is written as one (``x`` for ``1.0*x``).
+        """
+        shown = rounded(self.expression, precision)
+        return str(shown.xreplace({VARIABLE: sympy.Symbol(variable)}))
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)

@@ -17,6 +17,7 @@ from .._random import seeds
 from ..exceptions import GaugeWarning
 from ..skeleton import Skeleton
 from ._basis import ZeroCurve
+from ._readable import Readability
 from ._setup import build_skeleton, gauge_skeleton, parity_of, points_of
 from ._symbolic_curves import SymbolicCurve, Template
 from ._symbolic_engines import make_engine
@@ -88,6 +89,7 @@ def _rms(values: np.ndarray) -> float:
     "binary_operators": [list, tuple],
     "unary_operators": [list, tuple],
     "maxsize": [Interval(Integral, 1, None, closed="left")],
+    "max_nesting": [Interval(Integral, 0, None, closed="left"), None],
     "population_size": [Interval(Integral, 1, None, closed="left")],
     "generations": [Interval(Integral, 1, None, closed="left")],
     "n_points": [Integral],
@@ -103,6 +105,7 @@ def to_symbolic(
     binary_operators: Sequence[str] = ("+", "-", "*"),
     unary_operators: Sequence[str] = ("tanh", "sin", "cos"),
     maxsize: int = 20,
+    max_nesting: int | None = None,
     population_size: int = 500,
     generations: int = 50,
     n_points: int = 200,
@@ -137,7 +140,7 @@ def to_symbolic(
         ``fit`` (``t`` needed when ``y`` is None).
     y : DataFrame or array, optional
         Measured derivatives, as for ``fit``.
-    engine, binary_operators, unary_operators, maxsize, population_size, generations
+    engine, binary_operators, unary_operators, maxsize, max_nesting, population_size, generations
         The search, as for :class:`SymbolicCCRegressor`.
     n_points : int, default=200
         Samples of each learned curve given to the search.
@@ -165,7 +168,8 @@ def to_symbolic(
     n_points = check_n_points(n_points)
     target = SymbolicCCRegressor(
         **shared, engine=engine, binary_operators=binary_operators,
-        unary_operators=unary_operators, maxsize=maxsize, population_size=population_size,
+        unary_operators=unary_operators, maxsize=maxsize, max_nesting=max_nesting,
+        population_size=population_size,
         generations=generations, n_fit_points=n_points, model_selection=model_selection,
         engine_options=engine_options, random_state=random_state)
     search = make_engine(engine)
@@ -210,7 +214,8 @@ def to_symbolic(
                 return None
             return loss, columns, trial_params
 
-        chosen = choose_candidate(found, template, domain, monotone, score, model_selection)
+        chosen = choose_candidate(found, template, domain, monotone, score, model_selection,
+                                  Readability(max_nesting=max_nesting))
         if chosen is None:
             raise ValueError(f"the search found no finite expression for {name}"
                              + (f" that is {monotone}" if monotone else "")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from numbers import Integral, Real
 
 import numpy as np
@@ -16,6 +17,7 @@ from ..exceptions import SkeletonError
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import Unknown, walk
 from ._basis import ZeroCurve
+from ._readable import Readability, nesting, tidy, without_negligible
 from ._setup import FitResult, Problem, active_residuals
 from ._symbolic_curves import VARIABLE, SymbolicCurve, Template, with_constants
 from ._symbolic_engines import (
@@ -37,13 +39,30 @@ MONOTONE_POINTS = 4001
 PRUNE_TOLERANCE = 1e-9
 
 
-def select(candidates: list[tuple[Candidate, float]], rule: str) -> int:
+def select(candidates: list[tuple[Candidate, float]], rule: str,
+           readability: Readability | None = None) -> int:
     """Index of the chosen candidate among ``(candidate, loss)`` pairs.
 
-    ``"accuracy"`` takes the lowest loss. ``"best"`` (PySR's rule) takes,
-    among the candidates whose loss is within 1.5 times the lowest, the one
-    whose loss fell most steeply (in log) per unit of added complexity.
+    Only the candidates whose expression ``readability`` allows take part
+    (by default no function nested in another; when none is allowed, the
+    least nested). Among them ``"accuracy"`` takes the lowest loss and
+    ``"best"`` (PySR's rule) the candidate whose loss fell most steeply (in
+    log) per unit of added complexity, of those within 1.5 times the lowest.
+    Last, a candidate whose loss ties with the chosen one's (within
+    ``readability.tolerance``) and reads simpler wins: catalogue-like shapes
+    first, then fewer nodes (see ``sklearn_pycc.estimators._readable``).
     """
+    readability = Readability() if readability is None else readability
+    expressions = [candidate.expression for candidate, _ in candidates]
+    losses = [loss for _, loss in candidates]
+    allowed = readability.admissible(expressions)
+    k = allowed[_by_rule([candidates[j] for j in allowed], rule)]
+    return readability.settle(expressions, losses, k, allowed, VARIABLE,
+                              sizes=[candidate.complexity for candidate, _ in candidates])
+
+
+def _by_rule(candidates: list[tuple[Candidate, float]], rule: str) -> int:
+    """Index of the candidate ``rule`` ("best" or "accuracy") chooses, caps aside."""
     losses = np.array([loss for _, loss in candidates])
     if rule == "accuracy":
         return int(np.argmin(losses))
@@ -220,50 +239,70 @@ class _Curve:
 
         self._g_of = g_of
 
+    def drop_negligible(self) -> None:
+        """Drop the numbers of ``g`` that do nothing over the domain (and its mirror).
+
+        The mirror counts only for an odd or even curve, which reads ``g(-x)``.
+        """
+        grid = np.linspace(self.domain[0], self.domain[1], 101)
+        if self.template.parity is not None:
+            grid = np.concatenate([grid, -grid])
+        kept = without_negligible(self.values, lambda c: self._g_of(grid, c))
+        if np.count_nonzero(kept) < np.count_nonzero(self.values):
+            self.set_g(tidy(self.shape.xreplace({
+                s: sympy.Float(v) if v else sympy.Integer(0)
+                for s, v in zip(self.symbols, kept)})))
+
     def function(self, values: np.ndarray | None = None):
         c = self.values if values is None else values
         return self.template.numeric(lambda x: self._g_of(np.asarray(x, dtype=float), c))
 
     def expression(self, values: np.ndarray | None = None) -> sympy.Expr:
+        """``T(g)`` with its numbers, written with as few numbers and nodes as algebra allows."""
         c = self.values if values is None else values
         g = self.shape.xreplace({s: sympy.Float(v) for s, v in zip(self.symbols, c)})
-        return self.template.symbolic(g)
+        return tidy(self.template.symbolic(g))
 
 
 def choose_candidate(found, template: Template, domain: tuple[float, float],
-                     monotone: str | None, score, rule: str):
+                     monotone: str | None, score, rule: str,
+                     readability: Readability | None = None):
     """Turn a search's candidates into curves, score them, and choose one.
 
-    Each candidate becomes a curve under ``template`` (parity and point
-    values) over ``domain``; a curve that breaks the ``monotone`` shape asked
-    for is dropped. ``score(curve)`` returns ``(loss, columns, payload)``,
-    or None to drop the candidate: the loss decides (by :func:`select` with
-    ``rule``), the columns go into the Pareto table, the payload comes back
-    with the choice. Shared by :class:`SymbolicCCRegressor` and
-    :func:`~sklearn_pycc.to_symbolic`.
+    Each candidate, its numbers that do nothing over ``domain`` dropped and
+    the rest tidied (:func:`._readable.tidy`), becomes a curve under
+    ``template`` (parity and point values) over ``domain``; a curve that
+    breaks the ``monotone`` shape asked for is dropped. ``score(curve)``
+    returns ``(loss, columns, payload)``, or None to drop the candidate: the
+    loss decides (by :func:`select` with ``rule`` and ``readability``,
+    judged on the curve's expression), the columns go into the Pareto table,
+    the payload comes back with the choice. Shared by
+    :class:`SymbolicCCRegressor` and :func:`~sklearn_pycc.to_symbolic`.
 
     Returns
     -------
     (curve, payload, table) or None
         The chosen curve, its payload and the table of every scored
-        candidate (``complexity``, ``search_loss``, the columns,
+        candidate (``complexity``, ``nesting``, ``search_loss``, the columns,
         ``expression``, ``chosen``), by complexity; None when no candidate
         scored.
     """
     scored = []
     for candidate in found:
-        curve = _Curve(candidate.expression, template, domain)
+        curve = _Curve(tidy(candidate.expression), template, domain)
+        curve.drop_negligible()
         if not keeps_monotone(curve.function(), domain, monotone):
             continue
         outcome = score(curve)
         if outcome is not None:
-            scored.append((candidate, curve, *outcome))
+            scored.append((replace(candidate, expression=curve.expression()), curve, *outcome))
     if not scored:
         return None
-    k = select([(candidate, loss) for candidate, _, loss, *_ in scored], rule)
-    rows = [{"complexity": candidate.complexity, "search_loss": candidate.loss, **columns,
-             "expression": curve.expression(), "chosen": j == k}
-            for j, (candidate, curve, _, columns, _) in enumerate(scored)]
+    k = select([(candidate, loss) for candidate, _, loss, *_ in scored], rule, readability)
+    rows = [{"complexity": candidate.complexity, "nesting": nesting(candidate.expression),
+             "search_loss": candidate.loss, **columns, "expression": candidate.expression,
+             "chosen": j == k}
+            for j, (candidate, _, _, columns, _) in enumerate(scored)]
     table = pd.DataFrame(rows).sort_values("complexity", ignore_index=True)
     _, curve, _, _, payload = scored[k]
     return curve, payload, table
@@ -276,9 +315,10 @@ class SymbolicBackend(Backend):
     the operators are checked here, against the engine's tables.
     """
 
-    settings = ("engine", "binary_operators", "unary_operators", "maxsize", "population_size",
-                "generations", "max_iterations", "tol", "n_fit_points", "model_selection",
-                "start_degree", "engine_options", "param_init", "random_state")
+    settings = ("engine", "binary_operators", "unary_operators", "maxsize", "max_nesting",
+                "population_size", "generations", "max_iterations", "tol", "n_fit_points",
+                "model_selection", "start_degree", "engine_options", "param_init",
+                "random_state")
 
     def __init__(self, **settings) -> None:
         super().__init__(**settings)
@@ -374,7 +414,7 @@ class SymbolicBackend(Backend):
             return (loss, {"loss": loss}, None) if np.isfinite(loss) else None
 
         chosen = choose_candidate(found, template, domain, problem.monotone(name), score,
-                                  self.model_selection)
+                                  self.model_selection, Readability(max_nesting=self.max_nesting))
         if chosen is None:
             return None
         curve, _, pareto[name] = chosen
@@ -504,6 +544,14 @@ class SymbolicCCRegressor(CCRegressor):
         "sinh", "cosh", "atan", "tan"``.
     maxsize : int, default=20
         Largest expression size (nodes) the engine considers.
+    max_nesting : int or None, default=None
+        Most elementary functions nested on one path of a chosen expression:
+        1 allows ``tanh(a x)`` and ``exp(a x) cos(b x)`` but not
+        ``sin(exp(a x))`` (integer powers do not count). Deeper candidates
+        are passed over (when a search found nothing else, the least nested
+        is taken). None: any, as the search finds them (a composition such as
+        ``tanh(a tanh(b x))`` may be what follows a curve best with the
+        operators given); the diagnosis's formula proposals use 1.
     population_size : int, default=500
         Population of the engine's search.
     generations : int, default=50
@@ -518,10 +566,13 @@ class SymbolicCCRegressor(CCRegressor):
         equal-count bins of the curve's argument (the paper's
         ``N_fit_points``).
     model_selection : {"best", "accuracy"}, default="best"
-        How the expression is chosen from each search's Pareto front:
-        ``"accuracy"`` takes the lowest loss; ``"best"`` the steepest fall of
-        the loss per unit of complexity among those within 1.5 times the
-        lowest.
+        How the expression is chosen from each search's Pareto front, among
+        the candidates within ``max_nesting``: ``"accuracy"`` takes the lowest
+        loss; ``"best"`` the steepest fall of the loss per unit of complexity
+        among those within 1.5 times the lowest. Then a candidate whose loss
+        is within 2 % of the chosen one's and that reads simpler takes its
+        place: polynomials and ``tanh``, ``sign``, ``abs``, ``sqrt`` of
+        ``a x`` before other shapes, then the fewest nodes.
     start_degree : int or None, default=7
         Degree of the polynomial fit that gives the first isolated targets;
         None starts from zero curves.
@@ -554,7 +605,7 @@ class SymbolicCCRegressor(CCRegressor):
         Each curve in its argument (``x2`` for ``f1(x2)``; ``u`` when the
         argument is not a single variable).
     pareto_ : dict of str -> DataFrame
-        The last search's candidates per curve: ``complexity``,
+        The last search's candidates per curve: ``complexity``, ``nesting``,
         ``search_loss`` (against the isolated target), ``loss`` (the
         model's equation loss with the candidate in place), ``expression``
         and ``chosen``.
@@ -575,6 +626,7 @@ class SymbolicCCRegressor(CCRegressor):
         "binary_operators": [list, tuple],
         "unary_operators": [list, tuple],
         "maxsize": [Interval(Integral, 1, None, closed="left")],
+        "max_nesting": [Interval(Integral, 0, None, closed="left"), None],
         "population_size": [Interval(Integral, 1, None, closed="left")],
         "generations": [Interval(Integral, 1, None, closed="left")],
         "max_iterations": [Interval(Integral, 1, None, closed="left")],
@@ -591,7 +643,8 @@ class SymbolicCCRegressor(CCRegressor):
     def __init__(self, *, equations=None, constraints=None, engine: str = "operon",
                  binary_operators: Sequence[str] = ("+", "-", "*"),
                  unary_operators: Sequence[str] = ("tanh", "sin", "cos"),
-                 maxsize: int = 20, population_size: int = 500, generations: int = 50,
+                 maxsize: int = 20, max_nesting: int | None = None,
+                 population_size: int = 500, generations: int = 50,
                  max_iterations: int = 4, tol: float = 1e-3, n_fit_points: int = 200,
                  model_selection: str = "best", start_degree: int | None = 7,
                  engine_options: Mapping | None = None, param_init: Mapping | None = None,
@@ -605,6 +658,7 @@ class SymbolicCCRegressor(CCRegressor):
         self.binary_operators = binary_operators
         self.unary_operators = unary_operators
         self.maxsize = maxsize
+        self.max_nesting = max_nesting
         self.population_size = population_size
         self.generations = generations
         self.max_iterations = max_iterations
