@@ -5,6 +5,8 @@ matplotlib is imported when a figure is drawn, never on ``import sklearn_pycc``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import pandas as pd
 
@@ -18,6 +20,18 @@ def _pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def label_axis(ax, axis: str, name: str, units: Mapping | None = None) -> None:
+    r"""Label ``ax``'s ``axis`` (``"x"`` or ``"y"``) ``name [unit]``, as written.
+
+    A unit (or name) is the user's text: it is never read as mathtext, so
+    ``$\frac{m}{s$`` is drawn as those characters rather than failing
+    when the figure is drawn.
+    """
+    unit = (units or {}).get(name)
+    text = f"{name} [{unit}]" if unit else str(name)
+    getattr(ax, f"set_{axis}label")(text, parse_math=False)
 
 
 def plot_curves(model, *, level="auto", truth=None, n: int = 200, domain=None):
@@ -140,8 +154,7 @@ def _open_curve_figure(plt, report):
     if "formula" in frame.columns:
         ax.plot(x, frame["formula"], color="C3", lw=1.2, ls=":",
                 label=f"proposed: {best.formula}")
-    unit = getattr(report, "units", {}).get(variable)
-    ax.set_xlabel(f"{variable} [{unit}]" if unit else variable)
+    label_axis(ax, "x", variable, getattr(report, "units", {}))
     per = (f" per unit of {best.variable.split(', ')[-1]}"
            if best.effect == "free_damping_curve" else "")
     ax.set_ylabel(f"subtracted from {best.equation}{per}")
@@ -190,8 +203,7 @@ def _trajectory_figure(plt, report):
             for row in report.windows.itertuples():
                 ax.axvspan(row.start, row.end, color="C1" if row.note == "" else "C3",
                            alpha=0.15, lw=0)
-        unit = getattr(report, "units", {}).get(state)
-        ax.set_ylabel(f"{state} [{unit}]" if unit else state)
+        label_axis(ax, "y", state, getattr(report, "units", {}))
     if zoom is not None:
         start, end = zoom
         inside = (frame["t"] >= start) & (frame["t"] <= end)
@@ -215,9 +227,8 @@ def _trajectory_figure(plt, report):
         handles.append(Patch(color="C1", alpha=0.3, label="largest errors"))
         if (report.windows.note != "").any():
             handles.append(Patch(color="C3", alpha=0.3, label="divergence"))
-    time_unit = getattr(report, "units", {}).get("t")
     for ax in axes[-1]:
-        ax.set_xlabel(f"t [{time_unit}]" if time_unit else "t")
+        label_axis(ax, "x", "t", getattr(report, "units", {}))
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize="small",
                frameon=False)
     title = "Measured and simulated states"
@@ -293,8 +304,7 @@ def _residual_figure(plt, report):
                         label=f"change of the model refitted without {best.term}")
         ax.axhline(0.0, color="k", lw=0.6)
         ax.legend(fontsize="small", markerscale=4, loc="best")
-        unit = getattr(report, "units", {}).get(variable)
-        ax.set_xlabel(f"{variable} [{unit}]" if unit else variable)
+        label_axis(ax, "x", variable, getattr(report, "units", {}))
         ax.set_ylabel(f"{name}: measured - model")
         ax.set_title(name)
     if best is None:
@@ -359,9 +369,8 @@ def _map_figure(plt, report):
         fig.colorbar(mesh, ax=ax, label=f"mean residual of {m.equation} (0: white)")
         ax.set_xlim(m.x_edges[0], m.x_edges[-1])
         ax.set_ylim(m.y_edges[0], m.y_edges[-1])
-        units = getattr(report, "units", {})
-        ax.set_xlabel(f"{m.x} [{units[m.x]}]" if units.get(m.x) else m.x)
-        ax.set_ylabel(f"{m.y} [{units[m.y]}]" if units.get(m.y) else m.y)
+        label_axis(ax, "x", m.x, getattr(report, "units", {}))
+        label_axis(ax, "y", m.y, getattr(report, "units", {}))
         ax.set_title(m.equation)
         # a map is narrow: few ticks, so that long labels (-0.075, in metres) stay apart
         ax.xaxis.set_major_locator(MaxNLocator(nbins=5))
@@ -459,9 +468,10 @@ def plot_comparison(table: pd.DataFrame):
         hx.legend(fontsize="small", loc="lower left")
         split = table.attrs.get("held_out")
         hx.set_title(f"Held out: {split}" if split else "On data each fit did not see",
-                     fontsize="medium")
+                     fontsize="medium", parse_math=False)
     for a in axes[0]:
-        a.set_xticks(positions, labels, rotation=20, ha="right")
+        # the skeletons' names are the user's: drawn as written, never as mathtext
+        a.set_xticks(positions, labels, rotation=20, ha="right", parse_math=False)
         a.set_xlim(-0.5, len(labels) - 0.5)
         a.margins(y=0.25)
     fig.suptitle("Watch the error fall")

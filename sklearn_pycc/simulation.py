@@ -21,8 +21,9 @@ from scipy import integrate
 from ._bandlimited import bandlimited_slopes
 from .exceptions import SimulationError
 
-__all__ = ["DEFAULT_MAX_STEPS", "INPUT_HOLDS", "Diverged", "InputSignals", "check_time_grid",
-           "fitted_hold", "given_hold", "integrate_sampled", "integrate_system", "progress_bar"]
+__all__ = ["DEFAULT_MAX_STEPS", "INPUT_HOLDS", "STEP_BUDGET", "Diverged", "InputSignals",
+           "check_hold", "check_time_grid", "fitted_hold", "given_hold", "integrate_sampled",
+           "integrate_system", "progress_bar", "requested_hold", "sampled_step_limit"]
 
 _SOLVERS = {
     "LSODA": integrate.LSODA,
@@ -36,6 +37,20 @@ _SOLVERS = {
 
 #: default limit on solver steps in one simulation (see :func:`integrate_system`)
 DEFAULT_MAX_STEPS = 500_000
+#: the most steps the sampled-input integrator takes by default, however long the record
+#: (20 to 70 microseconds a step: a few minutes on one core); a longer record is simulated
+#: in pieces, or with an explicit ``max_steps``
+STEP_BUDGET = 5_000_000
+
+
+def sampled_step_limit(n_samples: int) -> int:
+    """Default ``max_steps`` of :func:`integrate_sampled` for a record of ``n_samples``.
+
+    Fifty steps a sample (a long record earns its steps), at least
+    :data:`DEFAULT_MAX_STEPS` and at most :data:`STEP_BUDGET`, so that a
+    model chattering on a long record is stopped in minutes, not hours.
+    """
+    return min(STEP_BUDGET, max(DEFAULT_MAX_STEPS, 50 * int(n_samples)))
 
 
 class Diverged(ArithmeticError):
@@ -55,6 +70,27 @@ def given_hold(estimator) -> str:
 def fitted_hold(model) -> str:
     """The input hold a fitted model used (``input_hold_``), else the one it was given."""
     return getattr(model, "input_hold_", None) or given_hold(model)
+
+
+def requested_hold(model, input_hold) -> str:
+    """The hold a call on ``model`` asks for: ``"auto"`` is the one it was fitted with.
+
+    Raises
+    ------
+    ValueError
+        For anything but ``"auto"`` or one of :data:`INPUT_HOLDS`, naming them.
+    """
+    if isinstance(input_hold, str) and input_hold == "auto":
+        return fitted_hold(model)
+    check_hold(input_hold, allowed=("auto", *INPUT_HOLDS))
+    return input_hold
+
+
+def check_hold(hold, allowed: Sequence[str] = INPUT_HOLDS) -> None:
+    """Refuse an input hold that is not one of ``allowed``, naming them."""
+    if not isinstance(hold, str) or hold not in allowed:
+        raise ValueError(f"input_hold must be one of {', '.join(map(repr, allowed))}, "
+                         f"got {hold!r}")
 
 
 class _Sampled:
@@ -153,8 +189,7 @@ class InputSignals:
 
     def __init__(self, names: Sequence[str], inputs: Mapping | None, t: np.ndarray,
                  hold: str = "bandlimited") -> None:
-        if hold not in INPUT_HOLDS:
-            raise ValueError(f"input_hold must be one of {INPUT_HOLDS}, got {hold!r}")
+        check_hold(hold)
         self.hold = hold
         #: sample interval the integrator is in (None: search for it)
         self.interval: int | None = None
@@ -414,6 +449,16 @@ def _stiff_interval(fun, start: float, end: float, y: list, rtol: float, atol: f
     return solver.y.tolist(), used
 
 
+def _too_long(n_samples: int, max_steps: int) -> str:
+    """Why a record of ``n_samples`` cannot be simulated within ``max_steps``, and what to do."""
+    return (f"a record of {n_samples:,} samples needs at least one solver step per sample, "
+            f"more than the step limit of {max_steps:,} (by default at most "
+            f"STEP_BUDGET={STEP_BUDGET:,} steps, a few minutes on one core, however long the "
+            "record): simulate it in pieces of fewer samples, each starting (y0) from the "
+            "states of the last row of the piece before, or pass a larger max_steps (None "
+            "removes the limit)")
+
+
 def integrate_sampled(
     fun: Callable[[float, list], Sequence[float]],
     t: np.ndarray,
@@ -437,7 +482,10 @@ def integrate_sampled(
     finished by LSODA. ``fun`` takes the state as a list of floats (see
     :meth:`~sklearn_pycc.skeleton.system.CompiledSystem.make_rhs`). Errors
     and limits are those of :func:`integrate_system`; ``progress(k)`` is
-    called as samples are reached.
+    called as samples are reached. Every sample takes a step at least, so a
+    record of more samples than ``max_steps`` is refused before the first
+    step (its :class:`~sklearn_pycc.SimulationError` says how to simulate it
+    in pieces).
     """
     if max_steps is not None and (not isinstance(max_steps, numbers.Integral)
                                   or isinstance(max_steps, bool) or max_steps < 1):
@@ -458,6 +506,8 @@ def integrate_sampled(
         frame.insert(0, "t", t[:reached + 1])
         return SimulationError(reason, t_reached=t_reached, partial=frame)
 
+    if n - 1 > limit:
+        raise partial(_too_long(n, max_steps), times[0])
     h = times[1] - times[0]
     try:
         signals.interval = 0

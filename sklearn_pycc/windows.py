@@ -540,11 +540,14 @@ def simulate_rows(model, columns: Mapping[str, np.ndarray], signals: Mapping[str
         return simulated, stops, []
     simulated = np.full((n_samples, len(states)), np.nan)
     stops, warned = [], []
+    limits = skeleton.limits_at(model.params_)
     for label, rows, t in experiments:
         if len(t) < 2:
             simulated[rows] = np.column_stack([columns[s][rows] for s in states])
             continue
-        y0 = [float(columns[s][rows[0]]) for s in states]
+        # a level read above its rim (another record's noise) starts at the rim
+        y0 = [float(np.clip(columns[s][rows[0]], *limits.get(s, (-np.inf, np.inf))))
+              for s in states]
         with warnings.catch_warnings(record=True) if capture_warnings \
                 else contextlib.nullcontext([]) as caught:
             if capture_warnings:

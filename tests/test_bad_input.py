@@ -234,7 +234,10 @@ def test_fuzzed_skeletons_constraints_and_values_fail_only_with_a_named_error():
     check()
 
 
-def test_a_skeleton_of_very_many_curves_is_warned_about():
+def test_a_skeleton_of_very_many_curves_is_warned_about(monkeypatch):
+    import sklearn_pycc.estimators._setup as setup
+
+    monkeypatch.setattr(setup, "MANY_CURVES", 50)  # 200 in use: fewer curves test as well
     rng = np.random.default_rng(0)
     n_curves = 51
     X = pd.DataFrame({f"u{i}": rng.standard_normal(300) for i in range(1, n_curves + 1)})

@@ -32,22 +32,30 @@ def duffing_40db():
 
 
 # -- differentiation -----------------------------------------------------------------
+# about three times the errors each method reaches here (d1, d2, smoothed values):
+# spline 1.0e-7, 5.2e-5, 5.6e-6; savgol 2.6e-7, 8.6e-4, 5.1e-7;
+# finite_difference 1.05e-4, 2.1e-4, 0; kalman 9.8e-8, 2.0e-7, 5.4e-6
+SINE_TOLERANCES = {"spline": (3e-7, 2e-4, 2e-5), "savgol": (1e-6, 3e-3, 2e-6),
+                   "finite_difference": (3e-4, 1e-3, 1e-12), "kalman": (3e-7, 1e-6, 2e-5)}
+
+
 @pytest.mark.parametrize("method", ["spline", "savgol", "finite_difference", "kalman"])
 def test_every_method_differentiates_a_sine(method):
     t = np.linspace(0, 10, 400)
     x = np.sin(t)
     smooth, d1, d2 = resolve_differentiation(method).derivatives(t, x, 2)
     inner = slice(20, -20)
-    assert nrmse(d1[inner], np.cos(t)[inner]) < 0.02
-    assert nrmse(d2[inner], -np.sin(t)[inner]) < 0.1
-    assert nrmse(smooth, x) < 0.01
+    first, second, smoothed = SINE_TOLERANCES[method]
+    assert nrmse(d1[inner], np.cos(t)[inner]) < first
+    assert nrmse(d2[inner], -np.sin(t)[inner]) < second
+    assert nrmse(smooth, x) < smoothed
 
 
 def test_trend_filtered_is_available():
     t = np.linspace(0, 6, 120)
     d = resolve_differentiation({"method": "trend_filtered", "alpha": 1e-5})
     _, d1 = d.derivatives(t, np.sin(t), 1)
-    assert nrmse(d1[10:-10], np.cos(t)[10:-10]) < 0.05
+    assert nrmse(d1[10:-10], np.cos(t)[10:-10]) < 0.012  # it reaches 0.0041
 
 
 def test_spline_smoothing_beats_savgol_on_noisy_acceleration(duffing_40db):

@@ -35,7 +35,8 @@ def test_a_limit_to_fit_is_a_parameter_of_its_own():
     assert skeleton.params == ["a1", "a2", "a3", "a4", "a5", "a6"]
     assert skeleton.limit_params == {"a5": ("x1", "high"), "a6": ("x2", "high")}
     assert skeleton.limits == {"x1": (-np.inf, "a5"), "x2": (0.0, "a6")}
-    assert skeleton.bounds == {"a5": (1.0, np.inf)}
+    # a limit's end to fit is bounded by the state's other end (a rim above the floor)
+    assert skeleton.bounds == {"a5": (1.0, np.inf), "a6": (0.0, np.inf)}
     assert [str(c) for c in skeleton.constraints if isinstance(c, StateLimit)] == \
         ["x1 <= a5", "0 <= x2 <= a6"]
     values = {"a1": 1.0, "a2": 1.0, "a3": 1.0, "a4": 1.0, "a5": 12.0, "a6": 13.0}

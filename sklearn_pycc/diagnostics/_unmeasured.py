@@ -120,7 +120,7 @@ class UnmeasuredDiagnosis(Diagnosis):
         Each measured signal against its simulation, and the unmeasured
         states as simulated, one panel each.
         """
-        from ..plotting import _pyplot
+        from ..plotting import _pyplot, label_axis
 
         plt = _pyplot()
         frame = self.simulation
@@ -134,11 +134,9 @@ class UnmeasuredDiagnosis(Diagnosis):
                 ax.plot(frame[TIME], frame[name], ".", ms=2, color="0.5", label="measured")
             ax.plot(frame[TIME], frame[f"{name}_sim"], lw=1,
                     label="simulated" + (" (not measured)" if name in self.hidden else ""))
-            unit = f" [{self.units[name]}]" if self.units.get(name) else ""
-            ax.set_ylabel(name + unit)
+            label_axis(ax, "y", name, self.units)
             ax.legend(loc="upper right", fontsize="small")
-        axes[-1, 0].set_xlabel(TIME + (f" [{self.units[TIME]}]" if self.units.get(TIME)
-                                       else ""))
+        label_axis(axes[-1, 0], "x", TIME, self.units)
         fig.tight_layout()
         return {"simulation": fig}
 

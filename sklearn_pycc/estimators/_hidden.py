@@ -23,11 +23,11 @@ from ._setup import Problem
 from ._shooting import state_bounds
 from ._uncertainty import sandwich_covariance
 
-__all__ = ["ESCAPED", "START_FACTORS", "WholeRecord", "along_hidden_scale", "check_visible",
-           "equilibrium", "hidden_trajectories", "initial_table", "limit_start",
-           "opened_limits", "rates_on", "ratio_start", "rescaled", "scale_family",
-           "scaled_start", "sensor_readings", "single_shooting", "starting_params",
-           "unseen_directions", "whole_record_covariance"]
+__all__ = ["ESCAPED", "START_FACTORS", "WholeRecord", "along_hidden_scale",
+           "check_initial_stretch", "check_visible", "equilibrium", "hidden_trajectories",
+           "initial_table", "limit_start", "opened_limits", "rates_on", "ratio_start",
+           "rescaled", "scale_family", "scaled_start", "sensor_readings", "single_shooting",
+           "starting_params", "unseen_directions", "whole_record_covariance", "within_limits"]
 
 
 def _reads(skeleton) -> dict[str, set[str]]:
@@ -192,6 +192,7 @@ class WholeRecord:
 
         ``skip`` leaves out that share of each experiment's first rows.
         """
+        first = within_limits(system, first)
         with np.errstate(all="ignore"):
             simulated, _ = self.windows.simulate(system, first)
             compared = simulated[:, :, self.index]
@@ -210,6 +211,7 @@ class WholeRecord:
 
         A row no experiment simulates is NaN.
         """
+        first = within_limits(system, first)
         with np.errstate(all="ignore"):
             simulated, _ = self.windows.simulate(system, first)
         windows = self.windows
@@ -269,7 +271,7 @@ class WholeRecord:
             point["t"] = float(experiment.t[0])
             point.update(equilibrium(system, list(problem.hidden), point))
             first[e] = [point[s] for s in self.states]
-        return np.clip(first, *state_bounds(problem.skeleton))
+        return within_limits(system, np.clip(first, *state_bounds(problem.skeleton)))
 
     def choose_substeps(self, system, first: np.ndarray) -> None:
         """RK4 substeps for ``system`` near the experiments' first states."""
@@ -278,6 +280,56 @@ class WholeRecord:
         columns.update({name: self.problem.signals[name][row:row + 1] for name in self.inputs})
         columns["t"] = np.array([float(self.problem.experiments[0].t[0])])
         self.windows.choose_substeps(system, columns)
+
+
+def within_limits(system, states: np.ndarray) -> np.ndarray:
+    """States ``(..., n_states)`` moved onto the limits of ``system`` they lie beyond (a copy).
+
+    Every simulation starts within the limits the model holds its states in,
+    an end to fit at its value in ``system``.
+    """
+    return system.clip(np.array(states, dtype=float))
+
+
+def check_initial_stretch(t: np.ndarray, drive: Mapping[str, np.ndarray],
+                          unknown: Sequence[str]) -> None:
+    """Refuse a stretch of record an initial state cannot be estimated on, saying why.
+
+    The record's first row holds its first time: the times must increase.
+    The states ``unknown`` (not in the record) are fitted by simulating the
+    model over the stretch, which needs two rows or more, finite times and
+    finite inputs ``drive``.
+
+    Raises
+    ------
+    ValueError
+        Naming the row, the column and the problem.
+    """
+    which = f"{', '.join(unknown)} (not in X)"
+    if unknown and len(t) < 2:
+        raise ValueError(f"X has a single row: {which} can only be estimated by simulating "
+                         "the model over two rows or more against the states X holds; give "
+                         "more rows of the record")
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size and (unknown or bad[0] == 0):
+        raise ValueError(f"X's time column 't' is NaN or infinite at row {bad[0]}: drop or "
+                         "fill that row")
+    steps = np.diff(t)
+    if steps.size and np.all(steps < 0):
+        raise ValueError(f"X's times run backwards (t falls from {t[0]:.6g} to {t[-1]:.6g}): "
+                         "the state is estimated at the record's first time, and a record is "
+                         "simulated forward; sort it by 't'")
+    bad = np.flatnonzero(~(steps > 0))
+    if bad.size and unknown:
+        k = int(bad[0]) + 1
+        raise ValueError(f"X's times do not increase at row {k} (t = {t[k - 1]:.6g}, then "
+                         f"{t[k]:.6g}): sort the record by 't' and drop repeated times")
+    for name, values in drive.items() if unknown else ():
+        bad = np.flatnonzero(~np.isfinite(np.asarray(values, dtype=float)))
+        if bad.size:
+            raise ValueError(f"X's input {name!r} is NaN or infinite at row {bad[0]} (t = "
+                             f"{t[bad[0]]:.6g}): {which} is estimated by simulating the model "
+                             "through the rows; fill or drop that row")
 
 
 def sensor_readings(system, data: Mapping[str, np.ndarray], outputs: Sequence[str]) -> np.ndarray:
@@ -498,6 +550,10 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
                                  max_nfev=int(max_iterations) * (len(z0) + 1),
                                  ftol=WHOLE_RECORD_FTOL)
     z = solution.x if solution.cost <= 0.5 * float(np.sum(residuals(z0) ** 2)) else z0
+    # a start beyond a fitted limit (x1(0) above a rim a5) simulates as one at it: say so
+    fitted = problem.skeleton.compile(_zero_curves(problem),
+                                      {**problem.fixed_params, **dict(zip(names, z[:p]))})
+    z = np.r_[z[:p], within_limits(fitted, z[p:].reshape(first.shape)).ravel()]
     error = residuals(z)
     labels = names + [f"{s}(0)" if first.shape[0] == 1 else f"{s}(0) of experiment {e}"
                       for e in range(first.shape[0]) for s in whole.states]

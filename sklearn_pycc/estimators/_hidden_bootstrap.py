@@ -129,12 +129,15 @@ def _refit(resampler: NoiseResampler, picks: np.ndarray, params: dict, first: np
 
 
 def hidden_members(problem: Problem, params: dict, functions: dict, attributes: dict, n: int,
-                   seed: int, n_jobs, iterations: int
+                   seed: int, n_jobs, iterations: int, *, verbose: bool = False
                    ) -> tuple[list[Member], list[str], str]:
     """``n`` refits of an output-error fit with unmeasured states on redrawn noise.
 
     The refits run in processes (``n_jobs``): their integration holds
-    Python's lock.
+    Python's lock. Each is a whole-record fit (about half a second for two
+    tanks of 500 samples): when they would take long, a warning says how
+    long before they start, and ``verbose`` shows their progress
+    (:func:`~._resampling.run_refits`).
 
     Returns
     -------
@@ -154,5 +157,5 @@ def hidden_members(problem: Problem, params: dict, functions: dict, attributes: 
     draws = [resampler.draw(rng) for _ in range(n)]
     members, failures = run_refits(
         [delayed(_refit)(resampler, picks, params, first, substeps, iterations, functions)
-         for picks in draws], n_jobs, "processes")
+         for picks in draws], n_jobs, "processes", verbose=verbose)
     return members, failures, resampler.describe()

@@ -12,26 +12,35 @@ simulations stay within a block.
 
 The seeds of the resamples and of the refits are drawn in the parent from
 ``random_state`` before any work is handed out, so ``n_jobs=1`` and
-``n_jobs=2`` give the same members.
+``n_jobs=2`` give the same members. The first refits run in the parent and
+are timed: when the others would take longer than :data:`LONG_REFITS`
+seconds, a warning says how long before they start (``verbose`` shows a
+progress bar instead).
 """
 
 from __future__ import annotations
 
+import time
 import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
-from joblib import Parallel, delayed
+from joblib import Parallel, delayed, effective_n_jobs
 
 from .._blocks import MIN_EXPERIMENTS, block_length, draw_blocks, segments
 from ..measurements.columns import FitData
 from ..measurements.experiments import Experiment
 from .backend import Backend, FitResult, Problem
 
-__all__ = ["REFIT_FAILURES", "Member", "Resampler", "fit_members", "run_refits"]
+__all__ = ["LONG_REFITS", "REFIT_FAILURES", "Member", "Resampler", "fit_members",
+           "run_refits"]
 
 #: what a refit on a resample may meet: a failure to count, not to raise
 REFIT_FAILURES = (ValueError, ArithmeticError, np.linalg.LinAlgError, RuntimeError)
+#: refits expected to take longer than this many seconds are announced before they start
+LONG_REFITS = 60.0
+#: refits run and timed in the parent, to estimate how long the others take
+TIMED_REFITS = 2
 
 @dataclass
 class Member:
@@ -152,22 +161,66 @@ def _fit_one(backend: Backend, problem: Problem, blocks: list[np.ndarray], seed:
 
 
 def fit_members(backend: Backend, problem: Problem, resampler: Resampler, n: int, seed: int,
-                n_jobs, window: int, iterations: int) -> tuple[list[Member], list[str]]:
+                n_jobs, window: int, iterations: int, *, verbose: bool = False
+                ) -> tuple[list[Member], list[str]]:
     """``n`` refits by ``backend`` on resamples, in parallel; and the failures' reasons.
 
     The resamples and the refits' seeds are drawn here from ``seed``, so the
-    members do not depend on ``n_jobs``.
+    members do not depend on ``n_jobs``; ``verbose`` shows their progress.
     """
     rng = np.random.default_rng(seed)
     draws = [(resampler.draw(rng), int(rng.integers(0, 2**31 - 1))) for _ in range(n)]
     return run_refits([delayed(_fit_one)(backend, problem, blocks, member_seed, window,
                                          iterations) for blocks, member_seed in draws],
-                      n_jobs, backend.resample_in)
+                      n_jobs, backend.resample_in, verbose=verbose)
 
 
-def run_refits(calls: list, n_jobs, prefer: str) -> tuple[list[Member], list[str]]:
-    """Run delayed refits in parallel: the members, and the failures' reasons in words."""
-    outcomes = Parallel(n_jobs=n_jobs, prefer=prefer)(calls)
+def run_refits(calls: list, n_jobs, prefer: str, *, verbose: bool = False
+               ) -> tuple[list[Member], list[str]]:
+    """Run delayed refits in parallel: the members, and the failures' reasons in words.
+
+    The first :data:`TIMED_REFITS` run here and are timed; when the others
+    would take longer than :data:`LONG_REFITS` seconds, a warning says how
+    long before they start, unless ``verbose``, which shows a progress bar.
+    """
+    timed = calls[:TIMED_REFITS]
+    start = time.perf_counter()
+    outcomes = [function(*args, **kwargs) for function, args, kwargs in timed]
+    each = (time.perf_counter() - start) / max(len(timed), 1)
+    rest = calls[len(timed):]
+    workers = max(1, min(effective_n_jobs(n_jobs), len(rest)))
+    expected = each * len(rest) / workers
+    if rest and expected > LONG_REFITS and not verbose:
+        warnings.warn(
+            f"{len(calls):,} refits on resamples: the first took {each:.2g} s each, so the "
+            f"other {len(rest):,} take about {_duration(expected)} on {workers} worker(s). "
+            "Fewer refits finish sooner (n_bootstrap=200 sets a standard error to within "
+            "about 5 %), as do more processes (n_jobs)", UserWarning, stacklevel=6)
+    bar = _progress(len(calls), len(timed)) if verbose and rest else None
+    try:
+        for outcome in Parallel(n_jobs=n_jobs, prefer=prefer, return_as="generator")(rest):
+            outcomes.append(outcome)
+            if bar is not None:
+                bar.update()
+    finally:
+        if bar is not None:
+            bar.close()
     members = [o for o in outcomes if isinstance(o, Member)]
     failures = [o for o in outcomes if not isinstance(o, Member)]
     return members, failures
+
+
+def _progress(total: int, done: int):
+    """A tqdm bar over the refits, ``done`` of them already counted."""
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, initial=done, unit="refit", desc="n_bootstrap")
+
+
+def _duration(seconds: float) -> str:
+    """A duration in words: seconds, minutes or hours."""
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -82,7 +83,9 @@ class FitResult:
     stage: object = None
 
     def __post_init__(self) -> None:
-        odd = [name for name in self.attributes if not name.endswith("_")]
+        # the types are checked where the estimator receives the result, naming the backend
+        names = self.attributes if isinstance(self.attributes, Mapping) else ()
+        odd = [name for name in names if not str(name).endswith("_")]
         if odd:
             raise ValueError(f"fitted attributes end in '_'; got {odd[0]!r}")
 
@@ -326,8 +329,8 @@ def points_of(constraints: list[Constraint]) -> list[tuple[float, float]]:
     return [(c.at, c.value) for c in constraints if c.kind == "value"]
 
 
-#: a skeleton with more curves than this is warned about: its fit grows like their cube
-MANY_CURVES = 50
+#: a skeleton with more curves than this is warned about: its analysis grows like their square
+MANY_CURVES = 200
 
 
 def gauge_skeleton(skeleton: Skeleton, gauge: str):
@@ -340,8 +343,8 @@ def gauge_skeleton(skeleton: Skeleton, gauge: str):
     if len(skeleton.functions) > MANY_CURVES:
         warnings.warn(
             f"the skeleton has {len(skeleton.functions)} curves: its identifiability analysis "
-            "and fit grow like the cube of that count (60 curves take about 5 s on one core, "
-            "200 several minutes); fewer curves, or shared ones, fit far faster",
+            "grows like the square of that count (200 curves take a few seconds on one core, "
+            "400 about 10 s); fewer curves, or shared ones, fit far faster",
             UserWarning, stacklevel=4)
     try:
         report = _cached_report(skeleton)

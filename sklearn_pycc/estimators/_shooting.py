@@ -284,6 +284,7 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
         "nrmse_after": plan.output_nrmse(states),
         "max_defect": defect,
         "diverged": int(escaped.sum()),
-        "initial_states": start[firsts].copy(),
+        # a start beyond a fitted limit simulates as one at it
+        "initial_states": system_for(theta).clip(start[firsts].copy()),
     }
     return theta, info

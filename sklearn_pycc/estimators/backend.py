@@ -16,6 +16,9 @@ What a backend can do beyond ``fit`` it declares by class attributes, never
 by the presence of a method: :attr:`Backend.output_error` (it implements
 :meth:`Backend.refine`), :attr:`Backend.uncertainty` (it implements
 :meth:`Backend.curve_sd` and :meth:`Backend.draws` from a covariance).
+What ``fit``, ``refine`` and ``hidden_start`` return is checked as it is
+received (:func:`check_fit_result`), so a broken result is refused with the
+backend's name rather than failing later, deep inside.
 """
 
 from __future__ import annotations
@@ -34,7 +37,14 @@ from ..simulation import INPUT_HOLDS
 from ..skeleton.curves import as_curve
 from ._setup import FitResult, Problem
 
-__all__ = ["Backend", "FitResult", "Problem"]
+__all__ = ["RESERVED_ATTRIBUTES", "Backend", "FitResult", "Problem", "check_fit_result"]
+
+#: fitted attributes the estimator sets itself, which a backend's result may not carry
+RESERVED_ATTRIBUTES = frozenset({
+    "params_", "functions_", "skeleton_", "gauge_", "curve_ranges_", "n_parameters_",
+    "backend_", "fit_mode_", "derivative_source_", "measured_states_", "n_features_in_",
+    "feature_names_in_", "bootstrap_", "bootstrap_params_", "bootstrap_method_",
+    "params_std_"})
 
 
 class Backend(ABC):
@@ -125,7 +135,7 @@ class Backend(ABC):
         FitResult
         """
         if problem.fit_mode != "simulation":
-            return self.fit(problem)
+            return check_fit_result(self, problem, self.fit(problem))
         from ._shooting import ShootingPlan, check_iterations
 
         iterations = check_iterations(shooting_iterations)
@@ -133,11 +143,11 @@ class Backend(ABC):
             return self._estimate_hidden(problem, shooting_window, iterations)
         plan = ShootingPlan(problem, shooting_window)
         plan.iterations = iterations
-        result = self.fit(problem)
+        result = check_fit_result(self, problem, self.fit(problem))
         start = problem.skeleton.compile(result.functions,
                                          {**problem.fixed_params, **result.params})
         plan.choose_substeps(start, dict(problem.data.columns))
-        return self.refine(problem, result, plan)
+        return check_fit_result(self, problem, self.refine(problem, result, plan), "refine")
 
     def _estimate_hidden(self, problem: Problem, window: int, iterations: int) -> FitResult:
         """Output error from :meth:`hidden_start`, the unmeasured states started by simulation.
@@ -181,7 +191,7 @@ class Backend(ABC):
         )
         from ._swapped_speeds import swapped_starts
 
-        result = self.hidden_start(problem)
+        result = check_fit_result(self, problem, self.hidden_start(problem), "hidden_start")
         limits = problem.skeleton.limit_params
         hidden_limits = [a for a in problem.free_params
                          if a in limits and limits[a][0] in problem.hidden]
@@ -301,6 +311,142 @@ class Backend(ABC):
     def draws(self, model, n: int, rng: np.random.Generator) -> list[tuple[dict, dict]] | None:
         """``n`` models ``(functions, params)`` drawn from the estimate's distribution."""
         return None
+
+
+def check_fit_result(backend: Backend, problem: Problem, result, step: str = "fit"
+                     ) -> FitResult:
+    """``result``, returned by ``backend``'s ``step``, checked against the contract.
+
+    Every curve of the skeleton, each a callable that maps an array to one of
+    the same shape; every free parameter and no other name, each a finite
+    number; fitted attributes whose names end in ``_`` and are not among
+    :data:`RESERVED_ATTRIBUTES`.
+
+    Parameters
+    ----------
+    backend : Backend
+        The backend that returned ``result`` (named in the errors).
+    problem : Problem
+        What it was asked to fit.
+    result : object
+        What it returned.
+    step : str, default="fit"
+        The method that returned it.
+
+    Returns
+    -------
+    FitResult
+        ``result`` itself.
+
+    Raises
+    ------
+    TypeError
+        When ``result`` is not a :class:`FitResult`, or one of its parts has
+        the wrong type.
+    ValueError
+        When a curve, a parameter or an attribute breaks the contract.
+    """
+    who = f"{type(backend).__name__}.{step}"
+    if not isinstance(result, FitResult):
+        raise TypeError(f"{who} returned {type(result).__name__}, not a FitResult: return "
+                        "FitResult(functions, params, attributes)")
+    for part in ("functions", "params", "attributes"):
+        if not isinstance(getattr(result, part), Mapping):
+            raise TypeError(f"{who} returned a FitResult whose {part} is "
+                            f"{type(getattr(result, part)).__name__}, not a dict by name")
+    _check_names(who, "curve", list(result.functions), problem.skeleton.functions,
+                 problem.skeleton.functions)
+    _check_names(who, "parameter", list(result.params), problem.free_params,
+                 problem.skeleton.params)
+    params = _checked_params(who, problem, result.params)
+    for name in problem.skeleton.functions:
+        _check_curve(who, problem, name, result.functions[name], params)
+    _check_attributes(who, result.attributes)
+    return result
+
+
+def _check_names(who: str, kind: str, given: list, needed: list, known: list) -> None:
+    """Refuse a result that leaves out a name of ``needed`` or gives one not in ``known``."""
+    missing = [name for name in needed if name not in given]
+    if missing:
+        raise ValueError(f"{who} returned no {kind} {', '.join(map(str, missing))}: a result "
+                         f"holds every {kind} to fit ({', '.join(needed)})"
+                         + (", ZeroCurve() for those the gauge pinned to zero"
+                            if kind == "curve" else ""))
+    extra = [name for name in given if name not in known]
+    if extra:
+        raise ValueError(f"{who} returned the {kind} {', '.join(map(repr, extra))}, which the "
+                         f"skeleton does not have (its {kind}s: {', '.join(known) or 'none'})")
+
+
+def _checked_params(who: str, problem: Problem, params: Mapping) -> dict[str, float]:
+    """Every parameter of the skeleton as a float: the result's, then the gauge's pins."""
+    values = dict(problem.fixed_params)
+    for name, value in params.items():
+        if np.ndim(value) != 0 or isinstance(value, (str, bytes)):
+            raise TypeError(f"{who} returned the parameter {name} = {value!r}, not a number")
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise TypeError(f"{who} returned the parameter {name} = {value!r}, not a "
+                            "number") from None
+        if not np.isfinite(number):
+            raise ValueError(f"{who} returned the parameter {name} = {number}: a fit gives "
+                             "finite values (did the optimiser diverge, or divide by zero?)")
+        pinned = problem.fixed_params.get(name)
+        if pinned is not None and number != pinned:
+            raise ValueError(f"{who} returned {name} = {number:g}, which the problem pins to "
+                             f"{pinned:g} (problem.fixed_params): fit problem.free_params only")
+        values[name] = number
+    return values
+
+
+def _check_curve(who: str, problem: Problem, name: str, curve, params: Mapping) -> None:
+    """Refuse a curve that is not callable or does not map an array to one of its shape."""
+    if not callable(curve):
+        raise TypeError(f"{who} returned {type(curve).__name__} for the curve {name}, not a "
+                        "callable on numpy arrays")
+    x = _probe_points(problem, name, params, as_curve(curve).domain)
+    try:
+        with np.errstate(all="ignore"):
+            value = curve(x)
+    except Exception as error:  # a user's curve: any failure is reported as its own
+        raise ValueError(f"{who} returned a curve {name} that fails on {len(x)} values of its "
+                         f"argument in the data: {type(error).__name__}: {error}") from error
+    shape = np.shape(value)
+    if shape != x.shape:
+        raise ValueError(f"{who} returned a curve {name} that maps an array of shape {x.shape} "
+                         f"to one of shape {shape}: a curve maps an array to one of the same "
+                         "shape, value by value")
+
+
+def _probe_points(problem: Problem, name: str, params: Mapping, domain) -> np.ndarray:
+    """A few values of a curve's argument in the data, within the curve's domain.
+
+    Never as many as the data's rows, so that a curve returning its training
+    values whatever it is given is caught.
+    """
+    x = problem.argument_values(name, params)
+    count = 5 if problem.data.n_samples != 5 else 4
+    x = x[np.linspace(0, x.size - 1, count).astype(int)] if x.size else np.linspace(-1, 1,
+                                                                                    count)
+    low, high = (float(v) for v in domain)
+    if low <= high:  # a table or network asked beyond its range may raise, as it should
+        x = np.clip(x, low, high)
+    return np.asarray(x, dtype=float)
+
+
+def _check_attributes(who: str, attributes: Mapping) -> None:
+    """Refuse fitted attributes that do not end in ``_`` or that the estimator sets itself."""
+    for name in attributes:
+        if not isinstance(name, str) or not name.endswith("_") or name.startswith("_"):
+            raise ValueError(f"{who} returned the fitted attribute {name!r}: a fitted "
+                             "attribute is a name that ends in '_' and does not start with one")
+        if name in RESERVED_ATTRIBUTES:
+            raise ValueError(f"{who} returned the fitted attribute {name!r}, which the "
+                             "estimator sets itself (reserved: "
+                             f"{', '.join(sorted(RESERVED_ATTRIBUTES))}): give it a name of "
+                             "its own")
 
 
 def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float], window: int,

@@ -25,8 +25,9 @@ from ..measurements.differentiation import (
     Differentiator,
     resolve_differentiation,
 )
+from ..measurements.measurement import Measurement, unwrap
 from ..measurements.record import targets_in_y
-from ..simulation import INPUT_HOLDS, fitted_hold, given_hold
+from ..simulation import INPUT_HOLDS, given_hold, requested_hold
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.curves import as_curve
@@ -273,6 +274,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         tags.target_tags.multi_output = True
         tags.target_tags.single_output = True
         tags.input_tags.allow_nan = False
+        # the user's skeleton, not the data, decides what can be fitted: no score is promised
+        tags.regressor_tags.poor_score = True
         return tags
 
     def get_params(self, deep: bool = True) -> dict:
@@ -301,6 +304,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                              need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
                              who=type(self).__name__, trim=False,
                              hidden_ok=self.fit_mode != "equation")
+        _warn_crossed_limits(skeleton, record)
         if record.hidden:  # every limit is then fitted by output error
             _check_hidden(skeleton, record.hidden)
         else:
@@ -406,6 +410,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         from ._resampling import Resampler, fit_members
 
         seed = next(seeds(getattr(self, "random_state", None)))
+        verbose = bool(getattr(self, "verbose", 0))  # a progress bar over the refits
         if problem.hidden:  # a block cannot fix its own hidden states: the noise is redrawn
             from ._hidden_bootstrap import hidden_members
 
@@ -417,7 +422,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                 return {}
             members, failures, method = hidden_members(
                 problem, dict(result.params), dict(result.functions), result.attributes, n,
-                seed, getattr(self, "n_jobs", None), self.shooting_iterations)
+                seed, getattr(self, "n_jobs", None), self.shooting_iterations, verbose=verbose)
             return self._bootstrap_facts(result, members, failures, n, method)
         residuals = np.nan_to_num(problem.residual_values(result.params, result.functions))
         simulation = problem.fit_mode == "simulation"
@@ -425,7 +430,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                               min_block=2 * self.shooting_window if simulation else 2)
         members, failures = fit_members(backend, problem, resampler, n, seed,
                                         getattr(self, "n_jobs", None), self.shooting_window,
-                                        self.shooting_iterations)
+                                        self.shooting_iterations, verbose=verbose)
         return self._bootstrap_facts(result, members, failures, n, resampler.describe())
 
     @staticmethod
@@ -547,16 +552,20 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             return pred[:, 0]
         return pred
 
-    def score(self, X, y, sample_weight=None) -> float:
+    def score(self, X, y=None, sample_weight=None) -> float:
         """Coefficient of determination R² of the predictions.
 
         ``y`` holds what :meth:`predict` returns: the derivatives, then the
-        outputs of static equations; a DataFrame is matched by name.
+        outputs of static equations; a DataFrame is matched by name. For a
+        :class:`~sklearn_pycc.measurements.Measurement` ``X``, its own ``y``.
         """
         check_is_fitted(self, "functions_")
+        held = isinstance(X, Measurement)
+        X, y, _ = unwrap(X, y, who="score")
         if y is None:
             raise ValueError(
-                "score needs y, the measured targets "
+                ("score needs y, and the Measurement holds none (Measurement(X, y) gives it): "
+                 if held else "score needs y, ") + "the measured targets "
                 f"{list(self.skeleton_.targets)}; on a record without them (position only), "
                 "score the simulation instead: "
                 "sklearn_pycc.model_selection.make_simulation_scorer()")
@@ -587,7 +596,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         return float(r2_score(truth / scale, pred / scale, sample_weight=sample_weight))
 
     def estimate_initial_state(self, X, *, n_samples: int = 200,
-                               input_hold: str | None = None) -> dict[str, float]:
+                               input_hold: str = "auto") -> dict[str, float]:
         """The full state at the first time of a record: measured states read, others fitted.
 
         A state that ``X`` holds is read at its first row; a state it does
@@ -605,24 +614,36 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         n_samples : int, default=200
             Rows simulated to fit the unmeasured states (all of them when
             ``X`` has fewer).
-        input_hold : {"bandlimited", "foh", "zoh"}, optional
-            How the inputs are read between samples, as in :meth:`simulate`
-            (by default the estimator's ``input_hold``).
+        input_hold : {"auto", "bandlimited", "foh", "zoh"}, default="auto"
+            How the inputs are read between samples, as in :meth:`simulate`;
+            ``"auto"`` is the hold the model was fitted with (``input_hold_``).
 
         Returns
         -------
         dict
-            State -> value at ``X``'s first time.
+            State -> value at ``X``'s first time, within the states' limits
+            (a reading beyond one, noise at a rim, is taken at the limit).
 
         Raises
         ------
         ValueError
-            If ``X`` has no time column, lacks an input, or holds no state.
+            If ``X`` has no time column, lacks an input, holds no state, or
+            its times run backwards; and, where a state must be fitted, if
+            ``X`` has a single row or a NaN time or input in the stretch.
+
+        Warns
+        -----
+        UserWarning
+            When the model cannot be simulated over the stretch from any
+            guess (the estimate is then unchecked).
         """
-        from ._hidden import equilibrium, sensor_readings
+        from ._hidden import check_initial_stretch, equilibrium, sensor_readings
 
         check_is_fitted(self, "functions_")
         skeleton = self.skeleton_
+        input_hold = requested_hold(self, input_hold)
+        if isinstance(X, Measurement):
+            X = X.X
         if not isinstance(X, pd.DataFrame) or "t" not in X.columns:
             raise ValueError("estimate_initial_state reads a DataFrame with a time column 't'")
         if isinstance(n_samples, bool) or not isinstance(n_samples, Integral) or n_samples < 2:
@@ -640,14 +661,16 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             raise ValueError(f"X holds none of the states {skeleton.states}"
                              + (f" nor the outputs {skeleton.outputs}" if skeleton.outputs
                                 else "") + ": there is nothing to fit an initial state to")
-        state = {s: float(X[s].iloc[0]) for s in read}
+        limits = skeleton.limits_at(self.params_)
+        # a level read beyond its limit (noise at a rim) starts at the limit
+        state = {s: float(np.clip(X[s].iloc[0], *limits.get(s, (-np.inf, np.inf))))
+                 for s in read}
         unknown = [s for s in skeleton.states if s not in read]
+        drive = {name: stretch[name].to_numpy(dtype=float) for name in inputs}
+        check_initial_stretch(t, drive, unknown)
         if not unknown:
             return state
         system = self._system()
-        if input_hold is None:
-            input_hold = fitted_hold(self)
-        drive = {name: stretch[name].to_numpy(dtype=float) for name in inputs}
         point = {**state, **{name: values[0] for name, values in drive.items()}, "t": t[0]}
         start = np.array([equilibrium(system, unknown, point)[s] for s in unknown])
         targets = stretch[read + sensed].to_numpy(dtype=float)
@@ -673,17 +696,25 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             error = (simulated - targets) / scale
             return np.where(np.isfinite(error), error, 1e3).ravel()
 
-        # every guess simulated once; least squares from the best few
-        guesses = sorted(((0.5 * float(np.sum(residuals(g) ** 2)), k, g)
-                          for k, g in enumerate(self._initial_guesses(start, unknown))),
+        # every guess simulated once, within the states' limits; least squares from the best
+        low = np.array([limits.get(s, (-np.inf, np.inf))[0] for s in unknown])
+        high = np.array([limits.get(s, (-np.inf, np.inf))[1] for s in unknown])
+        high = np.where(high > low, high, np.nextafter(low, np.inf))
+        guesses = sorted(((0.5 * float(np.sum(residuals(g) ** 2)), k, g) for k, g in enumerate(
+            np.clip(g, low, high) for g in self._initial_guesses(start, unknown))),
                          key=lambda item: item[:2])
         best_cost, _, best = guesses[0]
         for _, _, guess in guesses[:INITIAL_STATE_STARTS]:
-            solution = least_squares(residuals, guess, x_scale="jac",
+            solution = least_squares(residuals, guess, x_scale="jac", bounds=(low, high),
                                      max_nfev=50 * (len(start) + 1), ftol=1e-6, xtol=1e-6)
             if solution.cost < best_cost:
                 best, best_cost = solution.x, solution.cost
-        z = best
+        z = np.clip(best, low, high)
+        if np.all(residuals(z) == 1e3):
+            warnings.warn(f"the model cannot be simulated over X's first {len(t)} rows from "
+                          f"any guess of {', '.join(unknown)}: the estimate "
+                          f"({', '.join(f'{s}={v:.6g}' for s, v in zip(unknown, z))}) is a "
+                          "guess the record could not check", UserWarning, stacklevel=2)
         return {s: (state[s] if s in state else float(z[unknown.index(s)]))
                 for s in skeleton.states}
 
@@ -728,7 +759,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         rtol: float = 1e-6,
         atol: float = 1e-8,
         return_derivatives: bool = False,
-        input_hold: str | None = None,
+        input_hold: str = "auto",
         verbose: bool = False,
         level: float | None = None,
         n_draws: int = N_DRAWS,
@@ -749,10 +780,11 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             How to integrate; as in :meth:`Skeleton.simulate
             <sklearn_pycc.Skeleton.simulate>` (the sampled-input integrator
             for array inputs, else LSODA).
-        input_hold : {"bandlimited", "foh", "zoh"}, optional
+        input_hold : {"auto", "bandlimited", "foh", "zoh"}, default="auto"
             How an array input is read between its samples; see
-            :meth:`Skeleton.simulate <sklearn_pycc.Skeleton.simulate>`. By
-            default the estimator's ``input_hold``.
+            :meth:`Skeleton.simulate <sklearn_pycc.Skeleton.simulate>`.
+            ``"auto"`` is the hold the model was fitted with
+            (``input_hold_``).
         verbose : bool, default=False
             Show a progress bar (tqdm) over the samples.
         rtol, atol : float
@@ -768,8 +800,12 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         random_state : int, RandomState, Generator or None
             Seeds the draws of the band.
         **solver_options
-            Passed to the SciPy solver, and ``max_steps`` (default 500000):
-            the most solver steps before a :class:`SimulationError`.
+            Passed to the SciPy solver, and ``max_steps``: the most solver
+            steps before a :class:`SimulationError` (by default 500000; with
+            array inputs 50 a sample, at most
+            ``sklearn_pycc.simulation.STEP_BUDGET``, and a record of
+            more samples than ``max_steps`` is refused before the first
+            step, with how to simulate it in pieces).
 
         Returns
         -------
@@ -780,10 +816,13 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         Raises
         ------
         SimulationError
-            When the model diverges or the solver fails; it carries the time
-            reached and the partial trajectory.
+            When the model diverges, the solver fails or takes more than
+            ``max_steps``; it carries the time reached and the partial
+            trajectory.
         ValueError
-            When the skeleton has no differential equation.
+            When the skeleton has no differential equation, ``y0`` starts
+            a state beyond its hard limits, or ``input_hold`` is none of
+            the holds above.
 
         Warns
         -----
@@ -798,8 +837,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         """
         system = self._system()
         skeleton = self.skeleton_
-        if input_hold is None:
-            input_hold = fitted_hold(self)
+        input_hold = requested_hold(self, input_hold)
         if not skeleton.states:
             raise ValueError(
                 "the skeleton has no differential equation, so there is nothing to "
@@ -844,7 +882,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
 
         def simulate_draw(functions, params):
             system = skeleton.compile(functions, params)
-            drawn = simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
+            start = system.clip(np.array(y0, dtype=float))  # at a fitted limit: the drawn one
+            drawn = simulate_system(system, t, start, inputs, method=method, rtol=rtol, atol=atol,
                                     return_derivatives=bool(outputs), input_hold=input_hold,
                                     **solver_options)
             if outputs:
@@ -1105,6 +1144,43 @@ def _measured_limits(skeleton, record) -> dict[str, float]:
             values = np.asarray(record.smoothed.get(state, record.measured[state]), dtype=float)
             out[name] = float(values.max() if side == "high" else values.min())
     return out
+
+
+#: a measured state crosses its limit where it lies beyond it by more than this many times
+#: its noise (a level at its rim reads above it by the noise) ...
+CROSSING_NOISE = 5.0
+#: ... and by more than this share of its range (a smoothed level rounds its rim's corner)
+CROSSING_SHARE = 0.02
+
+
+def _warn_crossed_limits(skeleton: Skeleton, record) -> None:
+    """Warn where a measured state lies beyond a known limit, naming it, how far and how often.
+
+    The model holds the state within the limit, so it cannot follow the
+    record there: the limit is likely wrong.
+    """
+    for state, (low, high) in skeleton.limits.items():
+        if state not in record.measured:
+            continue
+        values = np.asarray(record.measured[state], dtype=float)
+        smoothed = np.asarray(record.smoothed.get(state, values), dtype=float)
+        residual = values - smoothed
+        noise = 1.4826 * float(np.nanmedian(np.abs(residual - np.nanmedian(residual))))
+        slack = max(CROSSING_NOISE * noise, CROSSING_SHARE * float(np.nanmax(smoothed)
+                                                                   - np.nanmin(smoothed)))
+        for end, sign in ((low, -1.0), (high, 1.0)):
+            if isinstance(end, str) or not np.isfinite(end):
+                continue  # an end to fit is read from the record
+            beyond = sign * (values - end)
+            crossing = np.flatnonzero(beyond > slack)
+            if crossing.size:
+                limit = f"{state} {'<=' if sign > 0 else '>='} {end:.6g}"
+                warnings.warn(
+                    f"the measured {state} crosses its limit {limit} at {crossing.size} of "
+                    f"{np.isfinite(values).sum()} samples, by up to {np.nanmax(beyond):.4g} "
+                    f"(its noise is about {noise:.3g}): the model holds {state} within the "
+                    "limit and cannot follow the record there; check the limit, or leave it "
+                    "out", UserWarning, stacklevel=4)
 
 
 def _check_hidden(skeleton: Skeleton, hidden) -> None:

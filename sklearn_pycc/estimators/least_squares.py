@@ -22,7 +22,11 @@ from ._basis import PolyCurve, ZeroCurve
 from .backend import Backend, FitResult, Problem
 from .base import OUTPUT_ERROR_SETTINGS, CCRegressor
 
-__all__ = ["LeastSquaresBackend", "LeastSquaresCCRegressor"]
+__all__ = ["MAX_NUMBERS", "LeastSquaresBackend", "LeastSquaresCCRegressor"]
+
+#: most numbers (coefficients and free parameters) one fit may have: its Jacobian by finite
+#: differences evaluates every equation once per number and step (240 numbers: about 4 s)
+MAX_NUMBERS = 240
 
 
 class LeastSquaresBackend(Backend):
@@ -52,6 +56,7 @@ class LeastSquaresBackend(Backend):
         curves = [_Series.for_curve(problem, name, values, int(self.degree))
                   for name in problem.free_functions]
         sizes = [len(curve.powers) for curve in curves]
+        _check_size(len(names) + sum(sizes), len(curves))
         weights = problem.residual_weights()
 
         def unpack(theta: np.ndarray) -> tuple[dict, dict]:
@@ -81,6 +86,18 @@ class LeastSquaresBackend(Backend):
     def n_numbers(self, problem: Problem, result: FitResult, name: str) -> int:
         """The coefficients the series was free in."""
         return len(_powers(problem.parity(name), bool(problem.points(name)), int(self.degree)))
+
+
+def _check_size(numbers: int, n_curves: int) -> None:
+    """Refuse a fit whose finite-difference Jacobian would take minutes, saying what to do."""
+    if numbers > MAX_NUMBERS:
+        raise ValueError(
+            f"LeastSquaresBackend would fit {numbers} numbers ({n_curves} curves' coefficients "
+            f"and the free parameters), more than its {MAX_NUMBERS}: its Jacobian by finite "
+            "differences evaluates every equation once per number and step, so its time grows "
+            "with the square of their count (minutes here). Use PolyCCRegressor, which solves "
+            "curves that enter linearly in one linear least-squares problem (200 curves in "
+            "seconds), or a lower degree, or fewer curves")
 
 
 def _powers(parity: str | None, pinned: bool, degree: int) -> list[int]:
@@ -152,6 +169,11 @@ class LeastSquaresCCRegressor(CCRegressor):
         Starting values of parameters.
     max_nfev : int, default=2000
         Most residual evaluations.
+
+    At most :data:`MAX_NUMBERS` (240) numbers are fitted, every curve's
+    coefficients and the free parameters together: the Jacobian by finite
+    differences makes the time grow with the square of their count, and a
+    larger fit is refused with that reason.
 
     Attributes
     ----------

@@ -249,8 +249,10 @@ def _kalman_alpha(t: np.ndarray, x: np.ndarray) -> float:
 def _trend_filtered(order: int = 2, alpha: float = 1e-4, max_iter: int = 10000) -> Differentiator:
     derivative = _derivative_package()
     method = derivative.TrendFiltered(order=order, alpha=alpha, max_iter=max_iter)
-    return PackageDifferentiator(method, f"trend filtering (order {order}, alpha {alpha:g})",
-                                 min_samples=order + 3)
+    differentiator = PackageDifferentiator(
+        method, f"trend filtering (order {order}, alpha {alpha:g})", min_samples=order + 3)
+    differentiator.uniform_only = True  # the package reads one time step, t[1] - t[0]
+    return differentiator
 
 
 def _auto() -> Differentiator:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable, Hashable, Mapping
 
 import numpy as np
@@ -10,6 +11,14 @@ import pandas as pd
 from .experiments import TIME, TRAJECTORY
 
 __all__ = ["Measurement"]
+
+#: why scikit-learn's cross-validation cannot take a Measurement, and what to pass instead
+NOT_SPLIT = (
+    "a Measurement is a whole record, not an array scikit-learn can split by rows: "
+    "cross_val_score, GridSearchCV and the other cross-validation tools take the DataFrame "
+    "instead. Pass measurement.X (and measurement.y, if any), with a 'trajectory' column "
+    "separating the experiments, and cv=sklearn_pycc.model_selection.ExperimentSplit() "
+    "(or BlockSplit() for one long record), which keep experiments whole")
 
 
 class Measurement:
@@ -24,12 +33,20 @@ class Measurement:
     fitted or diagnosed on it reuses them, so a loop over candidate
     skeletons differentiates the record once.
 
+    The estimates are kept for the record as it is: if :attr:`X` or
+    :attr:`y` is changed in place, the next use estimates again.
+
+    A Measurement is not split by scikit-learn's cross-validation
+    (``cross_val_score``, ``GridSearchCV``): give those the DataFrame, with
+    the splitters of :mod:`sklearn_pycc.model_selection` (a ``TypeError``
+    says so).
+
     Parameters
     ----------
     X : DataFrame
         States and inputs by name, ``t`` and ``trajectory`` optional, as for
-        ``fit``. It is copied: later changes to the frame do not reach the
-        Measurement.
+        ``fit``. It is copied (the user's frame is never changed): later
+        changes to the frame do not reach the Measurement.
     y : DataFrame or array, optional
         Measured derivatives, as for ``fit`` (copied too).
     units : dict, optional
@@ -73,6 +90,7 @@ class Measurement:
         self.units = dict(given or {})
         self._estimates: dict[Hashable, object] = {}
         self._held: list = []
+        self._fingerprint = self._digest()
 
     # -- what it is --------------------------------------------------------------------
     @property
@@ -100,6 +118,10 @@ class Measurement:
     def __len__(self) -> int:
         return self.n_samples
 
+    def __array__(self, dtype=None, copy=None):
+        # scikit-learn turns an X it cannot index into an array: say what to pass instead
+        raise TypeError(NOT_SPLIT)
+
     def __repr__(self) -> str:
         columns = ", ".join(self.columns[:8]) + (", ..." if len(self.columns) > 8 else "")
         time = "" if TIME in self.X.columns else ", no time column"
@@ -114,9 +136,28 @@ class Measurement:
         (the skeleton's states and kinematic equations, the inputs, the
         differentiation and smoothing settings).
         """
+        digest = self._digest()
+        if digest != self._fingerprint:  # X or y changed in place: their estimates are stale
+            self._estimates.clear()
+            self._fingerprint = digest
         if key not in self._estimates:
             self._estimates[key] = estimate()
         return self._estimates[key]
+
+    def _digest(self) -> bytes:
+        """A digest of the record's values, labels and targets: what the estimates depend on."""
+        digest = hashlib.blake2b(digest_size=16)
+        for part in (self.X, self.y):
+            if part is None:
+                continue
+            if isinstance(part, pd.DataFrame):
+                digest.update(repr(list(part.columns)).encode())
+            if isinstance(part, (pd.DataFrame, pd.Series)):
+                part = pd.util.hash_pandas_object(part, index=True).to_numpy()
+            values = np.ascontiguousarray(part)
+            digest.update(repr(values.shape).encode())
+            digest.update(values.tobytes())
+        return digest.digest()
 
     def keep_alive(self, setting: object) -> None:
         """Hold ``setting`` (a differentiator object) as long as estimates keyed by its id."""

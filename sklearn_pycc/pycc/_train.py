@@ -111,11 +111,25 @@ def _equation_weights(read: Params, skeleton: Skeleton) -> dict:
     weights = read["eq_weights"]
     if weights is None:
         return {}
-    values = np.asarray(weights, dtype=float).ravel()
+    wrong = (f"{read.where}: params['eq_weights'] must be numbers, one per equation in their "
+             f"order, got {weights!r}")
+    if isinstance(weights, (str, bytes, Mapping)):
+        raise ValueError(wrong)
+    try:
+        values = np.asarray(weights, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise ValueError(wrong) from None
     if values.size != len(skeleton.equations):
         raise ValueError(f"{read.where}: eq_weights holds {values.size} weight(s) but the "
                          f"equations are {len(skeleton.equations)}: one per equation, in "
                          "their order")
+    bad = np.flatnonzero(~np.isfinite(values) | (values < 0))
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(f"{read.where}: eq_weights[{k}] = {float(values[k])!r} (for "
+                         f"{skeleton.equations[k]!r}) must be a finite, non-negative number")
+    if not values.any():
+        raise ValueError(f"{read.where}: eq_weights are all zero: nothing would be fitted")
     return {"equation_weights": [float(v) for v in values]}
 
 

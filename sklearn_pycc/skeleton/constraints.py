@@ -358,12 +358,34 @@ def _close(a: float, b: float) -> bool:
 
 
 def merged_bounds(constraints: Iterable) -> dict[str, tuple[float, float]]:
-    """Parameter -> ``(low, high)``, the intersection of every bound on it."""
+    """Parameter -> ``(low, high)``, the intersection of every bound on it.
+
+    A limit's end to fit is bounded by the state's other end too: with
+    ``x1 >= 0`` and ``x1 <= a5``, ``a5 >= 0`` (a rim below the floor leaves
+    the level no value).
+    """
+    constraints = list(constraints)
     out: dict[str, tuple[float, float]] = {}
     for c in constraints:
         if isinstance(c, Bound):
             low, high = out.get(c.param, (-math.inf, math.inf))
             out[c.param] = (max(low, c.low), min(high, c.high))
+    for param, (low, high) in _limit_bounds(constraints).items():
+        own_low, own_high = out.get(param, (-math.inf, math.inf))
+        out[param] = (max(low, own_low), min(high, own_high))
+    return out
+
+
+def _limit_bounds(constraints: list) -> dict[str, tuple[float, float]]:
+    """Limit's parameter -> the bounds its state's other (numeric) end sets it."""
+    limits = merged_limits(constraints)
+    out = {}
+    for param, (state, side) in limit_params(constraints).items():
+        low, high = limits[state]
+        if side == "high" and not isinstance(low, str) and math.isfinite(low):
+            out[param] = (float(low), math.inf)
+        elif side == "low" and not isinstance(high, str) and math.isfinite(high):
+            out[param] = (-math.inf, float(high))
     return out
 
 
@@ -377,8 +399,10 @@ def merged_limits(constraints: Iterable) -> dict[str, tuple[float | str, float |
     for c in constraints:
         if isinstance(c, StateLimit):
             low, high = out.get(c.state, (-math.inf, math.inf))
-            low = c.low if isinstance(c.low, str) or isinstance(low, str) else max(low, c.low)
-            high = (c.high if isinstance(c.high, str) or isinstance(high, str)
+            # an end to fit stands alone on its side (the other limits leave that side open)
+            low = (c.low if isinstance(c.low, str) else low if isinstance(low, str)
+                   else max(low, c.low))
+            high = (c.high if isinstance(c.high, str) else high if isinstance(high, str)
                     else min(high, c.high))
             out[c.state] = (low, high)
     return out
@@ -476,6 +500,14 @@ def check_constraints(constraints: Iterable, functions: Iterable[str],
             raise SkeletonError(f"constraint '{c}' names {c.param}, but the skeleton has {have}",
                                 kind="constraints")
     for name, (low, high) in merged_bounds(constraints).items():
+        if name in owners and low >= high:
+            state = owners[name][0]
+            involved = ", ".join(str(c) for c in constraints
+                                 if (isinstance(c, StateLimit) and c.state == state)
+                                 or (isinstance(c, Bound) and c.param == name))
+            left = "no value" if low > high else f"the single value {low:.12g}"
+            raise SkeletonError(f"contradictory limits on {state}: {involved} leave {state} "
+                                f"{left}", kind="constraints")
         if low == high:
             raise SkeletonError(f"the bounds on {name} fix it at {low:.12g}: write the number "
                                 "in the equation instead", kind="constraints")

@@ -15,6 +15,16 @@ def _sign(x: float) -> float:
     return float((x > 0) - (x < 0))
 
 
+def _log(x: float) -> float:
+    """``math.log`` answering ``-inf`` at the edge of its domain (as numpy does), not raising."""
+    return -math.inf if x == 0.0 else math.log(x)
+
+
+def _log10(x: float) -> float:
+    """``math.log10`` answering ``-inf`` at 0, as :func:`_log`."""
+    return -math.inf if x == 0.0 else math.log10(x)
+
+
 class Elementary(NamedTuple):
     """One elementary function of the skeleton language, in every representation.
 
@@ -44,8 +54,8 @@ ELEMENTARY: dict[str, Elementary] = {
     "acos": Elementary(np.arccos, math.acos, "acos", "acos"),
     "atan": Elementary(np.arctan, math.atan, "atan", "atan"),
     "exp": Elementary(np.exp, math.exp, "exp", "exp"),
-    "log": Elementary(np.log, math.log, "log", "log"),
-    "log10": Elementary(np.log10, math.log10, "log10", ("log", 10.0)),
+    "log": Elementary(np.log, _log, "log", "log"),
+    "log10": Elementary(np.log10, _log10, "log10", ("log", 10.0)),
     "sqrt": Elementary(np.sqrt, math.sqrt, "sqrt", "sqrt"),
     "abs": Elementary(np.abs, abs, "abs", "Abs"),
     "sign": Elementary(np.sign, _sign, "sign", "sign"),

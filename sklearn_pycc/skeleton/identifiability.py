@@ -214,6 +214,47 @@ def _same(a: np.ndarray, b: np.ndarray) -> bool:
     return float(np.max(np.abs(a - b))) <= 1e-9 * (1.0 + float(np.max(np.abs(a))))
 
 
+def _reading_points(skeleton, probe: _Probe, curves: dict, params: dict) -> dict:
+    """Where each equation reads each curve on the probe's rows, up to sign.
+
+    ``{curve: {equation: sorted |argument| values}}``; None for a curve
+    inside another's argument or with one inside its own, which may trade a
+    curve with any other.
+    """
+    found: dict = {f: {} for f in skeleton.functions}
+    for e, node in enumerate(probe.nodes):
+        for unknown in walk(node):
+            if not isinstance(unknown, Unknown):
+                continue
+            inner = [n.name for n in walk(unknown.arg) if isinstance(n, Unknown)]
+            for name in inner:
+                found[name] = found[unknown.name] = None
+            if inner or found[unknown.name] is None:
+                continue
+            with np.errstate(all="ignore"):
+                value = compile_expression(unknown.arg, probe.slots, params, curves)(probe.env)
+            value = np.abs(np.broadcast_to(np.asarray(value, dtype=float), (_N_POINTS,)))
+            found[unknown.name].setdefault(e, []).append(value[probe.rows])
+    return {f: None if where is None else {e: np.sort(np.stack(v), axis=0)
+                                           for e, v in where.items()}
+            for f, where in found.items()}
+
+
+def _read_alike(a: dict | None, b: dict | None) -> bool:
+    """Whether two curves are read at the same points in the same equations (up to sign).
+
+    Only such curves can trade a curve between them: a curve read at other
+    points changes the residual wherever it moves.
+    """
+    if a is None or b is None:
+        return True
+    if a.keys() != b.keys() or any(a[e].shape != b[e].shape for e in a):
+        return False
+    # a point that is not finite says nothing: it does not set the pair apart
+    with np.errstate(invalid="ignore"):
+        return not any(np.any(np.abs(a[e] - b[e]) > 1e-9 * (1.0 + np.abs(a[e]))) for e in a)
+
+
 def _where(skeleton, names) -> str:
     idx = []
     for eq in skeleton.residual_equations:
@@ -307,6 +348,7 @@ def analyse(skeleton, seed: int = 0) -> IdentifiabilityReport:
 
     # 3. two curves of the same argument in one sum ---------------------------------------
     fs = skeleton.functions
+    read_at = _reading_points(skeleton, probe, curves, params)
     for i, fj in enumerate(fs):
         for fk in fs[i + 1:]:
             if fj in zeroed or fk in zeroed:
@@ -315,6 +357,8 @@ def analyse(skeleton, seed: int = 0) -> IdentifiabilityReport:
             if {c.kind for c in joint} >= {"odd", "even"}:
                 continue
             g = _random_curve(joint, rng, homogeneous=True)
+            if not _read_alike(read_at[fj], read_at[fk]):
+                continue  # no trade is possible; probing it would cost a cube of the curves
             reference = probe(curves, params)
             for s in (1.0, -1.0):
                 moved = {**curves,

@@ -9,15 +9,15 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from ..exceptions import SkeletonError
+from ..exceptions import SimulationError, SkeletonError
 from ..simulation import (
-    DEFAULT_MAX_STEPS,
     InputSignals,
     check_solver_options,
     check_time_grid,
     integrate_sampled,
     integrate_system,
     progress_bar,
+    sampled_step_limit,
 )
 from .constraints import (
     Bound,
@@ -247,7 +247,11 @@ class Skeleton:
 
     @property
     def bounds(self) -> dict[str, tuple[float, float]]:
-        """Parameter -> ``(low, high)`` for every bounded parameter (``-inf``/``inf`` open)."""
+        """Parameter -> ``(low, high)`` for every bounded parameter (``-inf``/``inf`` open).
+
+        A limit's end to fit is bounded by its state's other end as well
+        (``a5 >= 0`` with ``x1 >= 0`` and ``x1 <= a5``).
+        """
         return merged_bounds(self.constraints)
 
     @property
@@ -513,7 +517,8 @@ class Skeleton:
         t : array-like
             Strictly increasing output times; integration runs from ``t[0]`` to ``t[-1]``.
         y0 : array-like
-            Initial state, in the order of :attr:`states`.
+            Initial state, in the order of :attr:`states`, within the states'
+            hard limits.
         functions : dict, optional
             Curve name -> callable (e.g. ``{"f1": lambda v: 0.1 * v}``).
         params : dict, optional
@@ -554,6 +559,8 @@ class Skeleton:
         ------
         SimulationError
             If the trajectory diverges or the solver fails.
+        ValueError
+            If ``y0`` starts a state beyond its hard limits.
         """
         system = self.compile(functions, params)
         return simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
@@ -561,8 +568,43 @@ class Skeleton:
                                verbose=verbose, **solver_options)
 
 
+def _limit_text(name: str, low: float, high: float) -> str:
+    return " ".join([*([f"{low:.6g} <="] if np.isfinite(low) else []), name,
+                     *([f"<= {high:.6g}"] if np.isfinite(high) else [])])
+
+
 #: a simulation of more samples than this says it will take a while
 LONG_SIMULATION = 2_000_000
+
+#: a start beyond a state's limit by less than this share of the limit's size is rounding:
+#: it is moved onto the limit rather than refused
+START_SLACK = 1e-9
+
+
+def check_start(system: CompiledSystem, y0: np.ndarray, t0: float = 0.0) -> np.ndarray:
+    """``y0`` checked to lie within the states' hard limits (a copy, rounding moved onto them).
+
+    Raises
+    ------
+    ValueError
+        Naming the first state that starts beyond its limits.
+    SimulationError
+        When the model's limits on a state leave it no value (an end fitted, or
+        drawn, below the other).
+    """
+    y0 = np.array(y0, dtype=float)
+    for q, name in enumerate(system.states):
+        low, high = system.limits.get(name, (-np.inf, np.inf))
+        if low > high:
+            raise SimulationError(f"the limits of {name} leave it no value ({low:.6g} <= "
+                                  f"{name} <= {high:.6g}): the model cannot be simulated",
+                                  t_reached=t0, partial=pd.DataFrame())
+        slack = START_SLACK * max([1.0, *(abs(v) for v in (low, high) if np.isfinite(v))])
+        if y0[q] < low - slack or y0[q] > high + slack:
+            side = "below its lower" if y0[q] < low else "above its upper"
+            raise ValueError(f"y0 starts {name} at {y0[q]:.6g}, {side} limit "
+                             f"({_limit_text(name, low, high)}): start it within its limits")
+    return system.clip(y0)
 
 
 def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method=None, rtol=1e-6,
@@ -582,6 +624,7 @@ def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method=None, 
             f"({', '.join(system.states)}), got shape {y0.shape}")
     if not np.isfinite(y0).all():
         raise ValueError("y0 contains NaN or infinity")
+    y0 = check_start(system, y0, float(t[0]))
     signals = InputSignals(system.inputs, inputs, t, input_hold)
     sampled = method is None and signals.sampled
     rhs = system.make_rhs(signals.at, list_states=sampled)
@@ -595,8 +638,8 @@ def simulate_system(system: CompiledSystem, t, y0, inputs=None, *, method=None, 
                 raise ValueError(f"the sampled-input integrator takes no option "
                                  f"{sorted(unknown)[0]!r}; pass method='LSODA' (or another "
                                  "SciPy solver) to use SciPy's options")
-            # a long record earns its steps: at least 50 per sample
-            limit = solver_options.get("max_steps", max(DEFAULT_MAX_STEPS, 50 * len(t)))
+            # a long record earns its steps (50 per sample), up to a budget
+            limit = solver_options.get("max_steps", sampled_step_limit(len(t)))
             frame = integrate_sampled(rhs, t, y0, system.states, signals, rtol=rtol, atol=atol,
                                       max_steps=limit, progress=progress)
         else:

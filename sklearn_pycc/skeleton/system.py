@@ -159,7 +159,7 @@ class CompiledSystem:
         outputs = self._output_slots
         zeros, ones = np.zeros(n), np.ones(n)
 
-        def rhs(x: np.ndarray, values: list[np.ndarray]) -> np.ndarray:
+        def rates(x: np.ndarray, values: list[np.ndarray]) -> np.ndarray:
             env: list = [None] * n_env
             for q in state_slots:
                 env[q] = x[:, q]
@@ -177,11 +177,19 @@ class CompiledSystem:
             out = np.empty((n, len(outputs)))
             for j, slot in enumerate(outputs):
                 out[:, j] = env[slot]  # a constant right-hand side broadcasts
+            return out
+
+        def rhs(x: np.ndarray, values: list[np.ndarray]) -> np.ndarray:
+            out = rates(x, values)
             if limited:
+                undefined = ~np.isfinite(out).all(axis=1)
+                if undefined.any():  # sqrt of a level a step left a hair below its floor
+                    held = clip(x.copy())
+                    out[undefined] = rates(held, values)[undefined]
                 hold(x, out)
             return out
 
-        limited, hold = bool(self._limited), self._hold
+        limited, hold, clip = bool(self._limited), self._hold, self.clip
         return rhs
 
     def evaluate_outputs(self, data: Mapping[str, np.ndarray], n: int) -> np.ndarray:
@@ -193,6 +201,40 @@ class CompiledSystem:
         return np.column_stack(values) if values else np.zeros((n, 0))
 
     # -- scalar right-hand side for ODE solvers ----------------------------
+    def _evaluate_at_limits(self, env: list, exc: ValueError, slot: int) -> None:
+        """Evaluate the scalar plan again, in place, with the states held within their limits.
+
+        A stage that a step pushes a hair beyond a limit is read as it
+        stands where the equations are defined there (the sensitivities of a
+        fit stay smooth), and at the limit where they are not (the square
+        root of a level a hair below its floor). Raises :class:`Diverged`,
+        naming the equation, where that does not help.
+        """
+        n = len(self.states)
+        states = env[:n]
+        if self.clip_values(env)[:n] == states:  # within its limits: truly outside the domain
+            raise Diverged(self._outside_domain(exc, slot, env)) from exc
+        try:
+            for slot, fn, explicit in self._plan_scalar:
+                if explicit:
+                    env[slot] = fn(env)
+                else:
+                    env[slot] = 0.0
+                    e0 = fn(env)
+                    env[slot] = 1.0
+                    e1 = fn(env)
+                    env[slot] = -e0 / (e1 - e0)
+        except ValueError as again:
+            raise Diverged(self._outside_domain(again, slot, env)) from again
+
+    def _outside_domain(self, exc: ValueError, slot: int, env: list) -> str:
+        """Words for a function evaluated outside its domain: the equation, time and states."""
+        where = next(name for name, s in self.slots.items() if s == slot)
+        states = ", ".join(f"{name}={env[q]:.6g}" for q, name in enumerate(self.states))
+        return (f"{exc} in {where} at t={env[self.slots[TIME]]:.6g} ({states}): a sqrt, log, "
+                "arcsin or power reads a value outside its domain (a limit on the state, "
+                "such as 'x1 >= 0', keeps it within)")
+
     def make_rhs(self, input_at: Callable[[float], list[float]], *,
                  list_states: bool = False) -> Callable:
         """Return ``rhs(t, y)`` for a SciPy solver; inputs come from ``input_at(t)``.
@@ -215,15 +257,18 @@ class CompiledSystem:
                 env += input_at(t)
             env.append(t)
             env += tail
-            for slot, fn, explicit in plan:
-                if explicit:
-                    env[slot] = fn(env)
-                else:
-                    env[slot] = 0.0
-                    e0 = fn(env)
-                    env[slot] = 1.0
-                    e1 = fn(env)
-                    env[slot] = -e0 / (e1 - e0)
+            try:
+                for slot, fn, explicit in plan:
+                    if explicit:
+                        env[slot] = fn(env)
+                    else:
+                        env[slot] = 0.0
+                        e0 = fn(env)
+                        env[slot] = 1.0
+                        e1 = fn(env)
+                        env[slot] = -e0 / (e1 - e0)
+            except ValueError as exc:  # math's domain errors
+                self._evaluate_at_limits(env, exc, slot)
             out = pick(env)
             # one C-level sum is finite whenever every term is (or it overflowed)
             if not isfinite(sum(out)):
