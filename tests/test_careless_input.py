@@ -213,10 +213,10 @@ def test_the_unmeasured_diagnosis_draws_units_as_written():
     ("ab", "params\\['eq_weights'\\] must be numbers"),
     ({"x1_dot": 1.0}, "params\\['eq_weights'\\] must be numbers"),
     ([1.0, "b"], "params\\['eq_weights'\\] must be numbers"),
-    ([1.0], "eq_weights holds 1 weight"),
-    ([1.0, float("nan")], "eq_weights\\[1\\] = nan"),
-    ([1.0, -1.0], "eq_weights\\[1\\] = -1.0"),
-    ([0.0, 0.0], "eq_weights are all zero"),
+    ([1.0], "params\\['eq_weights'\\] holds 1 value"),
+    ([1.0, float("nan")], "params\\['eq_weights'\\]\\[1\\] = nan"),
+    ([1.0, -1.0], "params\\['eq_weights'\\]\\[1\\] = -1.0"),
+    ([0.0, 0.0], "params\\['eq_weights'\\] are all zero"),
 ])
 def test_pycc_train_names_eq_weights(record, weights, message):
     from sklearn_pycc import pycc

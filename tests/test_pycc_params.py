@@ -128,7 +128,7 @@ def test_eq_weights_become_equation_weights(stick_slip, method, extra):
 
 
 def test_eq_weights_need_one_weight_per_equation(stick_slip):
-    with pytest.raises(ValueError, match="eq_weights holds 1 weight"):
+    with pytest.raises(ValueError, match=r"eq_weights'\] holds 1 value"):
         pycc.train(stick_slip, STICK_SLIP, "Poly", {"eq_weights": [1.0]})
 
 

@@ -41,7 +41,7 @@ from ._setup import GAUGES, FitResult, Problem, build_skeleton, gauge_skeleton, 
 from .backend import Backend
 
 __all__ = ["FIT_MODES", "OUTPUT_ERROR_SETTINGS", "RANDOM_STATES", "RESAMPLING", "CCRegressor",
-           "adopt", "backend_of", "make_problem", "set_fitted"]
+           "adopt", "backend_of", "check_equation_weights", "make_problem", "set_fitted"]
 
 FIT_MODES = ("auto", "equation", "simulation")
 #: the hyperparameters of the output-error stage, left out by estimators that have none
@@ -311,7 +311,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             fixed = {**fixed, **_measured_limits(skeleton, record)}
             if self.fit_mode == "simulation":
                 _check_simulable(skeleton)
-        weights = _equation_weights(self.equation_weights, skeleton)
+        weights = check_equation_weights(self.equation_weights, skeleton)
         mode, why = self._resolve_mode(skeleton, record, backend)
         facts = {"fit_mode_": mode, "derivative_source_": record.source + why,
                  "input_hold_": given_hold(self),
@@ -1214,26 +1214,33 @@ def _check_simulable(skeleton: Skeleton, *, outputs_ok: bool = False) -> None:
             "equation error (fit_mode='equation')")
 
 
-def _equation_weights(weights, skeleton: Skeleton) -> tuple | None:
-    """The ``equation_weights`` hyperparameter checked against the skeleton's equations."""
+def check_equation_weights(weights, skeleton: Skeleton,
+                           name: str = "equation_weights") -> tuple | None:
+    """Weights of the skeleton's equations, one each, finite, non-negative, not all zero.
+
+    ``name`` is what the user called them (``eq_weights`` in the published
+    package's ``params``): every error names it.
+    """
     if weights is None:
         return None
+    wrong = f"{name} must be numbers, one per equation in their order, got {weights!r}"
+    if isinstance(weights, (str, bytes, Mapping)):
+        raise ValueError(wrong)
     try:
         values = np.asarray(weights, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"equation_weights must be numbers, one per equation, got "
-                         f"{weights!r}") from None
+        raise ValueError(wrong) from None
     n = len(skeleton.equations)
     if values.ndim != 1 or len(values) != n:
-        raise ValueError(f"equation_weights holds {values.size} value(s) but the skeleton has "
+        raise ValueError(f"{name} holds {values.size} value(s) but the skeleton has "
                          f"{n} equation(s): give one weight per equation, in their order")
     bad = np.flatnonzero(~np.isfinite(values) | (values < 0))
     if bad.size:
         k = int(bad[0])
-        raise ValueError(f"equation_weights[{k}] = {weights[k]!r} (for equations[{k}], "
+        raise ValueError(f"{name}[{k}] = {float(values[k])!r} (for equations[{k}], "
                          f"{skeleton.equations[k]!r}) must be a finite, non-negative number")
     if not values.any():
-        raise ValueError("equation_weights are all zero: nothing would be fitted")
+        raise ValueError(f"{name} are all zero: nothing would be fitted")
     return tuple(float(v) for v in values)
 
 

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-import numpy as np
 import pandas as pd
 
 from ..estimators import NeuralCCRegressor, PolyCCRegressor, SymbolicCCRegressor
 from ..estimators._activations import ACTIVATIONS
+from ..estimators.base import check_equation_weights
 from ..skeleton import Skeleton
 from ._fine_tuning import post_fine_tuning
 from ._params import Params
@@ -108,29 +108,14 @@ def _param_init(read: Params, skeleton: Skeleton) -> dict | None:
 
 def _equation_weights(read: Params, skeleton: Skeleton) -> dict:
     """``eq_weights`` as the estimator's ``equation_weights`` (nothing when not given)."""
-    weights = read["eq_weights"]
-    if weights is None:
+    if read["eq_weights"] is None:
         return {}
-    wrong = (f"{read.where}: params['eq_weights'] must be numbers, one per equation in their "
-             f"order, got {weights!r}")
-    if isinstance(weights, (str, bytes, Mapping)):
-        raise ValueError(wrong)
     try:
-        values = np.asarray(weights, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise ValueError(wrong) from None
-    if values.size != len(skeleton.equations):
-        raise ValueError(f"{read.where}: eq_weights holds {values.size} weight(s) but the "
-                         f"equations are {len(skeleton.equations)}: one per equation, in "
-                         "their order")
-    bad = np.flatnonzero(~np.isfinite(values) | (values < 0))
-    if bad.size:
-        k = int(bad[0])
-        raise ValueError(f"{read.where}: eq_weights[{k}] = {float(values[k])!r} (for "
-                         f"{skeleton.equations[k]!r}) must be a finite, non-negative number")
-    if not values.any():
-        raise ValueError(f"{read.where}: eq_weights are all zero: nothing would be fitted")
-    return {"equation_weights": [float(v) for v in values]}
+        weights = check_equation_weights(read["eq_weights"], skeleton,
+                                         name="params['eq_weights']")
+    except ValueError as exc:
+        raise ValueError(f"{read.where}: {exc}") from None
+    return {"equation_weights": list(weights)}
 
 
 # -- NN ----------------------------------------------------------------------------------
