@@ -16,6 +16,37 @@ from .equations import TIME, Equation, evaluation_order
 __all__ = ["CompiledSystem"]
 
 
+class _OutsideDomain(ValueError):
+    """A function of the scalar plan read a value outside its domain (``math``'s error)."""
+
+    def __init__(self, error: ValueError, slot: int) -> None:
+        super().__init__(str(error))
+        self.slot = slot
+
+
+def _run_plan(plan: list, env: list) -> None:
+    """Evaluate a scalar plan in place: each slot explicitly, or solved where it enters linearly.
+
+    Raises
+    ------
+    _OutsideDomain
+        Naming the slot whose function read a value outside its domain.
+    """
+    slot = -1
+    try:
+        for slot, fn, explicit in plan:
+            if explicit:
+                env[slot] = fn(env)
+            else:  # linear in the slot: two evaluations give its root
+                env[slot] = 0.0
+                e0 = fn(env)
+                env[slot] = 1.0
+                e1 = fn(env)
+                env[slot] = -e0 / (e1 - e0)
+    except ValueError as exc:  # math's domain errors
+        raise _OutsideDomain(exc, slot) from exc
+
+
 class CompiledSystem:
     """Right-hand side of a skeleton, compiled once with fixed curves and parameters.
 
@@ -201,7 +232,7 @@ class CompiledSystem:
         return np.column_stack(values) if values else np.zeros((n, 0))
 
     # -- scalar right-hand side for ODE solvers ----------------------------
-    def _evaluate_at_limits(self, env: list, exc: ValueError, slot: int) -> None:
+    def _evaluate_at_limits(self, env: list, exc: _OutsideDomain) -> None:
         """Evaluate the scalar plan again, in place, with the states held within their limits.
 
         A stage that a step pushes a hair beyond a limit is read as it
@@ -213,23 +244,15 @@ class CompiledSystem:
         n = len(self.states)
         states = env[:n]
         if self.clip_values(env)[:n] == states:  # within its limits: truly outside the domain
-            raise Diverged(self._outside_domain(exc, slot, env)) from exc
+            raise Diverged(self._outside_domain(exc, env)) from exc
         try:
-            for slot, fn, explicit in self._plan_scalar:
-                if explicit:
-                    env[slot] = fn(env)
-                else:
-                    env[slot] = 0.0
-                    e0 = fn(env)
-                    env[slot] = 1.0
-                    e1 = fn(env)
-                    env[slot] = -e0 / (e1 - e0)
-        except ValueError as again:
-            raise Diverged(self._outside_domain(again, slot, env)) from again
+            _run_plan(self._plan_scalar, env)
+        except _OutsideDomain as again:
+            raise Diverged(self._outside_domain(again, env)) from again
 
-    def _outside_domain(self, exc: ValueError, slot: int, env: list) -> str:
+    def _outside_domain(self, exc: _OutsideDomain, env: list) -> str:
         """Words for a function evaluated outside its domain: the equation, time and states."""
-        where = next(name for name, s in self.slots.items() if s == slot)
+        where = next(name for name, s in self.slots.items() if s == exc.slot)
         states = ", ".join(f"{name}={env[q]:.6g}" for q, name in enumerate(self.states))
         return (f"{exc} in {where} at t={env[self.slots[TIME]]:.6g} ({states}): a sqrt, log, "
                 "arcsin or power reads a value outside its domain (a limit on the state, "
@@ -258,17 +281,9 @@ class CompiledSystem:
             env.append(t)
             env += tail
             try:
-                for slot, fn, explicit in plan:
-                    if explicit:
-                        env[slot] = fn(env)
-                    else:
-                        env[slot] = 0.0
-                        e0 = fn(env)
-                        env[slot] = 1.0
-                        e1 = fn(env)
-                        env[slot] = -e0 / (e1 - e0)
-            except ValueError as exc:  # math's domain errors
-                self._evaluate_at_limits(env, exc, slot)
+                _run_plan(plan, env)
+            except _OutsideDomain as exc:
+                self._evaluate_at_limits(env, exc)
             out = pick(env)
             # one C-level sum is finite whenever every term is (or it overflowed)
             if not isfinite(sum(out)):
