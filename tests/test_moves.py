@@ -277,3 +277,4 @@ def test_the_loop_refines_its_last_skeleton_by_output_error_when_that_simulates_
                           noisy, n_bootstrap=0).run(max_rounds=1)
     assert loop.model.fit_mode_ == "simulation"
     assert loop.refine() is None and loop.final_model is loop.model
+    assert "round 0's model (fitted by output error already)" in loop.summary()

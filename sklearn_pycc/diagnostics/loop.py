@@ -367,6 +367,8 @@ class HypothesisLoop:
             return f"round {last}'s skeleton {refinement}"
         if refinement is not None:
             return f"round {last}'s model (its skeleton {refinement})"
+        if getattr(self.rounds[-1].model, "fit_mode_", None) == "simulation":
+            return f"round {last}'s model (fitted by output error already)"
         return f"round {last}'s model"
 
     def _answer_mark(self, index: int) -> str:
