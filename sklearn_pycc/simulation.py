@@ -23,7 +23,8 @@ from .exceptions import SimulationError
 
 __all__ = ["DEFAULT_MAX_STEPS", "INPUT_HOLDS", "STEP_BUDGET", "Diverged", "InputSignals",
            "check_hold", "check_time_grid", "fitted_hold", "given_hold", "integrate_sampled",
-           "integrate_system", "progress_bar", "requested_hold", "sampled_step_limit"]
+           "integrate_system", "judged_step_limit", "progress_bar", "requested_hold",
+           "sampled_step_limit"]
 
 _SOLVERS = {
     "LSODA": integrate.LSODA,
@@ -41,6 +42,15 @@ DEFAULT_MAX_STEPS = 500_000
 #: (20 to 70 microseconds a step: a few minutes on one core); a longer record is simulated
 #: in pieces, or with an explicit ``max_steps``
 STEP_BUDGET = 5_000_000
+
+
+def judged_step_limit(n_samples: int) -> int:
+    """Steps a diagnosis or a comparison allows one simulation of a record of ``n_samples``.
+
+    Fifty a sample and a margin, so that a diverging candidate is given up
+    quickly, and never more than :data:`STEP_BUDGET`.
+    """
+    return min(STEP_BUDGET, 50 * int(n_samples) + 10_000)
 
 
 def sampled_step_limit(n_samples: int) -> int:

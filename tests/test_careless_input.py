@@ -79,6 +79,9 @@ def test_the_default_step_limit_is_capped_by_the_budget():
     assert simulation.sampled_step_limit(100) == simulation.DEFAULT_MAX_STEPS
     assert simulation.sampled_step_limit(50_000) == 2_500_000
     assert simulation.sampled_step_limit(10_000_000) == simulation.STEP_BUDGET
+    # a diagnosis gives a diverging candidate up quickly, within the same budget
+    assert simulation.judged_step_limit(1000) == 60_000
+    assert simulation.judged_step_limit(10_000_000) == simulation.STEP_BUDGET
 
 
 def test_a_record_longer_than_the_budget_is_refused_before_the_first_step(monkeypatch):

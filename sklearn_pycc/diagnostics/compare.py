@@ -15,6 +15,7 @@ from sklearn.model_selection import cross_val_score
 from sklearn.utils._param_validation import HasMethods, validate_params
 
 from ..measurements.measurement import Measurement, unwrap
+from ..simulation import judged_step_limit
 from ..skeleton import Skeleton
 from ._candidates import rss_floor
 from ._data import check_units, read_measurements
@@ -192,7 +193,7 @@ def _row(skeleton, base, *, X, y, record, cv, simulate: bool, horizon, held_out:
     if simulate and data.has_time:
         window = horizon if isinstance(horizon, Horizon) else horizon_of(model, data, horizon)
         simulated, divergences, _ = simulate_against(model, data, window,
-                                                     max_steps=50 * n + 10_000)
+                                                     max_steps=judged_step_limit(n))
         states = np.column_stack([data.columns[s] for s in model.skeleton_.states])
         row["simulation_rmse"] = math.inf if divergences else rmse(states, simulated)
         worst = 0.0

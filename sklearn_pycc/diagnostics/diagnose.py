@@ -15,6 +15,7 @@ from .._random import check_seed_source
 from ..exceptions import SkeletonError
 from ..measurements.measurement import unwrap
 from ..measurements.reconstruct import unmeasured_states
+from ..simulation import judged_step_limit
 from ..skeleton import Bound, Skeleton
 from ..skeleton.nodes import BinOp, Param, walk
 from ..skeleton.parser import parse_expression
@@ -740,7 +741,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         index=pd.Index(derivs, name="equation"))
 
     # -- simulation ---------------------------------------------------------------
-    steps = max_steps or 50 * data.n_samples + 10_000
+    steps = max_steps or judged_step_limit(data.n_samples)
     run_simulation = simulate and data.has_time
     simulated, divergences, window = None, [], None
     if run_simulation:

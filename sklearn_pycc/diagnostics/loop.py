@@ -12,6 +12,7 @@ from sklearn.base import clone
 
 from ..exceptions import SimulationError
 from ..measurements.measurement import Measurement
+from ..simulation import judged_step_limit
 from ..skeleton import Skeleton
 from ..skeleton.nodes import Param, product_factors, rename, signed_terms, walk
 from ..skeleton.printer import to_text
@@ -347,7 +348,7 @@ class HypothesisLoop:
         horizon = self.rounds[0].diagnosis.horizon
         equations = [k for k, d in enumerate(model.skeleton_.derivatives)
                      if d in last.diagnosis.maps] or list(range(len(model.skeleton_.states)))
-        steps = 50 * data.n_samples + 10_000
+        steps = judged_step_limit(data.n_samples)
         folds, before = _held_out_errors(model, data, equations, horizon, steps)
         _, after = _held_out_errors(refined, data, equations, horizon, steps)
         key = "held_out_simulation_nrmse" if "held_out_simulation_nrmse" in before \
