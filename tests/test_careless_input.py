@@ -283,3 +283,15 @@ def test_estimate_initial_state_reads_a_measurement(model, record):
     X, y = record
     assert model.estimate_initial_state(Measurement(X, y)) == \
         model.estimate_initial_state(X)
+
+
+# -- predict on a record of positions alone -----------------------------------------------------
+def test_predict_on_a_position_only_record_says_where_the_velocity_comes_from():
+    frame = datasets.make_duffing(n_samples=300, t_span=(0.0, 30.0))
+    X = frame[["t", "x1", "F_ext"]]
+    model = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
+                            degree=3).fit(X)
+    with pytest.raises(ValueError, match=r"no column 'x2', derivative 1 of 'x1'.*diagnose"):
+        model.predict(X)
+    # with the velocity given, it predicts
+    assert np.isfinite(model.predict(frame[["x1", "x2", "F_ext"]])).all()

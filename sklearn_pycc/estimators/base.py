@@ -26,6 +26,7 @@ from ..measurements.differentiation import (
     resolve_differentiation,
 )
 from ..measurements.measurement import Measurement, unwrap
+from ..measurements.reconstruct import kinematic_chains
 from ..measurements.record import targets_in_y
 from ..simulation import INPUT_HOLDS, given_hold, requested_hold
 from ..skeleton import Skeleton
@@ -542,6 +543,17 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                     f"{', '.join(unmeasured)} unmeasured, and predict reads every state from X. "
                     "Simulate the model instead, from the full initial state "
                     "estimate_initial_state(X) gives")
+        if isinstance(X, pd.DataFrame):
+            chains = kinematic_chains(self.skeleton_)
+            missing = [s for s in self.skeleton_.states if s not in X.columns and s in chains]
+            if missing:
+                root, order = chains[missing[0]]
+                raise ValueError(
+                    f"X has no column {missing[0]!r}, derivative {order} of {root!r} by the "
+                    "skeleton's kinematic equations: fit reconstructs it from the record, "
+                    "predict reads every state from X. Give it as a column, compare the "
+                    "derivatives with diagnose(model, X) (which reconstructs it), or simulate "
+                    "the model from estimate_initial_state(X)")
         data = read_X(self, X, self.skeleton_.variables, reset=False)
         with np.errstate(all="ignore"):
             pred = np.hstack([system.evaluate(data.columns, data.n_samples),
