@@ -14,9 +14,14 @@ complete
 false alarm
     on a control (nothing hidden), the loop names anything.
 
-Not timed for speed claims (the median loop time is printed beside)::
+Sensor noise as real records carry it: ``--poles`` makes the noise coloured
+(AR(1), one study per pole), ``--bits`` rounds the position to a converter's
+resolution and ``--drift`` adds a slow wander (a share of the RMS); the
+fresh record stays noise-free. Not timed for speed claims (the median loop
+time is printed beside)::
 
     python asv_benchmarks/loop_study.py [--seeds 0 1] [--snr 40 30] [--cases pendulum ...]
+    python asv_benchmarks/loop_study.py --poles 0.8 0.9 0.95 --bits 12 [--drift 0.02]
 """
 
 from __future__ import annotations
@@ -54,13 +59,21 @@ CASES: dict[str, tuple[dict, list[str] | None]] = {
 }
 
 
-def _record(hidden: dict, *, snr, seed: int, fresh: bool, no_spring: bool):
+def _record(hidden: dict, *, snr, seed: int, fresh: bool, no_spring: bool, sensor=None):
     options = dict(stiffness=0.0 if no_spring else 1.0, n_samples=3000, t_span=(0.0, 60.0))
     if fresh:
         options.update(y0=(2.0, 0.0), omega=1.3, amplitude=0.5)
+    seed = seed + (1000 if fresh else 0)
+    if sensor is not None:  # coloured, rounded or drifting noise; the fresh record is clean
+        frame, truth = datasets.make_oscillator(hidden=dict(hidden), random_state=seed,
+                                                return_truth=True, **options)
+        if not fresh:
+            frame = datasets.add_sensor_noise(frame, ["x1"], snr=snr, random_state=seed,
+                                              **sensor)
+        return frame, truth
     frame, truth = datasets.make_oscillator(
         hidden={k: v for k, v in hidden.items()}, noise=snr, noise_columns=["x1"],
-        random_state=seed + (1000 if fresh else 0), return_truth=True, **options)
+        random_state=seed, return_truth=True, **options)
     return frame, truth
 
 
@@ -74,12 +87,14 @@ def _simulation_error(model, frame, truth) -> float:
     return float(np.sqrt(np.mean(error**2))) if np.isfinite(error).all() else float("inf")
 
 
-def run_case(name: str, snr, seed: int) -> dict:
+def run_case(name: str, snr, seed: int, sensor: dict | None = None) -> dict:
     hidden, true_equations = CASES[name]
     control = name.startswith("control")
     no_spring = name == "pendulum_replace"
-    frame, truth = _record(hidden, snr=snr, seed=seed, fresh=False, no_spring=no_spring)
-    fresh, fresh_truth = _record(hidden, snr=snr, seed=seed, fresh=True, no_spring=no_spring)
+    frame, truth = _record(hidden, snr=snr, seed=seed, fresh=False, no_spring=no_spring,
+                           sensor=sensor)
+    fresh, fresh_truth = _record(hidden, snr=snr, seed=seed, fresh=True, no_spring=no_spring,
+                                 sensor=sensor)
     X = frame[["t", "x1", "F_ext"]]
     start_equations = BASE
     if true_equations == "truth":
@@ -108,18 +123,29 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
     parser.add_argument("--snr", type=float, nargs="+", default=[40.0, 30.0])
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    parser.add_argument("--poles", type=float, nargs="+", default=None,
+                        help="AR(1) poles of coloured noise (one study each)")
+    parser.add_argument("--bits", type=int, default=None, help="round to this resolution")
+    parser.add_argument("--drift", type=float, default=0.0, help="slow wander, share of RMS")
     args = parser.parse_args()
+    sensors = [None]
+    if args.poles is not None or args.bits is not None or args.drift:
+        sensors = [{"pole": pole, "bits": args.bits, "drift": args.drift}
+                   for pole in (args.poles or [0.0])]
     rows = []
-    print(f"{'case':<28} {'SNR':>4} {'seed':>4} {'right':>5} {'complete':>8} {'ratio':>7} "
-          f"{'s':>6}  named")
+    print(f"{'case':<28} {'pole':>4} {'SNR':>4} {'seed':>4} {'right':>5} {'complete':>8} "
+          f"{'ratio':>7} {'s':>6}  named")
     for name in args.cases:
-        for snr in args.snr:
-            for seed in args.seeds:
-                row = run_case(name, snr, seed)
-                rows.append(row)
-                print(f"{name:<28} {snr:>4.0f} {seed:>4} {row['right']!s:>5} "
-                      f"{row['complete']!s:>8} {row['ratio']:>7.2f} {row['seconds']:>6.1f}"
-                      f"  {', '.join(row['named']) or '-'}", flush=True)
+        for sensor in sensors:
+            pole = "-" if sensor is None else f"{sensor['pole']:g}"
+            for snr in args.snr:
+                for seed in args.seeds:
+                    row = run_case(name, snr, seed, sensor)
+                    rows.append(row)
+                    print(f"{name:<28} {pole:>4} {snr:>4.0f} {seed:>4} {row['right']!s:>5} "
+                          f"{row['complete']!s:>8} {row['ratio']:>7.2f} "
+                          f"{row['seconds']:>6.1f}  {', '.join(row['named']) or '-'}",
+                          flush=True)
     cases = [r for r in rows if not r["control"]]
     controls = [r for r in rows if r["control"]]
     if cases:

@@ -59,9 +59,11 @@ from ._generation import (
 )
 from ._lab_records import make_pendulum, make_positioning_axis, make_resonator
 from ._process_records import make_two_tanks
+from ._sensor_noise import add_sensor_noise
 from .skeleton import Skeleton
 
 __all__ = [
+    "add_sensor_noise",
     "make_duffing",
     "make_experiments",
     "make_first_order",

@@ -5,6 +5,7 @@ matplotlib is imported when a figure is drawn, never on ``import sklearn_pycc``.
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Mapping
 
 import numpy as np
@@ -13,7 +14,7 @@ import pandas as pd
 from .skeleton.compiler import compile_expression
 from .skeleton.parser import parse_expression
 
-__all__ = ["plot_comparison", "plot_curves", "plot_diagnosis", "plot_loop"]
+__all__ = ["plot_comparison", "plot_curves", "plot_diagnosis", "plot_loop", "plot_noise"]
 
 
 def _pyplot():
@@ -516,3 +517,48 @@ def _move_label(added) -> str:
     if added.replaces:
         return f"{added.effect} for {' + '.join(added.replaces)}"
     return f"+{added.effect}"
+
+
+def plot_noise(noise, *, signals=None):
+    """Each measured signal's spectrum with its noise model and the band the signal fills.
+
+    Parameters
+    ----------
+    noise : Measurement or NoiseReading
+        A record (its :attr:`~sklearn_pycc.measurements.Measurement.noise` is read)
+        or a reading.
+    signals : list of str, optional
+        The signals to draw (default: every one with noise).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel per signal: the record's multitaper spectrum, the fitted
+        noise model (white or coloured), the quantisation floor when the
+        values are rounded, and a line where the signal's band ends.
+    """
+    reading = getattr(noise, "noise", noise)
+    names = list(signals) if signals is not None else [
+        name for name, n in reading.items() if n.level > 0] or list(reading)
+    plt = _pyplot()
+    fig, axes = plt.subplots(len(names), 1, figsize=(7, 2.6 * len(names)), squeeze=False)
+    for ax, name in zip(axes[:, 0], names):
+        n = reading[name]
+        f, density = n.spectrum
+        keep = f > 0
+        ax.loglog(f[keep], density[keep], color="0.5", lw=0.8, label="record")
+        if n.level > 0:
+            kind = f"AR({len(n.ar)})" if n.coloured else "white"
+            ax.loglog(f[keep], n.density(f[keep]), color="C3",
+                      label=f"noise model ({kind}, level {n.level:.3g})")
+        if n.quantum is not None:
+            ax.axhline(2 * n.step * n.quantum**2 / 12, color="C2", ls=":", lw=1,
+                       label=f"rounding of steps {n.quantum:.3g}")
+        if np.isfinite(n.band):
+            ax.axvline(n.band, color="C0", ls="--", lw=1, label=f"signal band ends {n.band:.3g}")
+        label_axis(ax, "y", f"PSD of {name}", None)
+        ax.set_title(textwrap.fill(n.describe(), 100), fontsize=8, loc="left")
+        ax.legend(fontsize=7, loc="lower left")
+    label_axis(axes[-1, 0], "x", "frequency (cycles per time unit)", None)
+    fig.tight_layout()
+    return fig

@@ -171,6 +171,7 @@ def curve_errors(model):
             relative_rmse(curves["f2"]["f2"], spring))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", ["poly", "neural", "symbolic"])
 def test_a_conserved_energy_identifies_what_one_orbit_cannot(free_oscillation, backend):
     X, y = free_oscillation
@@ -249,6 +250,7 @@ def denominator_record():
     return sim
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", ["poly", "neural"])
 def test_curves_in_a_denominator_are_trained(denominator_record, backend):
     sim = denominator_record

@@ -184,6 +184,7 @@ def test_a_lowpass_cutoff_above_nyquist_is_refused(record):
                         differentiation={"method": "lowpass", "cutoff": 1e6}).fit(X)
 
 
+@pytest.mark.slow
 def test_a_pickled_or_copied_loop_writes_the_same_report(record):
     X, truth = record
     loop = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), X,

@@ -169,6 +169,7 @@ def test_neural_parameters_and_curves_keep_their_bounds_and_shapes(record):
                           activation="silu", max_epochs=1).fit(X, y)
 
 
+@pytest.mark.slow
 def test_symbolic_fits_and_conversions_keep_bounds_and_shapes(record):
     X, y = record
     constraints = ["a1 >= 0.3", "f1 odd", "f1 increasing"]

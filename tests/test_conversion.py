@@ -134,6 +134,7 @@ def test_post_sr_keeps_the_constraints(duffing_poly):
     assert set(converted.conversion_.index) == {"f1", "f2"}
 
 
+@pytest.mark.slow
 def test_post_sr_refits_the_parameters_of_a_hybrid_skeleton():
     frame = datasets.make_duffing(n_samples=600)
     equations = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - a1 x1 - a2 x1^3"]

@@ -449,7 +449,7 @@ def test_bad_random_state():
 
 # -- module hygiene --------------------------------------------------------------------
 def test_public_api():
-    assert sorted(datasets.__all__) == ["make_duffing", "make_experiments", "make_first_order",
+    assert sorted(datasets.__all__) == ["add_sensor_noise", "make_duffing", "make_experiments", "make_first_order",
                                         "make_oscillator", "make_pendulum",
                                         "make_positioning_axis",
                                         "make_resonator", "make_stick_slip", "make_two_dof",
@@ -460,7 +460,7 @@ def test_public_api():
         doc = inspect.getdoc(fn)
         for section in ("Parameters", "Returns", "Raises"):
             assert section in doc, (name, section)
-        if name == "make_experiments":
+        if name in ("make_experiments", "add_sensor_noise"):
             continue
         signature = inspect.signature(fn)
         assert list(signature.parameters)[:2] == ["n_samples", "t_span"]
@@ -469,9 +469,9 @@ def test_public_api():
 
 
 def test_module_imports_only_skeleton_and_exceptions():
-    from sklearn_pycc import _generation, _lab_records, _process_records
+    from sklearn_pycc import _generation, _lab_records, _process_records, _sensor_noise
 
-    for module in (datasets, _lab_records, _process_records, _generation):
+    for module in (datasets, _lab_records, _process_records, _generation, _sensor_noise):
         _check_imports(module)
 
 
@@ -485,7 +485,7 @@ def _check_imports(module):
             allowed = ("_generation",)
             if module is datasets:
                 allowed += ("skeleton", "exceptions", "diagnostics.effects", "_lab_records",
-                            "_process_records")
+                            "_process_records", "_sensor_noise")
             if module.__name__.endswith("_process_records"):  # the signals of the lab's
                 allowed += ("_lab_records",)
             assert node.module in allowed, node.module

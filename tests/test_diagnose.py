@@ -64,6 +64,7 @@ def noise(request):
     return request.param
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("effect", SINGLE)
 def test_the_hidden_effect_is_named_and_the_error_falls(effect, noise):
     frame, truth = oscillator([effect], noise=noise)
@@ -74,6 +75,7 @@ def test_the_hidden_effect_is_named_and_the_error_falls(effect, noise):
     assert reports[1].best is None  # nothing else is missing
 
 
+@pytest.mark.slow
 def test_stick_slip_two_rounds(noise):
     frame, truth = datasets.make_stick_slip(
         noise=noise, noise_columns=["x1", "x2", "x1_dot", "x2_dot"], random_state=0,
@@ -86,6 +88,7 @@ def test_stick_slip_two_rounds(noise):
     assert errors[0] / errors[2] >= (10 if noise else 1000)
 
 
+@pytest.mark.slow
 def test_nonlinear_coupling_between_two_masses(noise):
     states = ["x1", "x2", "x3", "x4"]
     frame, truth = datasets.make_two_dof(
@@ -123,6 +126,7 @@ def test_quadratic_drag_outranks_coulomb_friction_held_to_its_bounds():
     assert "feeds energy in" not in ranking.loc[coulomb, "note"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("effect", SINGLE)
 def test_a_complete_model_has_nothing_missing(effect, noise):
     frame, truth = oscillator([effect], noise=noise)
@@ -240,6 +244,7 @@ def stability_case(level):
     return PolyCCRegressor(equations=truth.base_equations).fit(X, y), X, y
 
 
+@pytest.mark.slow
 def test_a_suggestion_near_the_threshold_reports_low_stability():
     # the friction removes about as much of the residual as min_improvement asks
     model, X, y = stability_case(0.015)
@@ -310,6 +315,7 @@ def test_several_experiments_are_simulated_separately():
     assert set(report.windows.trajectory) <= {"run0", "run1"}
 
 
+@pytest.mark.slow
 def test_derivatives_are_read_from_x_or_estimated():
     frame, truth = oscillator(["coulomb_friction"], noise=None)
     X, y = xy(frame)
@@ -395,6 +401,7 @@ def test_a_window_diverging_within_its_horizon_is_reported():
         diagnose(model, test, test.x1.rename("x1_dot"), horizon=-1.0)
 
 
+@pytest.mark.slow
 def test_a_slow_drift_is_named_a_drift_not_a_forcing():
     t = np.linspace(0, 66, 1321)
     truth = Skeleton(["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 - a3 t"])
@@ -478,6 +485,7 @@ def test_stick_slip_two_rounds_across_noise_draws(seed):
     assert reports[0].simulation_rmse / reports[-1].simulation_rmse >= 10
 
 
+@pytest.mark.slow
 def test_the_diagnosis_refits_without_resamples_and_the_loop_keeps_the_users(monkeypatch):
     # a model fitted with n_bootstrap: each candidate's refit and held-out fit is judged by
     # its errors alone (it made n_bootstrap refits each, 6 times the time with 10), while

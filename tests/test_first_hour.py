@@ -51,6 +51,7 @@ def test_help_points_to_the_loop():
     assert "HypothesisLoop" in head and "loop.summary()" in head and "diagnose" in head
 
 
+@pytest.mark.slow
 def test_later_rounds_say_whose_horizon_they_keep_and_runners_up_are_compared():
     from sklearn_pycc import HypothesisLoop
 

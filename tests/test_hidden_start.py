@@ -46,6 +46,7 @@ def overflowing():
     return frame, truth, _problem(frame, ISSUE)
 
 
+@pytest.mark.slow
 def test_the_ratio_start_follows_the_record_where_a_common_factor_cannot(overflowing):
     _, truth, problem = overflowing
     whole = _hidden.WholeRecord(problem)
@@ -68,6 +69,7 @@ def _projected(problem, given=()):
                            lambda params: _hidden._settled_error(whole, problem, params)[0])
 
 
+@pytest.mark.slow
 def test_the_projection_needs_linear_parameters_of_the_measured_equations_alone(overflowing):
     frame, _, problem = overflowing
     assert _projected(problem, given=problem.free_params) is None  # all given
@@ -86,6 +88,7 @@ def test_the_projection_needs_linear_parameters_of_the_measured_equations_alone(
     assert _projected(bent, given=["a4"]) is None
 
 
+@pytest.mark.slow
 def test_a_wrong_skeleton_is_fitted_with_the_signs_written_not_collapsed(overflowing):
     # the tanks overflow and the skeleton has no rims: before the ratio start, the fit from
     # defaults ended with a1 and a4 negative and twice the error of the fit below

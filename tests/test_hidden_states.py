@@ -83,6 +83,7 @@ def test_a_model_with_an_unmeasured_state_clones_and_pickles(tanks):
     assert clone(model).get_params()["equations"] == CASCADE
 
 
+@pytest.mark.slow
 def test_a_column_of_missing_values_is_an_unmeasured_state(tanks):
     frame, _, model = tanks
     blank = frame.assign(x1=np.nan)
@@ -113,6 +114,7 @@ def test_where_an_unmeasured_state_cannot_be_fitted_the_error_says_why(tanks):
         diagnose(model, frame.drop(columns="t"))
 
 
+@pytest.mark.slow
 def test_an_output_error_fit_says_how_sure_it_is(tanks):
     _, truth, model = tanks
     expected = {"a1": truth.params["a1"], "a2": truth.params["a2"], "a3": truth.params["a4"]}
@@ -132,6 +134,7 @@ def test_an_output_error_fit_says_how_sure_it_is(tanks):
     assert all(wider[name] > 1.5 * spread[name] for name in expected)
 
 
+@pytest.mark.slow
 def test_resampling_redraws_the_noise_and_refits_from_the_fit(tanks):
     # a block of the record cannot fix its own x1(0): the fit's simulation errors are drawn
     # again in blocks and each resample is refitted from the fit
@@ -169,6 +172,7 @@ def test_an_experiment_no_longer_than_a_block_still_has_its_noise_redrawn():
             assert sorted(picks[run]) == list(run)
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::sklearn_pycc.exceptions.RankDeficiencyWarning")
 def test_no_refits_where_the_measurements_leave_a_direction_unseen(tanks):
     frame = tanks[0]
@@ -180,6 +184,7 @@ def test_no_refits_where_the_measurements_leave_a_direction_unseen(tanks):
     assert all(np.isnan(v) for v in model.params_std_.values())
 
 
+@pytest.mark.slow
 def test_resampling_with_unmeasured_states_does_not_depend_on_n_jobs(tanks):
     frame = tanks[0]
     tables = [PolyCCRegressor(equations=CASCADE, constraints=POSITIVE, n_bootstrap=3,
@@ -189,6 +194,7 @@ def test_resampling_with_unmeasured_states_does_not_depend_on_n_jobs(tanks):
     assert tables[0].a1.nunique() == 3
 
 
+@pytest.mark.slow
 def test_a_scale_the_measurements_cannot_see_is_named(tanks):
     # the skeleton: with a3 free, x1 -> c x1 is absorbed by a1, a2 and a3
     frame = tanks[0]
@@ -203,6 +209,7 @@ def test_a_scale_the_measurements_cannot_see_is_named(tanks):
     assert all(np.isnan(v) for v in model.params_std_.values())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("estimator", [
     NeuralCCRegressor, InterpolatedCCRegressor,
     pytest.param(SymbolicCCRegressor, marks=pytest.mark.skipif(
@@ -218,6 +225,7 @@ def test_every_backend_fits_a_parametric_skeleton_with_an_unmeasured_state(estim
     assert model.fit_mode_ == "simulation"
 
 
+@pytest.mark.slow
 def test_a_thermal_core_no_sensor_reads_is_fitted_from_the_surface():
     # two nodes: the surface (measured, 0.05 degC noise) and the core (unmeasured), heated
     skeleton = ["x1_dot = a1 (x2 - x1) + a2 (20 - x1) + a3 u", "x2_dot = a4 (x1 - x2)"]
@@ -259,6 +267,7 @@ def test_held_inputs_are_integrated_as_steps_when_the_estimator_says_so():
         assert np.allclose(path, steps, atol=1e-12) == exact
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("input_hold", ["zoh", "auto"])
 def test_a_heater_held_in_steps_is_fitted_with_input_hold_zoh(input_hold):
     skeleton = ["x1_dot = a1 (x2 - x1) + a2 (20 - x1) + a3 u", "x2_dot = a4 (x1 - x2)"]

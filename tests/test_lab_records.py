@@ -23,6 +23,7 @@ def axis():
 
 
 # -- a state on no right-hand side ---------------------------------------------------
+@pytest.mark.slow
 def test_a_state_no_right_hand_side_reads_is_read_everywhere(axis):
     frame, truth = axis
     X = frame.iloc[:5000]
@@ -47,6 +48,7 @@ def test_a_state_no_right_hand_side_reads_is_read_everywhere(axis):
 
 
 # -- derivatives chosen from the record ---------------------------------------------
+@pytest.mark.slow
 def test_auto_recovers_a_fast_clean_resonator():
     frame, truth = datasets.make_resonator(random_state=0, return_truth=True)
     model = PolyCCRegressor(equations=truth.equations).fit(frame)
@@ -59,6 +61,7 @@ def test_auto_recovers_a_fast_clean_resonator():
     assert relative(spline.params_["a3"], truth.params["a3"]) > 0.5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("noise, drop", [(30.0, 0.0), (60.0, 0.02), (30.0, 0.02)])
 def test_auto_recovers_the_resonator_with_noise_and_dropped_samples(noise, drop):
     frame, truth = datasets.make_resonator(noise=noise, drop_fraction=drop, random_state=0,
@@ -100,6 +103,7 @@ def test_output_error_cubic_simulates_a_larger_held_out_record(noise, drop):
     assert errors["cubic"] < errors["linear"] / 5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("noise, drop", [(None, 0.0), (None, 0.02), (30.0, 0.0)])
 def test_auto_reads_an_encoder_in_closed_loop(axis, noise, drop):
     frame, truth = axis

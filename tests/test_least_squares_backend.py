@@ -44,6 +44,7 @@ def test_it_recovers_odd_curves_as_the_polynomial_backend_does(duffing):
     assert "x2_dot = F_ext" in model.equations_text()[1]
 
 
+@pytest.mark.slow
 def test_a_nonlinear_parameter_and_a_point_value_hold(duffing):
     X, y = duffing
     equations = ["x1_dot = x2", "x2_dot = F_ext - a1*tanh(a2*x2) - f1(x1)"]

@@ -50,6 +50,7 @@ def axis_loop():
     return loop, truth
 
 
+@pytest.mark.slow
 def test_the_axis_loop_names_dry_friction_then_the_offset_then_stops(axis_loop):
     loop, truth = axis_loop
     added = effects_added(loop)
@@ -62,6 +63,7 @@ def test_the_axis_loop_names_dry_friction_then_the_offset_then_stops(axis_loop):
         assert relative(final[name], truth.params[name]) < 0.05, name
 
 
+@pytest.mark.slow
 def test_no_round_of_the_axis_loop_recommends_a_non_physical_model(axis_loop):
     loop, _ = axis_loop
     for r in loop.rounds:
@@ -75,6 +77,7 @@ def test_no_round_of_the_axis_loop_recommends_a_non_physical_model(axis_loop):
     assert np.all(np.diff(errors) < 0), errors
 
 
+@pytest.mark.slow
 def test_a_hardening_resonator_at_ten_samples_per_period_gets_its_cubic_spring():
     frame, truth = datasets.make_resonator(noise=60.0, random_state=0, return_truth=True)
     loop = HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), frame)
@@ -87,6 +90,7 @@ def test_a_hardening_resonator_at_ten_samples_per_period_gets_its_cubic_spring()
     assert relative(loop.model.params_["a4"], truth.params["a4"]) < 0.02
 
 
+@pytest.mark.slow
 def test_a_filmed_pendulum_is_named_a_pendulum_or_a_softening_spring():
     frame, truth = datasets.make_pendulum(random_state=0, return_truth=True)
     assert frame["t"].diff().max() > 1.5 / 30  # frames were dropped
@@ -100,6 +104,7 @@ def test_a_filmed_pendulum_is_named_a_pendulum_or_a_softening_spring():
         assert first.param_init["a3"] < 0  # softening
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind, rho", [("axis", 0.95), ("resonator", 0.9)])
 def test_coloured_noise_on_a_correct_skeleton_names_nothing(kind, rho):
     rng = np.random.default_rng(7)
@@ -149,6 +154,7 @@ def test_twenty_correct_records_with_coloured_noise_raise_at_most_one_alarm():
 
 
 # -- the loop object --------------------------------------------------------------------
+@pytest.mark.slow
 def test_the_loop_steps_one_round_at_a_time_and_never_touches_the_estimator():
     frame, truth = datasets.make_oscillator(hidden=["cubic_stiffness"], return_truth=True)
     estimator = PolyCCRegressor(equations=truth.base_equations)

@@ -65,6 +65,7 @@ def test_diagnose_compare_and_the_scorer_reuse_it(frame, differentiations):
     assert len(differentiations) == 2
 
 
+@pytest.mark.slow
 def test_a_loop_differentiates_a_position_only_record_once(differentiations):
     frame = datasets.make_positioning_axis(random_state=0)
     assert len(frame) == 25_000 and "x2" not in frame.columns

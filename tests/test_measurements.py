@@ -206,6 +206,7 @@ def test_smooth_states_switch_changes_the_fit(duffing_40db):
     assert not np.allclose(a.coefficients_["f2"], b.coefficients_["f2"])
 
 
+@pytest.mark.slow
 def test_diagnose_names_coulomb_on_position_only_stick_slip():
     frame = datasets.make_stick_slip(noise=30, noise_columns=["x1"], random_state=0)
     X = frame[["t", "x1", "F_ext"]]

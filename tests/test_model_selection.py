@@ -60,6 +60,7 @@ def test_block_split_fold_fits_without_differentiating_across_the_hole():
     assert np.sqrt(np.mean((curve["f2"] - truth.functions["f2"](curve["x"])) ** 2)) < 0.03
 
 
+@pytest.mark.slow
 def test_simulation_scorer_ranks_true_model_first(four_experiments):
     X = four_experiments[["t", "trajectory", "x1", "F_ext"]]
     scorer = make_simulation_scorer()
@@ -73,6 +74,7 @@ def test_simulation_scorer_ranks_true_model_first(four_experiments):
         make_simulation_scorer(["x9"])(PolyCCRegressor(equations=TRUE).fit(X), X)
 
 
+@pytest.mark.slow
 def test_grid_search_over_skeletons_picks_the_true_one(four_experiments):
     X = four_experiments[["t", "trajectory", "x1", "F_ext"]]
     search = GridSearchCV(PolyCCRegressor(equations=LINEAR),

@@ -53,6 +53,7 @@ def pendulum_loop():
     return loop.run(max_rounds=4)
 
 
+@pytest.mark.slow
 def test_a_pendulum_is_named_by_replacing_the_linear_spring(pendulum_loop):
     first = pendulum_loop.rounds[0].added
     assert (first.effect, first.move, first.replaces) == ("pendulum", "replace", ("a2*x1",))
@@ -70,6 +71,7 @@ def test_a_pendulum_is_named_by_replacing_the_linear_spring(pendulum_loop):
     assert abs(final.params_["a1"] / 0.3 - 1) < 0.03
 
 
+@pytest.mark.slow
 def test_the_replaced_pendulum_simulates_a_fresh_record_as_the_true_skeleton_does(
         pendulum_loop):
     fresh = pendulum(seed=7, release=1.5, omega=2.1)
@@ -86,6 +88,7 @@ def test_the_replaced_pendulum_simulates_a_fresh_record_as_the_true_skeleton_doe
 
 
 # -- remove -------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_a_spurious_term_is_removed_and_a_real_one_is_kept():
     frame, truth = datasets.make_oscillator(hidden=["cubic_stiffness"], noise=40.0,
                                             noise_columns=["x1"], random_state=1,
@@ -120,7 +123,8 @@ def test_a_loop_does_not_go_round_in_circles():
 
 
 # -- a limit cycle before an unmeasured drive -------------------------------------------
-@pytest.mark.parametrize("snr", [40.0, pytest.param(30.0, marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("snr", [40.0, 30.0])
 def test_a_self_excited_oscillator_is_named_by_its_state_not_a_drive(snr):
     frame = datasets.make_van_der_pol(n_samples=3000, noise=snr, noise_columns=["x1"],
                                       random_state=0, mu=0.8)
@@ -195,6 +199,7 @@ def test_the_positioning_axis_takes_a_viscous_coefficient_per_direction():
 
 
 # -- candidates are independent fits: n_jobs changes nothing but the time ----------------
+@pytest.mark.slow
 def test_diagnose_and_compare_skeletons_give_the_same_answer_for_any_n_jobs():
     from sklearn_pycc import compare_skeletons
 
@@ -219,6 +224,7 @@ def test_diagnose_and_compare_skeletons_give_the_same_answer_for_any_n_jobs():
 
 
 # -- errors per measured state, with units --------------------------------------------------
+@pytest.mark.slow
 def test_errors_are_reported_per_measured_state_with_their_units():
     from sklearn_pycc import compare_skeletons
 
@@ -250,6 +256,7 @@ def test_errors_are_reported_per_measured_state_with_their_units():
 
 
 # -- the final model by simulation when it pays ------------------------------------------
+@pytest.mark.slow
 def test_the_loop_refines_its_last_skeleton_by_output_error_when_that_simulates_better():
     frame, truth = datasets.make_resonator(n_samples=4000, noise=65.0, samples_per_period=10,
                                            random_state=0, return_truth=True)

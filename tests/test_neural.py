@@ -150,6 +150,7 @@ def test_curve_network_constraints_hold_in_torch():
             pytest.approx(-0.5, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_penalty_mode_makes_constraints_approximate(small_stick_slip):
     frame, _ = small_stick_slip
     X, y = frame[X_COLUMNS], frame[Y_COLUMNS]
@@ -438,6 +439,7 @@ def test_grid_search_over_skeletons_in_parallel(small_stick_slip):
     np.testing.assert_array_equal(sequential, parallel)
 
 
+@pytest.mark.slow
 def test_pipeline_and_clone(small_stick_slip):
     frame, _ = small_stick_slip
     X, y = frame[X_COLUMNS], frame[Y_COLUMNS]

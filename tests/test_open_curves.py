@@ -96,6 +96,7 @@ def test_linear_extrapolation_continues_the_edge():
         PolyCurve(np.ones(2), 0.0, 1.0, (-1.0, 1.0), "cubic")
 
 
+@pytest.mark.slow
 def test_poly_extrapolation_parameter(cogging_report):
     frame, _ = cogging_report
     skeleton = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - f1(x1)"]
@@ -112,6 +113,7 @@ def test_poly_extrapolation_parameter(cogging_report):
 
 
 # -- the diagnosis ----------------------------------------------------------------------
+@pytest.mark.slow
 def test_a_spring_outside_the_catalogue_is_not_called_complete(cogging_report):
     _, report = cogging_report
     best = report.best

@@ -40,6 +40,7 @@ def test_a_refit_in_equation_mode_forgets_the_output_error_stage():
     assert model.fit_mode_ == "equation" and not hasattr(model, "shooting_")
 
 
+@pytest.mark.slow
 def test_output_error_on_several_experiments_with_parametric_skeleton():
     settings = [{"amplitude": 1.2, "omega": 1.0}, {"amplitude": 1.8, "omega": 0.8}]
     frame, truths = datasets.make_experiments(
@@ -100,6 +101,7 @@ def test_simulation_mode_needs_time():
             frame[["x1", "x2", "F_ext"]], frame[["x1_dot", "x2_dot"]])
 
 
+@pytest.mark.slow
 def test_neural_output_error_refines_the_networks():
     from sklearn_pycc import NeuralCCRegressor
 
@@ -121,6 +123,7 @@ def test_neural_output_error_refines_the_networks():
     assert np.isfinite(sim[["x1", "x2"]].to_numpy()).all()
 
 
+@pytest.mark.slow
 def test_neural_stick_slip_position_only_at_30_db():
     """The friction curve from noisy positions alone, within 0.1 (published floor 0.3)."""
     from sklearn_pycc import NeuralCCRegressor

@@ -225,6 +225,7 @@ def test_clone_pickle_joblib_round_trips(stick_slip):
     assert not hasattr(fresh, "params_")
 
 
+@pytest.mark.slow
 def test_grid_search_picks_the_true_skeleton(duffing):
     frame, _ = duffing
     X, y = split(frame)

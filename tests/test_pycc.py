@@ -122,6 +122,7 @@ def test_theoretical_simulation_matches_the_dataset_generator(listing_data):
     assert np.allclose(df["x2_dot"], reference["x2_dot"], atol=1e-4)
 
 
+@pytest.mark.slow
 def test_nn_listing_reaches_the_published_workflow_accuracy(listing_data, nn_listing):
     _, time_data, x1_data = listing_data
     eqs, models, evals, obtained_coefs, caught = nn_listing
@@ -158,6 +159,7 @@ def test_nn_listing_reaches_the_published_workflow_accuracy(listing_data, nn_lis
     assert set(models) == {"f1", "f2"}
 
 
+@pytest.mark.slow
 def test_post_processing_and_interp_listing(listing_data, nn_listing):
     _, _, x1_data = listing_data
     eqs, _, evals, obtained_coefs, _ = nn_listing

@@ -277,6 +277,7 @@ def test_several_ignorable_keys_make_one_warning(stick_slip):
     assert len(said) == 1 and all(f"'{key}'" in said[0] for key in poly)
 
 
+@pytest.mark.slow
 def test_nothing_is_said_for_what_matches(stick_slip):
     _, said = calls_warnings(pycc.train, stick_slip, STICK_SLIP, "Poly",
                              {"scaling": True, "N_order": 5, "fitting_forw_sim": False})
@@ -286,6 +287,7 @@ def test_nothing_is_said_for_what_matches(stick_slip):
     assert len(said) <= 1 and not any("scaling" in text for text in said)
 
 
+@pytest.mark.slow
 def test_symbr_scaling_true_is_noted(stick_slip):
     _, said = calls_warnings(pycc.train, stick_slip, STICK_SLIP, "SymbR",
                              {**SMALL_SR, "scaling": True})
@@ -410,6 +412,7 @@ def check_pysr_model(entry, name):
         entry["model"]
 
 
+@pytest.mark.slow
 def test_pysr_model_of_train_and_post_processing(stick_slip):
     with pytest.warns(UserWarning, match="PySR is not installed"):
         models, evals, coefs = pycc.train(stick_slip, STICK_SLIP, "SymbR", SMALL_SR)

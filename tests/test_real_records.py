@@ -25,6 +25,7 @@ def _positions(name: str, column: str) -> pd.DataFrame:
     return frame[["t", column]].rename(columns={column: "x1"})
 
 
+@pytest.mark.slow
 def test_real_pendulum_lacks_a_softening_spring():
     X = _positions("real_pendulum.csv", "theta")
     model = PolyCCRegressor(equations=LINEAR).fit(X)
@@ -40,6 +41,7 @@ def test_real_pendulum_lacks_a_softening_spring():
     assert diagnose(refit, X).simulation_rmse < 0.5 * report.simulation_rmse
 
 
+@pytest.mark.slow
 def test_real_linear_oscillator_lacks_nothing_big():
     X = _positions("real_linear_oscillator.csv", "x")
     model = PolyCCRegressor(equations=LINEAR).fit(X)

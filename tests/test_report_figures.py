@@ -114,6 +114,7 @@ def _png(src: str) -> np.ndarray:
     return mpimg.imread(io.BytesIO(data), format="png")
 
 
+@pytest.mark.slow
 def test_the_html_report_holds_everything_and_fetches_nothing(loop, tmp_path):
     path = tmp_path / "loop.html"
     document = loop.to_html(path, title="A loop")
@@ -200,6 +201,7 @@ def test_the_report_renders_in_headless_chromium_without_a_network(loop, tmp_pat
     assert dom.count("<img") == 1 + 3 * len(loop.rounds) and "<math" in dom
 
 
+@pytest.mark.slow
 def test_a_long_record_is_drawn_with_a_zoom_beside_its_overview():
     from sklearn_pycc.plotting import LONG_RECORD
 

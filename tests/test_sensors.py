@@ -28,6 +28,7 @@ def accelerometer_record(seed: int, n_samples: int = 1500, bias: float = 0.05,
     return frame, start
 
 
+@pytest.mark.slow
 def test_a_spring_measured_by_an_accelerometer_alone_is_fitted():
     frame, start = accelerometer_record(0)
     skeleton = [*SPRING, "acc = -a1 x1 - a2 x2 + a3 u + a4"]  # the sensor has a bias
@@ -49,6 +50,7 @@ def test_a_spring_measured_by_an_accelerometer_alone_is_fitted():
     assert np.sqrt(np.mean((simulated.acc - new.acc) ** 2)) < 1.5 * noise
 
 
+@pytest.mark.slow
 def test_refits_on_redrawn_noise_read_the_sensor_too():
     # the accelerometer's errors are drawn again and added to the simulated reading
     frame, _ = accelerometer_record(0, n_samples=600)
@@ -86,6 +88,7 @@ def test_a_static_output_is_still_refused_by_output_error_when_every_state_is_me
         PolyCCRegressor(equations=[*SPRING, "acc = a4 x1"], fit_mode="simulation").fit(frame)
 
 
+@pytest.mark.slow
 def test_the_simulation_scorer_compares_a_sensor_of_unmeasured_states():
     frames = []
     for k in range(3):

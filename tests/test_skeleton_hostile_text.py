@@ -74,6 +74,7 @@ _TOKENS = ["x1", "x2", "x1_dot", "x2_dot", "a1", "a2", "f1", "f2", "(", ")", "+"
            "pi_dot", "F_ext", ",", "1/0", "exp(", "sign(", "t", "trajectory", "__x"]
 
 
+@pytest.mark.slow
 @settings(max_examples=1500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.one_of(st.text(_ALPHABET, max_size=60),
                  st.lists(st.sampled_from(_TOKENS), max_size=40).map("".join)))

@@ -29,6 +29,7 @@ def duffing():
     return datasets.make_duffing(return_truth=True)
 
 
+@pytest.mark.slow
 def test_one_dimensional_tanh_recovered_exactly():
     x = np.linspace(-1, 1, 400)
     X = pd.DataFrame({"x": x})
@@ -47,6 +48,7 @@ def test_one_dimensional_tanh_recovered_exactly():
                                    "expression", "chosen"]
 
 
+@pytest.mark.slow
 def test_duffing_expressions_match_the_truth(duffing):
     frame, _ = duffing
     model = SymbolicCCRegressor(equations=SECOND_ORDER, random_state=0)
@@ -66,6 +68,7 @@ def test_duffing_expressions_match_the_truth(duffing):
     assert model.score(frame[X_COLUMNS], frame[Y_COLUMNS]) > 0.999999
 
 
+@pytest.mark.slow
 def test_parameter_fitted_jointly_with_a_curve(duffing):
     frame, _ = duffing
     model = SymbolicCCRegressor(equations=["x1_dot = x2",
@@ -79,6 +82,7 @@ def test_parameter_fitted_jointly_with_a_curve(duffing):
         pytest.approx(0.3, abs=1e-3)
 
 
+@pytest.mark.slow
 def test_nonlinear_parameter_and_no_polynomial_start():
     # a3 sits inside tanh: refitted by least squares next to the curve's search
     frame, truth = datasets.make_stick_slip(n_samples=600, steepness=20.0, return_truth=True)
@@ -95,6 +99,7 @@ def test_nonlinear_parameter_and_no_polynomial_start():
     assert np.allclose(model.functions_["f2"](grid), truth.functions["f2"](grid), atol=1e-3)
 
 
+@pytest.mark.slow
 def test_odd_constraint_holds_by_construction():
     frame = datasets.make_stick_slip(n_samples=600, noise=30, random_state=0,
                                      noise_columns=["F_ext"])
@@ -146,6 +151,7 @@ def test_fitted_model_pickles_and_simulates(duffing):
     assert isinstance(clone.functions_["f1"], SymbolicCurve)
 
 
+@pytest.mark.slow
 def test_same_seed_same_expressions(duffing):
     frame, _ = duffing
     settings = dict(equations=SECOND_ORDER, population_size=50, generations=5,

@@ -10,6 +10,7 @@ from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets, diagnose, fr
 TORRICELLI = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
 
 
+@pytest.mark.slow
 def test_a_model_with_an_unmeasured_state_is_diagnosed_by_simulation():
     # below the rims: nothing stops either level, and no limit is suggested
     frame = datasets.make_two_tanks(400, rims=(100.0, 100.0), random_state=0)

@@ -22,6 +22,7 @@ from scipy import signal
 
 from .._bandlimited import _HALF, EvenGrid, central_derivative, even_grid
 from .differentiation import Differentiator
+from .noise import read_noise
 from .spectral import choose_cutoff, find_quantum, read_spectrum
 
 __all__ = ["AutoDifferentiator", "LowpassDifferentiator", "central_derivative", "even_grid"]
@@ -144,8 +145,9 @@ class AutoDifferentiator(Differentiator):
     For each experiment, every measured state is looked at on its even grid
     (dropped samples filled, an irregular grid resampled): its spectrum
     gives the noise floor (at least the rounding noise of a quantised
-    record), and the cutoff that minimises the estimated error of the
-    highest derivative needed. The experiment is then filtered at the
+    record), or, where the noise is coloured, its model (see :mod:`.noise`),
+    and the cutoff that minimises the estimated error of the highest
+    derivative needed. The experiment is then filtered at the
     lowest cutoff among its states (inputs too) by
     :class:`LowpassDifferentiator`; a noise-free record is differentiated
     without a filter.
@@ -167,7 +169,14 @@ class AutoDifferentiator(Differentiator):
         cutoffs, notes, snrs = {}, [], []
         for name, x in states.items():
             quantum = find_quantum(x)
-            reading = read_spectrum(grid.fill(t, x), grid.step, quantum)
+            even = grid.fill(t, x)
+            reading = read_spectrum(even, grid.step, quantum)
+            noise = read_noise(even, grid.step, name=name, quantum=quantum)
+            if noise.coloured:  # the noise rises below the band's top: its model, not a floor
+                cutoffs[name] = choose_cutoff(reading, order, noise.density(reading.frequencies))
+                snrs.append(noise.snr_db)
+                notes.append(noise.describe())
+                continue
             cutoffs[name] = choose_cutoff(reading, order)
             snrs.append(reading.snr_db)
             snr = ("no noise" if not np.isfinite(reading.snr_db)

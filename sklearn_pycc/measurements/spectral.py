@@ -118,19 +118,23 @@ def read_spectrum(x: np.ndarray, step: float, quantum: Quantum | None = None) ->
     return SpectrumReading(frequencies, smoothed, floor, noise_std, signal_std)
 
 
-def choose_cutoff(reading: SpectrumReading, order: int) -> float:
+def choose_cutoff(reading: SpectrumReading, order: int,
+                  noise: np.ndarray | None = None) -> float:
     """The brick-wall cutoff that minimises the estimated error of the ``order``-th derivative.
 
     The error of cutting at ``fc`` is the noise passed below it plus the
     signal removed above it, both weighted by ``(2 pi f)^(2 order)``.
+    ``noise`` is the noise's density at the reading's frequencies (coloured
+    noise, see :mod:`.noise`); by default the flat floor.
     Returns the Nyquist frequency when nothing is worth removing.
     """
     f, p, floor = reading.frequencies, reading.density, reading.floor
-    if floor <= 0:
+    if floor <= 0 and noise is None:
         return reading.nyquist
     weight = (2 * np.pi * f) ** (2 * max(order, 1))
-    excess = np.maximum(p - floor, 0.0) * weight
-    noise = np.full_like(p, floor) * weight
+    density = np.full_like(p, floor) if noise is None else np.asarray(noise, dtype=float)
+    excess = np.maximum(p - density, 0.0) * weight
+    noise = density * weight
     # error(k) = noise passed in bins [0, k) + signal lost in bins [k, end)
     passed = np.concatenate([[0.0], np.cumsum(noise)])
     lost = np.concatenate([np.cumsum(excess[::-1])[::-1], [0.0]])

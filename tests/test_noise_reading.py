@@ -1,0 +1,126 @@
+"""The noise of a record read as a process: level, colour, quantisation (Measurement.noise)."""
+
+import matplotlib
+import numpy as np
+import pandas as pd
+import pytest
+
+from sklearn_pycc import PolyCCRegressor, datasets
+from sklearn_pycc.measurements import Measurement
+from sklearn_pycc.measurements.noise import read_noise
+from sklearn_pycc.measurements.spectral import find_quantum
+
+matplotlib.use("Agg")
+
+LINEAR = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 - a3 x1^3"]
+
+
+def _record(pole, snr=40.0, seed=0, n=6000, bits=12):
+    clean = datasets.make_oscillator(hidden=["cubic_stiffness"], n_samples=n, t_span=(0, 60),
+                                     random_state=seed)
+    noisy = datasets.add_sensor_noise(clean[["t", "x1", "F_ext"]], ["x1"], snr=snr, pole=pole,
+                                      bits=bits, random_state=seed)
+    return clean, noisy
+
+
+@pytest.mark.parametrize("pole", [0.0, 0.8, 0.9])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_noise_level_and_colour_are_read_from_the_record(pole, seed):
+    clean, noisy = _record(pole, seed=seed)
+    x = noisy["x1"].to_numpy()
+    truth = float(np.std(x - clean["x1"].to_numpy()))
+    reading = read_noise(x, 60 / 5999, name="x1", quantum=find_quantum(x))
+    assert reading.level == pytest.approx(truth, rel=0.2)
+    if pole == 0:
+        assert not reading.coloured and reading.poles == ()
+    else:
+        assert reading.coloured and reading.poles[0] == pytest.approx(pole, abs=0.05)
+        # about -1 / ln(pole) samples
+        assert 0.3 < reading.correlation_time / (-1 / np.log(pole) * 0.01) < 3
+    assert reading.quantum == pytest.approx(np.ptp(clean["x1"]) / 4096, rel=0.05)
+    assert reading.snr_db == pytest.approx(40.0, abs=3.0)
+
+
+def test_a_noise_free_record_reads_no_noise():
+    frame = datasets.make_oscillator(hidden=[], n_samples=3000, t_span=(0, 60))
+    reading = Measurement(frame[["t", "x1", "x2", "F_ext"]]).noise
+    assert set(reading) == {"x1", "x2", "F_ext"}
+    # what the integrator and the tapers leave is far below any sensor's noise
+    assert all(noise.level == 0 or noise.snr_db > 70 for noise in reading.values())
+    assert reading["x1"].level == 0 and reading["F_ext"].level == 0
+    assert "x1: no noise" in reading.summary()
+
+
+def test_auto_differentiation_cuts_below_coloured_noise_not_at_its_top():
+    # read from the spectrum's top, AR(1) noise looked small and its rise like signal:
+    # the cutoff stayed at 25 Hz and the derivatives were noise
+    _, noisy = _record(0.9)
+    model = PolyCCRegressor(equations=LINEAR).fit(noisy)
+    source = model.derivative_source_
+    cutoff = float(source.split("low-pass at ")[1].split(" Hz")[0])
+    assert cutoff < 3.0, source
+    assert "coloured: AR(1)" in source
+    assert model.fit_mode_ == "simulation"  # 40 dB: refined by output error
+    truth = {"a1": 0.1, "a2": 1.0, "a3": 1.0}
+    for name, value in truth.items():
+        assert model.params_[name] == pytest.approx(value, rel=0.1, abs=0.02), name
+
+
+def test_white_noise_is_differentiated_as_before():
+    _, noisy = _record(0.0)
+    source = PolyCCRegressor(equations=LINEAR).fit(noisy).derivative_source_
+    assert "coloured" not in source and "x1: noise" in source
+
+
+def test_the_reading_is_kept_summarised_tabled_and_drawn():
+    _, noisy = _record(0.9, n=3000)
+    record = Measurement(noisy, units={"x1": "m"})
+    reading = record.noise
+    assert record.noise is reading  # kept like the derivatives
+    assert list(reading) == ["x1", "F_ext"]
+    assert reading["F_ext"].level == 0
+    table = reading.to_frame()
+    assert table.loc["x1", "ar_order"] >= 1 and table.loc["x1", "level"] > 0
+    assert reading.summary().startswith("x1: noise")
+    figure = reading.plot()
+    assert len(figure.axes) == 1  # the noise-free input is not drawn
+    labels = [line.get_label() for line in figure.axes[0].get_lines()]
+    assert any(label.startswith("noise model (AR(") for label in labels)
+    assert any(label.startswith("signal band ends") for label in labels)
+    assert any(label.startswith("rounding of steps") for label in labels)
+    with pytest.raises(KeyError, match=r"'x9'.*'x1'"):
+        reading["x9"]
+
+
+def test_the_noise_needs_the_time_column():
+    frame = datasets.make_oscillator(n_samples=200).drop(columns="t")
+    with pytest.raises(ValueError, match="time column 't'"):
+        _ = Measurement(frame).noise
+
+
+def test_sensor_noise_has_the_level_colour_and_steps_asked_for():
+    frame = datasets.make_oscillator(hidden=[], n_samples=20000, t_span=(0, 200))
+    before = frame.copy()
+    noisy = datasets.add_sensor_noise(frame, ["x1"], snr=30.0, pole=0.9, bits=10,
+                                      random_state=3)
+    pd.testing.assert_frame_equal(frame, before)  # the user's frame is left alone
+    assert (noisy["x2"] == frame["x2"]).all()
+    error = (noisy["x1"] - frame["x1"]).to_numpy()
+    rms = np.sqrt(np.mean(frame["x1"] ** 2))
+    assert np.std(error) == pytest.approx(rms / 10**1.5, rel=0.15)
+    assert np.corrcoef(error[:-1], error[1:])[0, 1] == pytest.approx(0.9, abs=0.05)
+    steps = np.diff(np.unique(noisy["x1"]))
+    assert steps.min() == pytest.approx(np.ptp(frame["x1"]) / 2**10, rel=1e-6)
+    drifting = datasets.add_sensor_noise(frame, ["x1"], snr=60.0, drift=0.05, random_state=3)
+    wander = (drifting["x1"] - frame["x1"]).to_numpy()
+    assert np.std(wander) == pytest.approx(0.05 * rms, rel=0.2)
+
+
+@pytest.mark.parametrize("bad, match", [
+    ({"pole": 1.0}, "pole must be in"), ({"bits": 1}, "bits must be"),
+    ({"drift": -1.0}, "drift must be"), ({"snr": np.inf}, "snr must be"),
+    ({"columns": ["t"]}, "'t'"), ({"columns": ["x7"]}, "'x7'")])
+def test_sensor_noise_names_what_is_wrong(bad, match):
+    frame = datasets.make_oscillator(n_samples=100)
+    with pytest.raises(ValueError, match=match):
+        datasets.add_sensor_noise(frame, **{"columns": ["x1"], **bad})
