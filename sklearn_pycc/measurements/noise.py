@@ -25,12 +25,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage, optimize, signal
 
+from .spectral import CLEAN_RATIO, FLOOR_BAND
+
 __all__ = ["NoiseReading", "SignalNoise", "multitaper_density", "read_noise"]
 
-#: the share of the band, counted down from the Nyquist frequency, the first noise fit reads
-FLOOR_BAND = 0.35
-#: a record this many times quieter than its signal (in power) counts as noise-free
-CLEAN_RATIO = 1e-10
 #: a coloured reading this many times quieter than the signal (in power, 80 dB) is the
 #: tapers' own leakage from a noise-free signal
 QUIET_RATIO = 1e-8
