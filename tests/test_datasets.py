@@ -449,7 +449,8 @@ def test_bad_random_state():
 
 # -- module hygiene --------------------------------------------------------------------
 def test_public_api():
-    assert sorted(datasets.__all__) == ["add_sensor_noise", "make_duffing", "make_experiments", "make_first_order",
+    assert sorted(datasets.__all__) == ["add_sensor_noise",
+                                        "make_duffing", "make_experiments", "make_first_order",
                                         "make_oscillator", "make_pendulum",
                                         "make_positioning_axis",
                                         "make_resonator", "make_stick_slip", "make_two_dof",
