@@ -149,6 +149,9 @@ class Problem:
         Static outputs (``y = ...``: what a sensor reads) as measured on
         every row of the record, compared with the simulated ones when
         states are unmeasured.
+    whitening : dict or None
+        Measured state -> the taps of the filter that whitens its output
+        errors (the estimator's ``noise_model``); None for white noise.
     """
 
     skeleton: Skeleton
@@ -171,6 +174,7 @@ class Problem:
     input_hold: str = "bandlimited"
     hold_chosen: bool = False
     observed: dict[str, np.ndarray] = field(default_factory=dict)
+    whitening: dict[str, np.ndarray] | None = None
 
     @property
     def equations(self) -> list[Equation]:

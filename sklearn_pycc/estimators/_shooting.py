@@ -21,6 +21,7 @@ from scipy.optimize import least_squares
 from ..measurements.columns import TIME
 from ..skeleton.system import CompiledSystem
 from ..windows import Windows
+from ._noise_model import whitening_matrix
 from ._setup import Problem
 
 __all__ = ["ShootingPlan", "check_iterations", "fit_shooting"]
@@ -86,6 +87,13 @@ class ShootingPlan(Windows):
         self.measured_index = [self.states.index(s) for s in self.measured]
         self.targets = np.stack([problem.measured[s][self.rows] for s in self.measured],
                                 axis=-1)
+        #: the filter that whitens the measurement residuals (``problem.whitening``), or None
+        self.whitening = None
+        taps = getattr(problem, "whitening", None)
+        if taps:
+            segment = np.broadcast_to(np.arange(self.n_segments)[:, None], own.shape)[own]
+            self.whitening = whitening_matrix([taps[s] for s in self.measured],
+                                              self.segment_experiment[segment])
 
     def columns(self) -> dict[str, np.ndarray]:
         """Every state (measured, smoothed or guessed), input and ``t`` on every row."""
@@ -99,11 +107,13 @@ class ShootingPlan(Windows):
 
     def residuals(self, states: np.ndarray, start: np.ndarray) -> np.ndarray:
         """Scaled measurement residuals, then weighted continuity defects."""
-        meas = self._errors(states)
+        meas = self._errors(states).ravel()
+        if self.whitening is not None:
+            meas = self.whitening @ meas
         ends = states[np.arange(self.n_segments), self.steps]
         k = np.flatnonzero(self.successor)
         defects = CONTINUITY_WEIGHT * (ends[k] - start[k + 1]) / self.scale
-        return np.concatenate([meas.ravel(), defects.ravel()])
+        return np.concatenate([meas, defects.ravel()])
 
     def output_nrmse(self, states: np.ndarray) -> float:
         """Normalised RMSE of the measured states along the segments."""
@@ -153,6 +163,9 @@ class ShootingPlan(Windows):
         shape = (n_rows, p + K * n)
         J = sparse.coo_matrix((np.concatenate(v), (np.concatenate(r), np.concatenate(c))),
                               shape=shape).tocsr()
+        if self.whitening is not None:
+            J = sparse.vstack([self.whitening @ J[:n_meas * len(mi)], J[n_meas * len(mi):]],
+                              format="csr")
         return J.toarray() if shape[1] <= 400 else J
 
 

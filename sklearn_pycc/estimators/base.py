@@ -6,6 +6,7 @@ import copy
 import warnings
 from abc import ABCMeta, abstractmethod
 from collections.abc import Mapping
+from dataclasses import replace
 from numbers import Integral
 
 import numpy as np
@@ -38,6 +39,7 @@ from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
 from ._hidden import check_visible
 from ._intervals import N_DRAWS, IntervalsMixin, check_level
+from ._noise_model import NOISE_MODELS, fit_noise_model
 from ._setup import GAUGES, FitResult, Problem, build_skeleton, gauge_skeleton, measured_part
 from .backend import Backend
 
@@ -46,7 +48,8 @@ __all__ = ["FIT_MODES", "OUTPUT_ERROR_SETTINGS", "RANDOM_STATES", "RESAMPLING", 
 
 FIT_MODES = ("auto", "equation", "simulation")
 #: the hyperparameters of the output-error stage, left out by estimators that have none
-OUTPUT_ERROR_SETTINGS = ("fit_mode", "shooting_window", "shooting_iterations", "input_hold")
+OUTPUT_ERROR_SETTINGS = ("fit_mode", "shooting_window", "shooting_iterations", "input_hold",
+                         "noise_model")
 #: below this signal-to-noise ratio of the measured states, ``fit_mode="auto"`` refines the
 #: equation fit by output error: derivatives of such records bias the fit by per cents
 AUTO_SIMULATION_SNR_DB = 45.0
@@ -183,6 +186,16 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         best is kept (the record tells a held pump from a smooth one by its
         steps' mark on the measured states); elsewhere band-limited. The
         hold used is ``input_hold_``.
+    noise_model : {"ar", "arma", "auto"} or None, default=None
+        A model of the measurement noise for output-error fits (the
+        prediction-error method). Coloured noise (correlated in time) makes
+        plain least squares count its samples as independent; with a noise
+        model, a first output-error fit's whole-record errors give each
+        measured state's noise model (``"ar"``: autoregressive, order 1 to 4
+        chosen by the BIC; ``"arma"``: ARMA(1,1); ``"auto"``: the best of
+        those and white noise by the BIC), and the fit is made again with
+        every output error whitened by it. The model is ``noise_model_``.
+        Only for fits by output error without unmeasured states.
 
     Attributes
     ----------
@@ -208,6 +221,11 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         samples) that led to it.
     fit_mode_ : str
         The mode the fit used: ``"equation"`` or ``"simulation"``.
+    noise_model_ : NoiseModel or None
+        With ``noise_model``, after an output-error fit: each measured
+        state's noise model (AR coefficients and poles, MA coefficient,
+        innovation and error levels), read from the final fit's
+        whole-record errors; None otherwise.
     backend_ : Backend
         The backend that fitted the curves, built from the hyperparameters
         (:mod:`sklearn_pycc.estimators.backend`).
@@ -241,13 +259,14 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         "shooting_iterations": [Interval(Integral, 1, None, closed="left")],
         "equation_weights": ["array-like", None],
         "input_hold": [StrOptions({*INPUT_HOLDS, "auto"})],
+        "noise_model": [StrOptions(set(NOISE_MODELS)), None],
     }
 
     def __init__(self, *, equations=None, constraints=None, gauge: str = "auto",
                  differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, equation_weights=None,
-                 input_hold: str = "auto") -> None:
+                 input_hold: str = "auto", noise_model: str | None = None) -> None:
         self.equations = equations
         self.constraints = constraints
         self.equation_weights = equation_weights
@@ -258,6 +277,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         self.shooting_window = shooting_window
         self.shooting_iterations = shooting_iterations
         self.input_hold = input_hold
+        self.noise_model = noise_model
 
     # -- to be provided by each estimator -------------------------------------
     @abstractmethod
@@ -396,6 +416,11 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         problem.check_enough_rows()
         result = backend.estimate(problem, shooting_window=self.shooting_window,
                                   shooting_iterations=self.shooting_iterations)
+        noise = None
+        if self.noise_model is not None and problem.fit_mode == "simulation" \
+                and not problem.hidden:
+            result, noise = self._whitened(problem, result, backend)
+        facts = {**facts, "noise_model_": noise}
         if n_bootstrap:
             facts = {**facts, **self._bootstrap(problem, result, n_bootstrap, backend)}
         self._store(problem, result, {**facts, "backend_": backend})
@@ -404,6 +429,25 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                 "measured"):
             _warn_coarse_sampling(problem, self._system())
         return self
+
+    def _whitened(self, problem: Problem, result: FitResult,
+                  backend: Backend) -> tuple[FitResult, object]:
+        """The output-error fit again with its errors whitened by their noise model.
+
+        The noise model is read from ``result``'s whole-record errors; where
+        it is white (``"auto"`` may say so) ``result`` stands. The model
+        returned is read again from the whitened fit's errors.
+        """
+        from ._noise_model import output_errors
+
+        noise = fit_noise_model(output_errors(problem, result), self.noise_model)
+        if noise.white:
+            return result, noise
+        taps = {state: model.taps() for state, model in noise.signals.items()}
+        whitened = backend.estimate(replace(problem, whitening=taps),
+                                    shooting_window=self.shooting_window,
+                                    shooting_iterations=self.shooting_iterations)
+        return whitened, fit_noise_model(output_errors(problem, whitened), self.noise_model)
 
     def _bootstrap(self, problem: Problem, result: FitResult, n: int,
                    backend: Backend) -> dict:

@@ -388,6 +388,9 @@ default="lbfgs"
     differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations, input_hold
         How measurements without derivatives are used, and output-error
         fitting: see :class:`CCRegressor`.
+    noise_model : {"ar", "arma", "auto"} or None, default=None
+        The measurement noise's model for output-error fits: see
+        :class:`CCRegressor`.
     equation_weights : list of float, optional
         One weight per equation: see :class:`CCRegressor`.
     shooting_start_epochs : int or None, default=10
@@ -485,12 +488,14 @@ default="lbfgs"
                  shooting_iterations: int = 30, shooting_start_epochs: int | None = 10,
                  equation_weights=None, random_state=None, n_bootstrap: int = 0,
                  n_jobs: int | None = None, verbose: int = 0,
-                 input_hold: str = "auto") -> None:
+                 input_hold: str = "auto",
+                 noise_model: str | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
                          shooting_iterations=shooting_iterations,
-                         equation_weights=equation_weights, input_hold=input_hold)
+                         equation_weights=equation_weights, input_hold=input_hold,
+                         noise_model=noise_model)
         self.hidden_layer_sizes = hidden_layer_sizes
         self.activation = activation
         self.optimizer = optimizer

@@ -529,6 +529,9 @@ class PolyCCRegressor(CCRegressor):
     differentiation, smooth_states, fit_mode, shooting_window, shooting_iterations, input_hold
         How measurements without derivatives are used, and output-error
         fitting: see :class:`CCRegressor`.
+    noise_model : {"ar", "arma", "auto"} or None, default=None
+        The measurement noise's model for output-error fits: see
+        :class:`CCRegressor`.
     equation_weights : list of float, optional
         One weight per equation: see :class:`CCRegressor`.
     n_bootstrap : int, default=0
@@ -591,12 +594,14 @@ class PolyCCRegressor(CCRegressor):
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, equation_weights=None,
                  random_state=None, n_bootstrap: int = 0,
-                 n_jobs: int | None = None, input_hold: str = "auto") -> None:
+                 n_jobs: int | None = None, input_hold: str = "auto",
+                 noise_model: str | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
                          shooting_iterations=shooting_iterations,
-                         equation_weights=equation_weights, input_hold=input_hold)
+                         equation_weights=equation_weights, input_hold=input_hold,
+                         noise_model=noise_model)
         self.degree = degree
         self.basis = basis
         self.alpha = alpha
