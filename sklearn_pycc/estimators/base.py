@@ -436,18 +436,29 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
 
         The noise model is read from ``result``'s whole-record errors; where
         it is white (``"auto"`` may say so) ``result`` stands. The model
-        returned is read again from the whitened fit's errors.
+        returned is read again from the whitened fit's errors. A parametric
+        skeleton is then polished on the whole record's whitened errors,
+        which give its ``covariance_``.
         """
-        from ._noise_model import output_errors
+        from ._noise_model import output_errors, whitened_polish
 
         noise = fit_noise_model(output_errors(problem, result), self.noise_model)
-        if noise.white:
-            return result, noise
-        taps = {state: model.taps() for state, model in noise.signals.items()}
-        whitened = backend.estimate(replace(problem, whitening=taps),
-                                    shooting_window=self.shooting_window,
-                                    shooting_iterations=self.shooting_iterations)
-        return whitened, fit_noise_model(output_errors(problem, whitened), self.noise_model)
+        if not noise.white:
+            taps = {state: model.taps() for state, model in noise.signals.items()}
+            result = backend.estimate(replace(problem, whitening=taps),
+                                      shooting_window=self.shooting_window,
+                                      shooting_iterations=self.shooting_iterations)
+            noise = fit_noise_model(output_errors(problem, result), self.noise_model)
+        # a parametric skeleton: polished on the whole record's whitened errors, with
+        # the covariance they give
+        polished = whitened_polish(problem, result, noise)
+        if polished is not None:
+            params, first, covariance = polished
+            shooting = {**result.attributes.get("shooting_", {}), "initial_states": first}
+            result = replace(result, params=params, attributes={
+                **result.attributes, "shooting_": shooting, "covariance_": covariance})
+            noise = fit_noise_model(output_errors(problem, result), self.noise_model)
+        return result, noise
 
     def _bootstrap(self, problem: Problem, result: FitResult, n: int,
                    backend: Backend) -> dict:
