@@ -124,3 +124,32 @@ def test_sensor_noise_names_what_is_wrong(bad, match):
     frame = datasets.make_oscillator(n_samples=100)
     with pytest.raises(ValueError, match=match):
         datasets.add_sensor_noise(frame, **{"columns": ["x1"], **bad})
+
+
+def test_nothing_missing_says_what_the_record_could_have_shown():
+    from sklearn_pycc import diagnose
+
+    limits = {}
+    for pole in (0.0, 0.9):
+        _, X = _record(pole, n=3000)
+        report = diagnose(PolyCCRegressor(equations=LINEAR).fit(X), X, n_bootstrap=0,
+                          open_curves=False, held_out=False)
+        assert report.best is None
+        limits[pole] = report.detection_limit["x1"]
+        line = next(line for line in report.summary().splitlines() if "Detection limit" in line)
+        assert f"{limits[pole]:.3g}" in line
+    noise = 0.01 * np.sqrt(np.mean(_record(0.0, n=3000)[0]["x1"] ** 2))
+    assert 0 < limits[0.0] < 0.2 * noise
+    # coloured noise is worth fewer independent samples: the same record is blinder
+    assert limits[0.9] > 3 * limits[0.0]
+
+
+def test_a_found_effect_has_no_detection_limit():
+    from sklearn_pycc import diagnose
+
+    _, X = _record(0.0, n=1500)
+    linear = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
+    report = diagnose(PolyCCRegressor(equations=linear).fit(X), X, n_bootstrap=0,
+                      held_out=False)
+    assert report.best is not None and report.detection_limit == {}
+    assert "Detection limit" not in report.summary()

@@ -29,6 +29,7 @@ from ._candidates import (
     screen_candidates,
 )
 from ._data import TIME, DiagnosisData, check_units, read_measurements
+from ._detection import detection_limits
 from ._failures import (
     ResidualMap,
     explaining_variables,
@@ -300,6 +301,19 @@ class Diagnosis:
     variable_values: dict = field(default_factory=dict, repr=False)
     _stability: Stability | None = field(default=None, repr=False)
     left_out: int = 0
+    _detection: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def detection_limit(self) -> dict[str, float]:
+        """The smallest effect this record could have shown, by measured state.
+
+        The RMS change of the simulated state an effect must make to stand
+        out of the noise (``DETECTION_Z`` standard errors over the samples
+        that count as independent: coloured noise is worth fewer). Empty
+        without a simulation. The summary says it when nothing is missing,
+        with what the model's simulation still misses beyond the noise.
+        """
+        return {state: d.limit for state, d in self._detection.items()}
 
     def __repr__(self) -> str:
         best = "nothing missing" if self.best is None else str(self.best)
@@ -407,6 +421,9 @@ class Diagnosis:
                                  f"fits the record but not the data it did not see: "
                                  f"{c.held_out}.")
             lines.extend(self._stability_words())
+            for detection in self._detection.values():
+                lines.extend("    " + line
+                             for line in detection.words(self.units.get(detection.state, "")))
             return lines
         if best.move == "open":
             return self._open_words()
@@ -847,11 +864,15 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     ranking = _ranking(ordered, explained, stability)
     tried = probes(opened, model, chosen, formula)
     best = None if chosen is None else _suggestion(chosen, skeleton, model, formula, tried)
+    measured = [s for s in states if s in X.columns]
+    detection = {} if best is not None or trajectory_table.empty else detection_limits(
+        X, measured, {s: float(trajectory_table.loc[s, "rmse"]) for s in measured},
+        data.n_samples)
     return Diagnosis(model, derivative_table, trajectory_table, simulation_frame,
                      pd.DataFrame(residuals, columns=derivs), divergences, windows, explained,
                      maps, ranking, best, simulation_rmse, notes, window, implausible,
-                     units, [s for s in states if s in X.columns], tried, candidates, data,
-                     variables, stability, len(X) - data.n_samples)
+                     units, measured, tried, candidates, data,
+                     variables, stability, len(X) - data.n_samples, detection)
 
 
 def _refitted(model, candidate: Candidate, data: DiagnosisData, residuals: np.ndarray,

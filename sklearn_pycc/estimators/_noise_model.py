@@ -295,10 +295,13 @@ def whitened_polish(problem, result, noise: NoiseModel, steps: int = 4):
     its optimum is near, not at, that of the whole record. A few
     Gauss-Newton steps on the whole-record errors, whitened by ``noise``,
     move the free parameters and each experiment's initial state there (a
-    step is kept only when it lowers the whitened error). Where the noise
-    model is right the whitened errors are white, and the least-squares
-    covariance ``s^2 (J^T J)^-1`` of the whitened errors' Jacobian ``J``
-    (finite differences of whole-record simulations) holds.
+    step is kept only when it lowers the whitened error). The covariance is
+    the sandwich ``B^-1 S B^-1`` of the whitened errors' Jacobian ``J``
+    (finite differences of whole-record simulations), ``B = J^T J`` and
+    ``S`` the Newey-West long-run covariance of the whitened scores: where
+    the noise model is right that is ``s^2 B^-1``, and where the whitened
+    errors keep some correlation (a model error, a second colour) it still
+    holds.
 
     Returns ``(params, initial_states, covariance)``, the covariance of the
     parameters as a DataFrame; or None for a skeleton with curves (their
@@ -308,6 +311,7 @@ def whitened_polish(problem, result, noise: NoiseModel, steps: int = 4):
     import pandas as pd
 
     from ._hidden import WholeRecord
+    from ._uncertainty import long_run_covariance
 
     if problem.free_functions or not problem.free_params:
         return None
@@ -366,12 +370,17 @@ def whitened_polish(problem, result, noise: NoiseModel, steps: int = 4):
             break
         z, base, rw = trial, trial_base, trial_rw
         Jw = jacobian(z, base)
-    dof = max(len(rw) - len(z), 1)
     try:
         inverse = np.linalg.inv(Jw.T @ Jw)
     except np.linalg.LinAlgError:
         return None
-    covariance = float(rw @ rw) / dof * inverse[:p, :p]
+    # the sandwich over the whitened scores: what the noise model leaves correlated (a
+    # model error, a second colour) still counts
+    rows = windows.segment_experiment[segment[windows.valid]]
+    runs = np.repeat(rows, len(taps))
+    meat, _ = long_run_covariance(Jw * rw[:, None], runs)
+    dof = len(rw) / max(len(rw) - len(z), 1)
+    covariance = dof * (inverse @ meat @ inverse)[:p, :p]
     if not np.all(np.isfinite(covariance)):
         return None
     params = dict(zip(names, z[:p].tolist()))

@@ -129,31 +129,15 @@ class Measurement:
         return self.estimated(("noise",), self._read_noise)
 
     def _read_noise(self):
-        from .._bandlimited import even_grid
-        from .experiments import split_experiments
-        from .noise import NoiseReading, read_noise
-        from .spectral import find_quantum
+        from .noise import NoiseReading, read_frame_noise
 
         frame = self.X
         if TIME not in frame.columns:
             raise ValueError("reading the noise needs the time column 't' (the spectrum is in "
                              "cycles per time unit)")
-        t = frame[TIME].to_numpy(dtype=float)
-        labels = frame[TRAJECTORY].to_numpy() if TRAJECTORY in frame.columns else None
-        longest = max(split_experiments(len(frame), t, labels), key=lambda e: len(e.rows))
-        times = t[longest.rows]
-        grid = even_grid(times)
-        signals = {}
-        for name in frame.columns:
-            if name in (TIME, TRAJECTORY):
-                continue
-            values = pd.to_numeric(frame[name], errors="coerce").to_numpy(dtype=float)
-            values = values[longest.rows]
-            if not np.isfinite(values).all():
-                continue  # an unmeasured (empty) column or gaps: nothing to read
-            signals[str(name)] = read_noise(grid.fill(times, values), grid.step,
-                                            name=str(name), quantum=find_quantum(values))
-        return NoiseReading(signals, self.units)
+        columns = [c for c in frame.columns if c not in (TIME, TRAJECTORY)
+                   and pd.api.types.is_numeric_dtype(frame[c])]
+        return NoiseReading(read_frame_noise(frame, columns), self.units)
 
     def __len__(self) -> int:
         return self.n_samples

@@ -201,6 +201,19 @@ class SignalNoise:
             else float("inf")
 
     @property
+    def memory(self) -> float:
+        """How many samples one independent sample of this noise is worth (1 for white).
+
+        The ratio of the noise's long-run variance (its spectrum at zero
+        frequency) to its variance: the effective number of independent
+        samples in a record of ``n`` is ``n / memory``.
+        """
+        if self.level <= 0 or not self.coloured:
+            return 1.0
+        long_run = self.innovation**2 / (1.0 - float(np.sum(self.ar))) ** 2 + self.white**2
+        return float(max(long_run / self.level**2, 1.0))
+
+    @property
     def snr_db(self) -> float:
         """Signal-to-noise ratio in decibels (infinite for a noise-free signal)."""
         if self.level <= 0:
@@ -500,3 +513,24 @@ class NoiseReading(Mapping):
         from ..plotting import plot_noise
 
         return plot_noise(self, signals=signals)
+
+
+def read_frame_noise(frame, columns) -> dict[str, SignalNoise]:
+    """The noise of some columns of a record with ``t``, each read on its longest experiment."""
+    from .._bandlimited import even_grid
+    from .experiments import TIME, TRAJECTORY, split_experiments
+    from .spectral import find_quantum
+
+    t = frame[TIME].to_numpy(dtype=float)
+    labels = frame[TRAJECTORY].to_numpy() if TRAJECTORY in frame.columns else None
+    longest = max(split_experiments(len(frame), t, labels), key=lambda e: len(e.rows))
+    times = t[longest.rows]
+    grid = even_grid(times)
+    out = {}
+    for name in columns:
+        values = np.asarray(frame[name], dtype=float)[longest.rows]
+        if len(values) < 16 or not np.isfinite(values).all():
+            continue
+        out[str(name)] = read_noise(grid.fill(times, values), grid.step, name=str(name),
+                                    quantum=find_quantum(values))
+    return out
