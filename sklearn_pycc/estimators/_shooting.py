@@ -28,6 +28,8 @@ __all__ = ["ShootingPlan", "check_iterations", "fit_shooting"]
 
 #: weight of a continuity defect relative to a measurement residual (both scaled)
 CONTINUITY_WEIGHT = 10.0
+#: the largest rows x columns^2 of a Jacobian handed to the optimiser dense (its SVD)
+DENSE_WORK = 5e7
 
 
 def check_iterations(iterations) -> int:
@@ -166,7 +168,9 @@ class ShootingPlan(Windows):
         if self.whitening is not None:
             J = sparse.vstack([self.whitening @ J[:n_meas * len(mi)], J[n_meas * len(mi):]],
                               format="csr")
-        return J.toarray() if shape[1] <= 400 else J
+        # a dense Jacobian makes each step an SVD (rows x columns^2): only where that is
+        # cheap; a long record's block-sparse one is solved by LSMR at linear cost
+        return J.toarray() if shape[0] * shape[1] ** 2 <= DENSE_WORK else J
 
 
 def state_bounds(skeleton) -> tuple[np.ndarray, np.ndarray]:
