@@ -1095,15 +1095,16 @@ def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Hori
                                    f"{crit} error {c.held_out.after[crit]:.3g} against "
                                    f"{simpler[0].held_out.after[crit]:.3g})")
                 return simpler[0]
-        # a rival the derivatives could not tell from it (its score within TIE) is judged
-        # on the measured signals the fits did not see: estimated derivatives of a noisy,
-        # coloured record rank near-equal shapes by chance
+        # a rival the derivatives could not tell from it (its score within TIE), or one
+        # that simulates the record clearly better, is judged on the measured signals the
+        # fits did not see: estimated derivatives of a noisy, coloured or long record can
+        # rank shapes by their own errors
         rival = _close_rival(c, eligible)
         if rival is not None and check(rival):
             crit = c.held_out.criterion
             if rival.held_out.after[crit] <= (1 - PARSIMONY) * c.held_out.after[crit]:
                 rival.note = "; ".join(filter(None, [rival.note, (
-                    f"preferred to {c.effect.name} (as good on the derivatives; held-out "
+                    f"preferred to {c.effect.name} (held-out "
                     f"{crit} error {rival.held_out.after[crit]:.3g} against "
                     f"{c.held_out.after[crit]:.3g})")]))
                 return rival
@@ -1112,14 +1113,21 @@ def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Hori
 
 
 def _close_rival(leader: Candidate, eligible: list[Candidate]) -> Candidate | None:
-    """The best unchecked candidate through the same variable scored within ``TIE`` of it."""
+    """The best unchecked candidate through the same variable that may be the better one.
+
+    One the derivatives score within ``TIE`` of the leader, or one that
+    simulates the record clearly better (its simulation error at most
+    ``SIMULATION_GAIN`` of the leader's): on a long or coloured record the
+    derivatives' score can favour a shape the measured signals reject.
+    """
     margin = max(TIE[0] * abs(_score(leader)), TIE[1])
     for other in eligible:
         if (other is not leader and other.held_out is None
                 and (other.roles.index, other.variable) == (leader.roles.index,
                                                             leader.variable)
                 and other.n_change >= leader.n_change
-                and _score(leader) - _score(other) <= margin):
+                and (_score(leader) - _score(other) <= margin
+                     or _simulates_better(other, leader.simulation_rmse))):
             return other
     return None
 
