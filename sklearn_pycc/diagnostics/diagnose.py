@@ -1113,7 +1113,7 @@ def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Hori
 
 
 def _close_rival(leader: Candidate, eligible: list[Candidate]) -> Candidate | None:
-    """The best unchecked candidate through the same variable that may be the better one.
+    """The best unchecked other effect through the same variable that may be the better one.
 
     One the derivatives score within ``TIE`` of the leader, or one that
     simulates the record clearly better (its simulation error at most
@@ -1123,6 +1123,7 @@ def _close_rival(leader: Candidate, eligible: list[Candidate]) -> Candidate | No
     margin = max(TIE[0] * abs(_score(leader)), TIE[1])
     for other in eligible:
         if (other is not leader and other.held_out is None
+                and other.effect.name != leader.effect.name  # another shape, not a move
                 and (other.roles.index, other.variable) == (leader.roles.index,
                                                             leader.variable)
                 and other.n_change >= leader.n_change
