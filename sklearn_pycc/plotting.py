@@ -558,7 +558,7 @@ def plot_noise(noise, *, signals=None):
             ax.axvline(n.band, color="C0", ls="--", lw=1, label=f"signal band ends {n.band:.3g}")
         label_axis(ax, "y", f"PSD of {name}", None)
         ax.set_title(textwrap.fill(n.describe(), 100), fontsize=8, loc="left")
-        ax.legend(fontsize=7, loc="lower left")
+        ax.legend(fontsize=7, loc="upper right")
     label_axis(axes[-1, 0], "x", "frequency (cycles per time unit)", None)
     fig.tight_layout()
     return fig

@@ -50,11 +50,9 @@ def _error(model, frame, truth) -> float:
     return float(np.sqrt(np.mean((simulated["x1"].to_numpy() - frame["x1"].to_numpy()) ** 2)))
 
 
-@pytest.mark.parametrize("case", list(CASES))
-def test_the_loop_is_right_complete_and_quiet(case):
+def _check_loop(case: str, frame, truth, fresh, fresh_truth) -> None:
+    """The loop from defaults on ``frame``: right, complete and quiet."""
     hidden = CASES[case]
-    frame, truth = _record(hidden, fresh=False)
-    fresh, fresh_truth = _record(hidden, fresh=True)
     X = frame[["t", "x1", "F_ext"]]
     start = truth.parametric_equations if case == "control_cubic" else LINEAR
     with warnings.catch_warnings():
@@ -68,6 +66,11 @@ def test_the_loop_is_right_complete_and_quiet(case):
         assert named and named[0] in hidden, f"{case}: the loop named {named}"
     ours, best = _error(loop.model, fresh, fresh_truth), _error(reference, fresh, fresh_truth)
     assert ours <= 2 * best, f"{case}: fresh-record error {ours:.4g}, the truth {best:.4g}"
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_the_loop_is_right_complete_and_quiet(case):
+    _check_loop(case, *_record(CASES[case], fresh=False), *_record(CASES[case], fresh=True))
 
 
 def _sensor_record(hidden, *, fresh: bool, pole: float, snr: float, seed: int):
@@ -87,22 +90,9 @@ def _sensor_record(hidden, *, fresh: bool, pole: float, snr: float, seed: int):
 def test_the_loop_is_right_complete_and_quiet_under_coloured_noise(case):
     # AR(1) noise of pole 0.9 at 40 dB, rounded to 12 bits: read from the top of the
     # spectrum it looked small, the derivatives were noise and the loop named nothing
-    hidden = CASES[case]
-    frame, truth = _sensor_record(hidden, fresh=False, pole=0.9, snr=40.0, seed=0)
-    fresh, fresh_truth = _sensor_record(hidden, fresh=True, pole=0.9, snr=40.0, seed=0)
-    X = frame[["t", "x1", "F_ext"]]
-    start = truth.parametric_equations if case == "control_cubic" else LINEAR
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        loop = HypothesisLoop(PolyCCRegressor(equations=start), X).run(max_rounds=5)
-        reference = PolyCCRegressor(equations=truth.parametric_equations).fit(X)
-    named = [r.added.effect for r in loop.rounds if r.added is not None]
-    if case.startswith("control"):
-        assert named == [], f"false alarm on {case}: {named}"
-    else:
-        assert named and named[0] in hidden, f"{case}: the loop named {named}"
-    ours, best = _error(loop.model, fresh, fresh_truth), _error(reference, fresh, fresh_truth)
-    assert ours <= 2 * best, f"{case}: fresh-record error {ours:.4g}, the truth {best:.4g}"
+    noise = dict(pole=0.9, snr=40.0, seed=0)
+    _check_loop(case, *_sensor_record(CASES[case], fresh=False, **noise),
+                *_sensor_record(CASES[case], fresh=True, **noise))
 
 
 @pytest.mark.slow

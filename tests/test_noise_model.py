@@ -64,7 +64,8 @@ def test_auto_keeps_white_noise_white_and_polishes_the_fit_on_the_whole_record()
 
 def test_an_equation_fit_has_no_noise_model():
     X = datasets.make_oscillator(hidden=["cubic_stiffness"], n_samples=600)
-    model = PolyCCRegressor(equations=CUBIC, fit_mode="equation", noise_model="ar").fit(X)
+    with pytest.warns(UserWarning, match="noise_model='ar' was not used.*equation error"):
+        model = PolyCCRegressor(equations=CUBIC, fit_mode="equation", noise_model="ar").fit(X)
     assert model.noise_model_ is None
 
 

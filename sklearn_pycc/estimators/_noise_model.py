@@ -258,12 +258,12 @@ def whitening_matrix(taps: Sequence[np.ndarray], run_of_row: np.ndarray) -> spar
                              shape=(size, size))
 
 
-def output_errors(problem, result) -> dict[str, list[np.ndarray]]:
-    """Each measured state's whole-record errors (measured minus simulated), per experiment.
+def _whole_record(problem, result):
+    """``(WholeRecord, system, first states)`` of a fit: every experiment simulated whole.
 
-    Every experiment is simulated whole from the initial states the
-    output-error fit found (``shooting_["initial_states"]``), else from the
-    record's first samples.
+    The experiments start from the initial states the output-error fit
+    found (``shooting_["initial_states"]``), else from the record's first
+    samples.
     """
     from ._hidden import WholeRecord
 
@@ -274,8 +274,15 @@ def output_errors(problem, result) -> dict[str, list[np.ndarray]]:
     if first is None or np.shape(first) != (len(problem.experiments),
                                             len(problem.skeleton.states)):
         first = whole.first_states(system)
+    first = np.asarray(first, dtype=float)
     whole.choose_substeps(system, first)
-    course = whole.course(system, np.asarray(first, dtype=float))
+    return whole, system, first
+
+
+def output_errors(problem, result) -> dict[str, list[np.ndarray]]:
+    """Each measured state's whole-record errors (measured minus simulated), per experiment."""
+    whole, system, first = _whole_record(problem, result)
+    course = whole.course(system, first)
     errors = {}
     for state in problem.skeleton.states:
         if state not in problem.measured:
@@ -310,22 +317,13 @@ def whitened_polish(problem, result, noise: NoiseModel, steps: int = 4):
     """
     import pandas as pd
 
-    from ._hidden import WholeRecord
     from ._uncertainty import long_run_covariance
 
     if problem.free_functions or not problem.free_params:
         return None
-    whole = WholeRecord(problem)
     names = list(problem.free_params)
     p = len(names)
-    system = problem.skeleton.compile(result.functions, {**problem.fixed_params,
-                                                         **result.params})
-    first = result.attributes.get("shooting_", {}).get("initial_states")
-    if first is None or np.shape(first) != (len(problem.experiments),
-                                            len(problem.skeleton.states)):
-        first = whole.first_states(system)
-    first = np.asarray(first, dtype=float)
-    whole.choose_substeps(system, first)
+    whole, _, first = _whole_record(problem, result)
     bounds = problem.bounds
     low = np.r_[[bounds.get(a, (-np.inf, np.inf))[0] for a in names], np.full(first.size,
                                                                                 -np.inf)]

@@ -417,9 +417,16 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         result = backend.estimate(problem, shooting_window=self.shooting_window,
                                   shooting_iterations=self.shooting_iterations)
         noise = None
-        if self.noise_model is not None and problem.fit_mode == "simulation" \
-                and not problem.hidden:
-            result, noise = self._whitened(problem, result, backend)
+        if self.noise_model is not None:
+            if problem.fit_mode == "simulation" and not problem.hidden:
+                result, noise = self._whitened(problem, result, backend)
+            else:
+                how = ("by output error with unmeasured states" if problem.hidden
+                       else "by equation error")
+                warnings.warn(f"noise_model={self.noise_model!r} was not used: it models the "
+                              f"output errors of a fit by output error without unmeasured "
+                              f"states, and this fit is {how} (noise_model_ is None)",
+                              UserWarning, stacklevel=2)
         facts = {**facts, "noise_model_": noise}
         if n_bootstrap:
             facts = {**facts, **self._bootstrap(problem, result, n_bootstrap, backend)}

@@ -117,7 +117,7 @@ class Measurement:
 
     @property
     def noise(self):
-        """The noise of each measured signal: level, colour, quantisation, trend.
+        """The noise of each measured signal: level, colour, quantisation, drift.
 
         A :class:`~sklearn_pycc.measurements.noise.NoiseReading`
         (``{column: SignalNoise}``) over every column but ``t`` and

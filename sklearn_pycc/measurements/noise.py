@@ -1,4 +1,4 @@
-"""What a measured signal's noise is: level, colour, quantisation and trend, read from the record.
+"""What a measured signal's noise is: level, colour, quantisation and drift, read from the record.
 
 Sensors rarely give white noise. A filter inside the sensor, vibration, a
 closed loop or a tracker's smoothing make it **coloured**: correlated from
@@ -48,7 +48,7 @@ SIGNAL_RATIO = 3.0
 MAX_PARTIAL = 0.999
 #: a noise model may rise to this multiple of the record's spectrum below its band, no higher
 CEILING = 2.0
-#: how strongly a longer noise memory must be asked for (see ``_fit_ar``)
+#: how strongly a longer noise memory must be asked for (see ``_whittle_ar``)
 POLE_PRIOR = 1.0
 #: passes of the fit-and-widen iteration
 WIDENINGS = 4
@@ -156,7 +156,7 @@ class SignalNoise:
         stands above the noise; the noise model was fitted above it.
     signal_std : float
         Standard deviation of the record after a linear detrend, less the noise.
-    trend : float
+    drift : float
         The record's linear trend, per time unit (drift, or slow signal: the
         record alone cannot tell them apart; a model's residuals can).
     """
@@ -170,7 +170,7 @@ class SignalNoise:
     quantum: float | None = None
     band: float = float("nan")
     signal_std: float = 0.0
-    trend: float = 0.0
+    drift: float = 0.0
     _frequencies: np.ndarray | None = field(default=None, repr=False, compare=False)
     _density: np.ndarray | None = field(default=None, repr=False, compare=False)
 
@@ -262,13 +262,12 @@ def _whittle(density: np.ndarray, model: np.ndarray) -> float:
     return float(np.sum(np.log(model) + density / model))
 
 
-def _fit_white(density: np.ndarray) -> tuple[float, float]:
-    """The white level (density) that minimises Whittle's criterion, and the criterion."""
-    level = float(np.mean(density))
-    return level, _whittle(density, np.full_like(density, level))
+def _white_score(density: np.ndarray) -> float:
+    """Whittle's criterion of the best white model (its level the density's mean)."""
+    return _whittle(density, np.full_like(density, float(np.mean(density))))
 
 
-def _fit_ar(frequencies: np.ndarray, density: np.ndarray, step: float, order: int,
+def _whittle_ar(frequencies: np.ndarray, density: np.ndarray, step: float, order: int,
             white_start: float, ceiling: tuple[np.ndarray, np.ndarray] | None = None,
             weight: float = 1.0) -> tuple[np.ndarray, float, float, float]:
     """An AR(order)-plus-white model fitted by Whittle: ``(ar, innovation², white², criterion)``.
@@ -341,14 +340,14 @@ def read_noise(x: np.ndarray, step: float, *, name: str = "x", quantum=None) -> 
     x = np.asarray(x, dtype=float)
     detrended = signal.detrend(x, type="linear")
     spread = float(np.std(detrended))
-    trend = float(np.polyfit(np.arange(len(x)) * step, x, 1)[0]) if len(x) > 1 else 0.0
+    drift = float(np.polyfit(np.arange(len(x)) * step, x, 1)[0]) if len(x) > 1 else 0.0
     frequencies, raw, segments = multitaper_density(x, step)
     # the spectrum averaged over neighbouring bins: the ceiling a noise model must stay under
     smooth = np.convolve(raw, np.ones(5) / 5, mode="same")
     nyquist = float(frequencies[-1])
     q_step = None if quantum is None else float(quantum.step)
     rounding = 0.0 if quantum is None else quantum.noise_variance
-    common = dict(name=name, step=step, quantum=q_step, trend=trend,
+    common = dict(name=name, step=step, quantum=q_step, drift=drift,
                   _frequencies=frequencies, _density=raw)
     straight = spread <= 1e-12 * (float(np.max(np.abs(x))) or 1.0)
     if straight or len(frequencies) < 8:
@@ -371,7 +370,7 @@ def read_noise(x: np.ndarray, step: float, *, name: str = "x", quantum=None) -> 
         if fit.sum() < 8:
             break
         ceiling = inner & (frequencies < band_low)
-        ar, innovation, extra, _ = _fit_ar(frequencies[fit], raw[fit], step, 1, white / 2,
+        ar, innovation, extra, _ = _whittle_ar(frequencies[fit], raw[fit], step, 1, white / 2,
                                            (frequencies[ceiling], smooth[ceiling]), segments)
         if abs(ar[0]) < COLOUR_GATE and _flat(frequencies, raw, fit):
             flat = True
@@ -388,11 +387,11 @@ def read_noise(x: np.ndarray, step: float, *, name: str = "x", quantum=None) -> 
         f_band, p_band = frequencies[fit], raw[fit]
         ceiling = inner & (frequencies < band_low)
         ceiling = (frequencies[ceiling], smooth[ceiling])
-        _, white_score = _fit_white(p_band)
+        white_score = _white_score(p_band)
         n_eff = fit.sum() * segments
         best = None
         for order in AR_ORDERS:
-            ar, innovation, extra, score = _fit_ar(f_band, p_band, step, order, white / 2,
+            ar, innovation, extra, score = _whittle_ar(f_band, p_band, step, order, white / 2,
                                                    ceiling, segments)
             penalised = segments * score + (order + 1) * np.log(n_eff)
             if best is None or penalised < best[0]:
@@ -498,14 +497,14 @@ class NoiseReading(Mapping):
         """The readings as a table, one row per signal.
 
         Columns: level, SNR, AR order and largest pole, correlation time,
-        quantisation step, band and trend.
+        quantisation step, band and drift.
         """
         import pandas as pd
 
         rows = [{"signal": n.name, "level": n.level, "snr_db": n.snr_db,
                  "ar_order": len(n.ar), "pole": n.poles[0] if n.poles else 0.0,
                  "correlation_time": n.correlation_time, "quantum": n.quantum,
-                 "band": n.band, "trend": n.trend} for n in self._signals.values()]
+                 "band": n.band, "drift": n.drift} for n in self._signals.values()]
         return pd.DataFrame(rows).set_index("signal")
 
     def plot(self, signals=None):
