@@ -22,6 +22,13 @@ time is printed beside)::
 
     python asv_benchmarks/loop_study.py [--seeds 0 1] [--snr 40 30] [--cases pendulum ...]
     python asv_benchmarks/loop_study.py --poles 0.8 0.9 0.95 --bits 12 [--drift 0.02]
+
+``--acceptance`` runs every noise set of the coloured-noise study (white;
+AR(1) poles 0.8, 0.9 and 0.95 rounded to 12 bits; pole 0.9 with a drift of
+2 % of the RMS) and prints the figures of each set and of the coloured
+sets together; ``--jobs`` runs that many loops at once::
+
+    python asv_benchmarks/loop_study.py --acceptance --jobs 2
 """
 
 from __future__ import annotations
@@ -32,6 +39,7 @@ import time
 import warnings
 
 import numpy as np
+from joblib import Parallel, delayed
 
 from sklearn_pycc import HypothesisLoop, PolyCCRegressor, SimulationError, datasets
 
@@ -39,6 +47,8 @@ BASE = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
 #: case -> (hidden effects with their strengths, true skeleton when not make_oscillator's)
 CASES: dict[str, tuple[dict, list[str] | None]] = {
     "coulomb_friction": ({"coulomb_friction": None}, None),
+    "stribeck_friction": ({"stribeck_friction": {"a1": 0.2, "a2": 0.3, "a3": 0.3, "a4": 20.0}},
+                          None),
     "quadratic_drag": ({"quadratic_drag": None}, None),
     "cubic_stiffness": ({"cubic_stiffness": None}, None),
     "saturation": ({"saturation": None}, None),
@@ -54,6 +64,7 @@ CASES: dict[str, tuple[dict, list[str] | None]] = {
                                                       "x2_dot = F_ext - a1 x2 - a3 sin(x1)"]),
     "coulomb+cubic": ({"coulomb_friction": None, "cubic_stiffness": None}, None),
     "quadratic_drag+offset": ({"quadratic_drag": None, "offset": None}, None),
+    "cubic+quadratic_drag": ({"cubic_stiffness": None, "quadratic_drag": None}, None),
     "control_linear": ({}, None),
     "control_cubic": ({"cubic_stiffness": None}, "truth"),
 }
@@ -118,6 +129,37 @@ def run_case(name: str, snr, seed: int, sensor: dict | None = None) -> dict:
     }
 
 
+#: the noise sets of the coloured-noise acceptance study: label -> sensor (None: white)
+ACCEPTANCE = {
+    "white": None,
+    **{f"AR(1) {pole:g}, 12 bits": {"pole": pole, "bits": 12, "drift": 0.0}
+       for pole in (0.8, 0.9, 0.95)},
+    "AR(1) 0.9, 12 bits, drift 0.02": {"pole": 0.9, "bits": 12, "drift": 0.02},
+}
+
+
+def _sets(args) -> dict[str, dict | None]:
+    if args.acceptance:
+        return ACCEPTANCE
+    if args.poles is None and args.bits is None and not args.drift:
+        return {"white": None}
+    return {f"pole {pole:g}": {"pole": pole, "bits": args.bits, "drift": args.drift}
+            for pole in (args.poles or [0.0])}
+
+
+def _figures(rows: list[dict]) -> str:
+    cases = [r for r in rows if not r["control"]]
+    controls = [r for r in rows if r["control"]]
+    words = []
+    if cases:
+        right, complete = (sum(r[k] for r in cases) for k in ("right", "complete"))
+        words.append(f"right {right}/{len(cases)} ({100 * right / len(cases):.0f} %), "
+                     f"complete {complete}/{len(cases)} ({100 * complete / len(cases):.0f} %)")
+    if controls:
+        words.append(f"false alarms {sum(not r['right'] for r in controls)}/{len(controls)}")
+    return "; ".join(words)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
@@ -127,36 +169,32 @@ def main() -> None:
                         help="AR(1) poles of coloured noise (one study each)")
     parser.add_argument("--bits", type=int, default=None, help="round to this resolution")
     parser.add_argument("--drift", type=float, default=0.0, help="slow wander, share of RMS")
+    parser.add_argument("--acceptance", action="store_true",
+                        help="every noise set of the coloured-noise study, white included")
+    parser.add_argument("--jobs", type=int, default=1, help="runs in parallel (processes)")
     args = parser.parse_args()
-    sensors = [None]
-    if args.poles is not None or args.bits is not None or args.drift:
-        sensors = [{"pole": pole, "bits": args.bits, "drift": args.drift}
-                   for pole in (args.poles or [0.0])]
-    rows = []
-    print(f"{'case':<28} {'pole':>4} {'SNR':>4} {'seed':>4} {'right':>5} {'complete':>8} "
+    sets = _sets(args)
+    runs = [(label, name, snr, seed) for label in sets for name in args.cases
+            for snr in args.snr for seed in args.seeds]
+    print(f"{'case':<28} {'noise':<31} {'SNR':>4} {'seed':>4} {'right':>5} {'complete':>8} "
           f"{'ratio':>7} {'s':>6}  named")
-    for name in args.cases:
-        for sensor in sensors:
-            pole = "-" if sensor is None else f"{sensor['pole']:g}"
-            for snr in args.snr:
-                for seed in args.seeds:
-                    row = run_case(name, snr, seed, sensor)
-                    rows.append(row)
-                    print(f"{name:<28} {pole:>4} {snr:>4.0f} {seed:>4} {row['right']!s:>5} "
-                          f"{row['complete']!s:>8} {row['ratio']:>7.2f} "
-                          f"{row['seconds']:>6.1f}  {', '.join(row['named']) or '-'}",
-                          flush=True)
-    cases = [r for r in rows if not r["control"]]
-    controls = [r for r in rows if r["control"]]
-    if cases:
-        right = sum(r["right"] for r in cases) / len(cases)
-        complete = sum(r["complete"] for r in cases) / len(cases)
-        print(f"right {100 * right:.0f} % and complete {100 * complete:.0f} % of "
-              f"{len(cases)} hidden-effect runs")
-    if controls:
-        alarms = sum(not r["right"] for r in controls)
-        print(f"false alarms {alarms} of {len(controls)} control runs")
-    print(f"median loop time {statistics.median(r['seconds'] for r in rows):.1f} s")
+    rows = Parallel(n_jobs=args.jobs, return_as="generator")(
+        delayed(run_case)(name, snr, seed, sets[label]) for label, name, snr, seed in runs)
+    by_set: dict[str, list[dict]] = {label: [] for label in sets}
+    for (label, name, snr, seed), row in zip(runs, rows):
+        by_set[label].append(row)
+        print(f"{name:<28} {label:<31} {snr:>4.0f} {seed:>4} {row['right']!s:>5} "
+              f"{row['complete']!s:>8} {row['ratio']:>7.2f} "
+              f"{row['seconds']:>6.1f}  {', '.join(row['named']) or '-'}", flush=True)
+    print()
+    for label, members in by_set.items():
+        print(f"{label:<31} {_figures(members)}")
+    coloured = [r for label, members in by_set.items() if sets[label] is not None
+                for r in members]
+    if coloured and len(by_set) > 2:
+        print(f"{'all coloured sets':<31} {_figures(coloured)}")
+    every = [r for members in by_set.values() for r in members]
+    print(f"median loop time {statistics.median(r['seconds'] for r in every):.1f} s")
 
 
 if __name__ == "__main__":

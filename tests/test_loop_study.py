@@ -125,3 +125,26 @@ def test_on_a_long_record_the_shape_that_simulates_better_is_named():
         report = diagnose(PolyCCRegressor(equations=LINEAR).fit(X), X)
     assert report.best.effect == "cubic_stiffness"
     assert "preferred to asymmetric_stiffness" in report.ranking.loc[0, "note"]
+
+
+def _benchmark(name: str):
+    """A script of ``asv_benchmarks/``, imported by its path (the folder is no package)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "asv_benchmarks" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"_benchmark_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 4, 8])
+def test_a_filmed_free_decay_of_a_linear_oscillator_raises_no_alarm(seed):
+    # 30 fps, whole pixels, 0.3 px white noise and 0.3 px of jitter correlated over frames:
+    # the loop from the true skeleton names nothing (asv_benchmarks/camera_control.py: 10
+    # draws)
+    camera = _benchmark("camera_control")
+    row = camera.run_draw(seed, seconds=30.0)
+    assert row["named"] == [], row
