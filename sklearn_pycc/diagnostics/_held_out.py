@@ -7,10 +7,10 @@ into folds (its experiments, or interleaved blocks in time when there is one),
 the model with and without the effect is fitted on the other folds, and both
 are judged on the held-out one, by their horizon-limited simulation (the
 criterion that decides when the record has time) and by their derivatives.
-The folds' errors are pooled by their geometric mean: a simulation error is
-heavy-tailed (a model fitted on a few short blocks can oscillate or swell on
-the blocks it did not see), and one such fold must not outweigh the others'
-evidence, either way.
+A fold's simulation error counts at most as much as the signals' spread (what
+their mean would predict): a model fitted on a few short blocks can oscillate
+or swell on the blocks it did not see, and how far it then strays must not
+outweigh the other folds' evidence.
 """
 
 from __future__ import annotations
@@ -39,8 +39,10 @@ MAX_FOLDS = 5
 #: least relative fall of the pooled held-out error that confirms an effect (and most the
 #: other criterion may rise)
 HELD_OUT_GAIN = 0.01
-#: the smallest mean squared error a fold is taken to have when pooled (a log of zero aside)
-TINY_ERROR = 1e-300
+#: the most a fold's normalised mean squared simulation error counts for: a model whose
+#: simulation strays further than the signals' spread on a fold is no better there than
+#: their mean (a fit that failed counts as infinite)
+USELESS = 1.0
 #: least absolute fall of the deciding error, in units of the signals' spread: a model that
 #: already follows held-out data to a thousandth of their spread misses nothing that matters
 #: (on a clean record, a term can still fit the differentiation's own error)
@@ -62,8 +64,9 @@ class HeldOut:
     before, after : dict
         Pooled held-out error by criterion (``"simulation"``,
         ``"derivatives"``), normalised by each signal's spread, without and
-        with the effect: the root of the folds' mean squared errors'
-        geometric mean (weighted by the folds' sizes).
+        with the effect: the root of the folds' mean squared errors
+        (weighted by the folds' sizes), the simulation's each capped at
+        :data:`USELESS`.
     wins : int
         Folds in which the effect lowered the deciding error.
     n_folds : int
@@ -214,9 +217,10 @@ def _fold_errors(base, extended, data: DiagnosisData, held: np.ndarray, spreads,
     return tuple(out)
 
 
-def _log(error: float) -> float:
-    """The log of a fold's mean squared error, as its geometric pooling takes it."""
-    return math.log(max(error, TINY_ERROR)) if error < math.inf else math.inf
+def _capped(errors: dict[str, float]) -> dict[str, float]:
+    """A fold's errors as they are pooled: the simulation's at most :data:`USELESS`."""
+    return {name: error if error == math.inf or name != "simulation"
+            else min(error, USELESS) for name, error in errors.items()}
 
 
 def held_out_check(base, extended, data: DiagnosisData, horizon: Horizon | None,
@@ -275,18 +279,18 @@ def held_out_check(base, extended, data: DiagnosisData, horizon: Horizon | None,
             continue
         if after is None:  # a fold the effect cannot be fitted on counts against it
             after = {name: math.inf for name in cache[key]}
-        before = cache[key]
+        before, after = _capped(cache[key]), _capped(after)
         weight = len(held)
         result.n_folds += 1
-        for side, errors in (("before", before), ("after", after)):
-            for name, error in errors.items():
-                totals[side][name] = totals[side].get(name, 0.0) + weight * _log(error)
+        for name in before:
+            totals["before"][name] = totals["before"].get(name, 0.0) + weight * before[name]
+            totals["after"][name] = totals["after"].get(name, 0.0) + weight * after[name]
         result.wins += int(after[criterion] < before[criterion])
     n = sum(len(held) for i, held in enumerate(folds) if cache[(i, tuple(equations))])
     if not n:
         return result
-    result.before = {k: math.exp(v / n / 2) for k, v in totals["before"].items()}
-    result.after = {k: math.exp(v / n / 2) for k, v in totals["after"].items()}
+    result.before = {k: math.sqrt(v / n) for k, v in totals["before"].items()}
+    result.after = {k: math.sqrt(v / n) for k, v in totals["after"].items()}
     others = [result.change(name) for name in result.before if name != criterion]
     fall = result.before[criterion] - result.after[criterion]
     if rule == "no_loss":
