@@ -37,7 +37,7 @@ def run(n: int) -> tuple[float, list[str]]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--samples", type=int, nargs="+", default=[3000, 12000, 48000])
+    parser.add_argument("--samples", type=int, nargs="+", default=[3000, 12000, 48000, 200000])
     args = parser.parse_args()
     print(f"{'samples':>8} {'seconds':>8} {'s/1000':>7}  named")
     for n in args.samples:
