@@ -195,6 +195,15 @@ def main() -> None:
         print(f"{'all coloured sets':<31} {_figures(coloured)}")
     every = [r for members in by_set.values() for r in members]
     print(f"median loop time {statistics.median(r['seconds'] for r in every):.1f} s")
+    if "white" in by_set and coloured:
+        # each coloured record's loop against the same case, SNR and seed under white noise
+        white = {(r["case"], r["snr"], r["seed"]): r["seconds"] for r in by_set["white"]}
+        ratios = [r["seconds"] / white[key] for r in coloured
+                  if (key := (r["case"], r["snr"], r["seed"])) in white and white[key] > 0]
+        if ratios:
+            within = sum(ratio <= 2.0 for ratio in ratios)
+            print(f"loop time against the same record under white noise: median "
+                  f"{statistics.median(ratios):.2f}x, within 2x in {within} of {len(ratios)}")
 
 
 if __name__ == "__main__":
