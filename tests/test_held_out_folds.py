@@ -100,3 +100,39 @@ def test_compare_skeletons_judges_each_fold_on_rows_its_fit_did_not_see(experime
     assert table.loc["friction", "held_out_nrmse"] < table.loc["base", "held_out_nrmse"]
     assert table.attrs["held_out"].startswith(f"{n_folds} ")
     assert_folds_are_held_out(frame["t"].to_numpy(), n_models=2, n_folds=n_folds)
+
+
+@pytest.mark.parametrize("first, confirmed", [(1.5, True), (0.05, False)])
+def test_one_fold_that_strays_wildly_does_not_outweigh_two_that_confirm(monkeypatch, first,
+                                                                        confirmed):
+    # Stribeck friction under coloured noise: fitted on one fold's short blocks, both models
+    # strayed on the blocks they did not see, the one with dry friction further (4.5 times
+    # the spread, squared), where the two other folds confirmed it a hundredfold. An error
+    # beyond the spread counts as the spread; where the model without the effect does well
+    # on that fold (0.05), the other's straying still counts against it.
+    from sklearn_pycc.diagnostics import _held_out
+
+    frame, truth = friction_record()
+    X = frame[["t", "x1", "x2", "F_ext", "x1_dot", "x2_dot"]]
+    base = PolyCCRegressor(equations=truth.base_equations).fit(X)
+    extended = PolyCCRegressor(equations=truth.parametric_equations).fit(X)
+    data = read_measurements(extended.skeleton_, X, None)
+    errors = iter([({"simulation": first, "derivatives": 43.6},
+                    {"simulation": 4.5, "derivatives": 0.65}),
+                   ({"simulation": 0.25, "derivatives": 0.38},
+                    {"simulation": 0.005, "derivatives": 0.08}),
+                   ({"simulation": 0.28, "derivatives": 0.36},
+                    {"simulation": 0.0007, "derivatives": 0.03})])
+    monkeypatch.setattr(_held_out, "_fold_errors", lambda *args, **kwargs: next(errors))
+    result = held_out_check(base, extended, data, horizon_of(base, data), [1],
+                            max_steps=10**6)
+    assert (result.n_folds, result.wins) == (3, 2)
+    assert result.confirmed is confirmed
+    # the spread caps the simulation's errors only
+    weights = [len(fold) for fold in make_folds(data)[1]]
+    assert result.before["simulation"] == pytest.approx(
+        np.sqrt(np.average([min(first, 1.0), 0.25, 0.28], weights=weights)))
+    assert result.after["simulation"] == pytest.approx(
+        np.sqrt(np.average([1.0, 0.005, 0.0007], weights=weights)))
+    assert result.before["derivatives"] == pytest.approx(
+        np.sqrt(np.average([43.6, 0.38, 0.36], weights=weights)))
