@@ -196,45 +196,68 @@ class Windows:
         self._fine[key] = fine
         return fine
 
-    def simulate(self, system, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def simulate(self, system, start: np.ndarray,
+                 copies: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """Integrate every window from ``start`` ``(K, n_states)``.
+
+        With ``copies``, ``start`` holds that many blocks of the K windows'
+        starts, and ``system`` as many variants stacked block by block
+        (:func:`~sklearn_pycc.skeleton.system.stack_systems`): every block is
+        integrated over the same windows, all in one pass, and
+        :attr:`escape_step` is left as it was.
 
         Returns
         -------
-        states : ndarray of shape (K, L + 1, n_states)
-        escaped : ndarray of bool, shape (K,)
+        states : ndarray of shape (copies * K, L + 1, n_states)
+        escaped : ndarray of bool, shape (copies * K,)
             Windows stopped because they diverged (they stay where they were;
             :attr:`escape_step` holds the first step they left the range at).
         """
         fine, ends = self.fine_signals(), self.fine_signals(left=True)
-        K, L, m = self.n_segments, self.n_steps, self.substeps
-        if K <= FEW_WINDOWS and all(name in fine for name in system.inputs):
+        K, L = self.n_segments, self.n_steps
+        if copies == 1 and K <= FEW_WINDOWS and all(name in fine for name in system.inputs):
             out = np.empty((K, L + 1, len(self.states)))
             escaped, self.escape_step = np.zeros(K, dtype=bool), np.full(K, L + 1)
             for k in range(K):
                 out[k], escaped[k], self.escape_step[k] = self._simulate_one(
                     system, start[k], k, fine, ends)
             return out, escaped
-        names = self.states
-        out = np.empty((K, L + 1, len(names)))
+        out, escaped, escape_step = self._simulate_side_by_side(system, start, copies, fine,
+                                                                ends)
+        if copies == 1:
+            self.escape_step = escape_step
+        return out, escaped
+
+    def _simulate_side_by_side(self, system, start: np.ndarray, copies: int,
+                               fine: Mapping[str, np.ndarray], ends: Mapping[str, np.ndarray]
+                               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`simulate` on arrays of every window (of every copy): states, escapes, steps."""
+        L, m = self.n_steps, self.substeps
+        K = copies * self.n_segments
+        out = np.empty((K, L + 1, len(self.states)))
         x = np.array(start, dtype=float)
         out[:, 0] = x
         escaped = np.zeros(K, dtype=bool)
-        self.escape_step = np.full(K, L + 1)
+        escape_step = np.full(K, L + 1)
         signals = [name for name in fine if name in system.slots]
         columns = [fine[name].T.copy() for name in signals]  # (stage, K): contiguous rows
         # the later stages of a step read a held input's value before it steps
         lefts = columns if ends is fine else [ends[name].T.copy() for name in signals]
         evaluate = system.batch_rhs(K, signals)
+        steps = np.tile(self.h / m, (copies, 1))
 
-        def rhs(state, column, source=columns):
-            return evaluate(state, [values[column] for values in source])
+        if copies == 1:
+            def rhs(state, column, source=columns):
+                return evaluate(state, [values[column] for values in source])
+        else:  # every copy reads the same input at a stage
+            def rhs(state, column, source=columns):
+                return evaluate(state, [np.tile(values[column], copies) for values in source])
 
         limited = bool(getattr(system, "limits", None))
 
         with np.errstate(all="ignore"):
             for i in range(L):
-                h = (self.h[:, i] / m)[:, None]
+                h = steps[:, i, None]
                 for j in range(m):
                     c = 2 * (i * m + j)
                     k1 = rhs(x, c)
@@ -246,11 +269,11 @@ class Windows:
                         system.clip(x)
                 bad = ~np.isfinite(x).all(axis=1) | (np.abs(x) > self.bound).any(axis=1)
                 if bad.any():
-                    self.escape_step[bad & ~escaped] = i + 1
+                    escape_step[bad & ~escaped] = i + 1
                     escaped |= bad
                     x[bad] = out[bad, i]
                 out[:, i + 1] = x
-        return out, escaped
+        return out, escaped, escape_step
 
     def _simulate_one(self, system, start: np.ndarray, k: int, fine: Mapping[str, np.ndarray],
                       ends: Mapping[str, np.ndarray]) -> tuple[np.ndarray, bool, int]:

@@ -30,6 +30,27 @@ def test_duffing_position_only_output_error_beats_the_floor(snr, bound):
     assert abs(output.functions_["f2"](np.array([0.0]))[0]) < 1e-10
 
 
+def test_the_jacobians_bumps_side_by_side_fit_as_one_at_a_time(monkeypatch):
+    # the Jacobian's bumped simulations run in one pass of stacked systems; the fit is
+    # the one a simulation per bump gives (curves and a scalar, few and many windows)
+    from sklearn_pycc.estimators import _shooting
+
+    frame = datasets.make_duffing(n_samples=600, noise=40, noise_columns=["x1"], random_state=1)
+    X = frame[["t", "x1", "F_ext"]]
+    skeleton = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - f1(x1)"]
+    for window in (40, 600):
+        settings = {"equations": skeleton, "fit_mode": "simulation", "shooting_window": window,
+                    "shooting_iterations": 8}
+        stacked = PolyCCRegressor(**settings).fit(X)
+        with monkeypatch.context() as patch:
+            patch.setattr(_shooting, "_side_by_side", lambda *args: None)
+            alone = PolyCCRegressor(**settings).fit(X)
+        assert stacked.shooting_["nrmse_after"] < stacked.shooting_["nrmse_before"]
+        assert stacked.params_["a1"] == pytest.approx(alone.params_["a1"], rel=1e-6)
+        np.testing.assert_allclose(stacked.coefficients_["f1"], alone.coefficients_["f1"],
+                                   rtol=1e-6, atol=1e-9)
+
+
 def test_a_refit_in_equation_mode_forgets_the_output_error_stage():
     frame = datasets.make_duffing(n_samples=400, noise=40, noise_columns=["x1"], random_state=0)
     X = frame[["t", "x1", "F_ext"]]

@@ -41,3 +41,45 @@ def test_few_windows_in_floats_match_the_side_by_side_integration(monkeypatch, h
         assert np.array_equal(escaped_one, escaped_many)
         assert np.array_equal(steps_one, side.escape_step)
     assert escaped_one.all() and not np.isnan(one).any()  # the second model escaped
+
+
+def test_stacked_variants_integrate_as_each_does_alone():
+    # variants of one limited skeleton that differ in a parameter, a polynomial curve
+    # (linear beyond its domain) and a plain callable: one pass gives each one's numbers
+    from sklearn_pycc.estimators._basis import PolyBasis
+    from sklearn_pycc.skeleton.system import stack_systems
+
+    skeleton = Skeleton(["x1_dot = a1 u - f1(x1) + 0.001 t", "x2_dot = f2(x1) - a2 sqrt(x2)"],
+                        ["0 <= x2 <= 13"])
+    basis = PolyBasis(0.0, 6.0, 3, None, "legendre")
+    variants = [({"f1": basis.curve(c, "linear"), "f2": g}, {"a1": a1, "a2": 0.45})
+                for c, g, a1 in [([0.2, 0.3, 0.0, 0.01], np.sqrt, 0.3),
+                                 ([0.2, 0.3, 0.0, 0.02], np.sqrt, 0.3),
+                                 ([0.2, 0.3, 0.0, 0.01], lambda x: 0.4 * x, 0.3),
+                                 ([0.2, 0.3, 0.0, -0.5], np.sqrt, 2.0)]]  # the last escapes
+    systems = [skeleton.compile(*v) for v in variants]
+    windows = _windows("bandlimited", 3)
+    start = np.array([[3.0, 7.0], [30.0, 1.0], [0.5, 12.0]])
+    alone = []
+    for system in systems:
+        states, escaped = windows.simulate(system, start)
+        alone.append((states, escaped, windows.escape_step.copy()))
+    stacked = stack_systems(systems, len(start))
+    together, escaped = windows.simulate(stacked, np.tile(start, (len(systems), 1)),
+                                         copies=len(systems))
+    assert np.array_equal(windows.escape_step, alone[-1][2])  # left as the last call set it
+    for b, (states, escaped_alone, _) in enumerate(alone):
+        block = slice(3 * b, 3 * (b + 1))
+        np.testing.assert_allclose(together[block], states, rtol=1e-13, atol=1e-13)
+        assert np.array_equal(escaped[block], escaped_alone)
+    assert alone[-1][1].any() and not alone[0][1].any()
+    assert not np.allclose(alone[0][0], alone[1][0])  # the variants do differ
+
+
+def test_systems_that_differ_in_their_limits_are_not_stacked():
+    from sklearn_pycc.skeleton.system import stack_systems
+
+    skeleton = Skeleton(["x1_dot = u - a1 x1"], ["x1 <= a2"])
+    systems = [skeleton.compile({}, {"a1": 1.0, "a2": high}) for high in (2.0, 3.0)]
+    assert stack_systems(systems, 4) is None
+    assert stack_systems(systems[:1] * 2, 4) is not None

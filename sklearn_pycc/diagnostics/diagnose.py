@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field, fields
 from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
+from sklearn.base import clone
 from sklearn.utils._param_validation import Interval, validate_params
 from sklearn.utils.validation import check_is_fitted
 
@@ -59,6 +61,10 @@ N_HELD_OUT = 2
 #: a simpler effect whose held-out error is within this share of a confirmed leader's
 #: (same equation and variable) is named instead
 PARSIMONY = 0.05
+#: least relative fall of the whole record's output error that an effect the held-out
+#: folds confirmed must also bring (a model fitted by output error): folds fitted on
+#: short blocks can favour a term that one trajectory through the whole record does not
+WHOLE_RECORD_GAIN = 0.01
 #: least fall of the BIC that removes a term when nothing is held out
 REMOVAL_BIC = 2.0
 #: removals refitted, the least costly first, and the most a removal may raise the residual
@@ -824,13 +830,14 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     eligible = _eligible(ordered, min_improvement, bic_threshold, simulation_rmse)
     judge = window if run_simulation else None
     cache: dict = {}  # the model's own held-out errors, by fold, for every check
-    chosen = _decide(eligible, model, data, judge, failing, steps, n_jobs, cache) \
+    chosen = _decide(eligible, model, data, judge, failing, steps, n_jobs, cache, X) \
         if held_out else (eligible[0] if eligible else None)
     if chosen is None:
         # nothing to add or swap in: is a term of the skeleton superfluous?
         _refit_all([c for c in removals if c.screen_removed > -REMOVAL_SCREEN][:N_REMOVE],
                    model, data, residuals, rss_before, baseline, n_jobs)
-        chosen = _decide_removal(removals, model, data, judge, steps, held_out, n_jobs)
+        chosen = _decide_removal(removals, model, data, judge, steps, held_out, n_jobs, X,
+                                 cache)
     ordered += _ordered(removals)
     formula, opened = None, []
     if chosen is None and open_curves:
@@ -1063,10 +1070,12 @@ def _eligible(ordered: list[Candidate], min_improvement: float, bic_threshold: f
 
 def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Horizon | None,
             equations: list[int], steps: int, n_jobs: int | None = None,
-            cache: dict | None = None) -> Candidate | None:
+            cache: dict | None = None, record: pd.DataFrame | None = None) -> Candidate | None:
     """The first eligible candidate that held-out data confirm, or None.
 
     ``cache`` keeps the model's own held-out errors by fold for later checks.
+    When the model was fitted by output error, the choice must also lower
+    the output error of the whole measured ``record`` (:func:`_whole_record`).
     """
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
     cache = {} if cache is None else cache
@@ -1082,34 +1091,76 @@ def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Hori
     for c in eligible[:N_HELD_OUT]:
         if not check(c):
             continue
-        # a simpler effect through the same variable that does as well on held-out data
-        # is preferred: a flexible term (Stribeck for Coulomb) also soaks up some of
-        # another missing effect
-        simpler = [o for o in eligible if o is not c and o.held_out is None
-                   and o.n_change < c.n_change
-                   and (o.roles.index, o.variable) == (c.roles.index, c.variable)]
-        if simpler and check(simpler[0]):
-            crit = c.held_out.criterion
-            if simpler[0].held_out.after[crit] <= (1 + PARSIMONY) * c.held_out.after[crit]:
-                simpler[0].note = (f"preferred to {c.effect.name} (more parameters, held-out "
-                                   f"{crit} error {c.held_out.after[crit]:.3g} against "
-                                   f"{simpler[0].held_out.after[crit]:.3g})")
-                return simpler[0]
-        # a rival the derivatives could not tell from it (its score within TIE), or one
-        # that simulates the record clearly better, is judged on the measured signals the
-        # fits did not see: estimated derivatives of a noisy, coloured or long record can
-        # rank shapes by their own errors
-        rival = _close_rival(c, eligible)
-        if rival is not None and check(rival):
-            crit = c.held_out.criterion
-            if rival.held_out.after[crit] <= (1 - PARSIMONY) * c.held_out.after[crit]:
-                rival.note = "; ".join(filter(None, [rival.note, (
-                    f"preferred to {c.effect.name} (held-out "
-                    f"{crit} error {rival.held_out.after[crit]:.3g} against "
-                    f"{c.held_out.after[crit]:.3g})")]))
-                return rival
-        return c
+        chosen = _preferred(c, eligible, check)
+        if not output_error or record is None:
+            return chosen
+        before, after = _whole_record(model, record, cache), _whole_record(chosen.refit, record)
+        if after <= (1 - WHOLE_RECORD_GAIN) * before:
+            return chosen
+        chosen.note = "; ".join(filter(None, [chosen.note, (
+            f"not confirmed by the whole record: its output error goes from {before:.4g} to "
+            f"{after:.4g} of its spread ({100 * (after / before - 1):+.1f} %), where the "
+            f"held-out folds said {100 * chosen.held_out.change():+.1f} %")]))
     return None
+
+
+def _preferred(c: Candidate, eligible: list[Candidate], check) -> Candidate:
+    """The candidate to name once held-out data confirmed ``c`` (``check`` judges others).
+
+    ``c`` itself, the same effect beside the terms it would replace, a
+    simpler effect that does as well, or a rival that does clearly better.
+    """
+    # a term the user wrote goes only where the data its fit did not see favour
+    # dropping it: the same effect added beside it is checked too, and kept unless
+    # the replacement does clearly better (a light viscous damping under a
+    # quadratic drag costs a noisy record little, and a fresh one much)
+    beside = _beside(c, eligible)
+    if beside is not None and check(beside):
+        crit = c.held_out.criterion
+        if c.held_out.after[crit] > (1 - PARSIMONY) * beside.held_out.after[crit]:
+            beside.note = "; ".join(filter(None, [beside.note, (
+                f"preferred to replacing '{' + '.join(c.replaces)}' (held-out {crit} "
+                f"error {c.held_out.after[crit]:.3g} without it against "
+                f"{beside.held_out.after[crit]:.3g} with it)")]))
+            c = beside
+    # a simpler effect through the same variable that does as well on held-out data
+    # is preferred: a flexible term (Stribeck for Coulomb) also soaks up some of
+    # another missing effect (not the same effect in place of the user's terms)
+    simpler = [o for o in eligible if o is not c and o.held_out is None
+               and o.n_change < c.n_change
+               and (o.roles.index, o.variable) == (c.roles.index, c.variable)
+               and not (o.move == "replace" and o.effect.name == c.effect.name)]
+    if simpler and check(simpler[0]):
+        crit = c.held_out.criterion
+        if simpler[0].held_out.after[crit] <= (1 + PARSIMONY) * c.held_out.after[crit]:
+            simpler[0].note = (f"preferred to {c.effect.name} (more parameters, held-out "
+                               f"{crit} error {c.held_out.after[crit]:.3g} against "
+                               f"{simpler[0].held_out.after[crit]:.3g})")
+            return simpler[0]
+    # a rival the derivatives could not tell from it (its score within TIE), or one
+    # that simulates the record clearly better, is judged on the measured signals the
+    # fits did not see: estimated derivatives of a noisy, coloured or long record can
+    # rank shapes by their own errors
+    rival = _close_rival(c, eligible)
+    if rival is not None and check(rival):
+        crit = c.held_out.criterion
+        if rival.held_out.after[crit] <= (1 - PARSIMONY) * c.held_out.after[crit]:
+            rival.note = "; ".join(filter(None, [rival.note, (
+                f"preferred to {c.effect.name} (held-out "
+                f"{crit} error {rival.held_out.after[crit]:.3g} against "
+                f"{c.held_out.after[crit]:.3g})")]))
+            return rival
+    return c
+
+
+def _beside(replacement: Candidate, eligible: list[Candidate]) -> Candidate | None:
+    """The same effect added beside the terms ``replacement`` would take out, or None."""
+    if replacement.move != "replace":
+        return None
+    return next((o for o in eligible if o.move == "add" and o.held_out is None
+                 and o.effect.name == replacement.effect.name
+                 and (o.roles.index, o.variable) == (replacement.roles.index,
+                                                     replacement.variable)), None)
 
 
 def _close_rival(leader: Candidate, eligible: list[Candidate]) -> Candidate | None:
@@ -1135,18 +1186,36 @@ def _close_rival(leader: Candidate, eligible: list[Candidate]) -> Candidate | No
 
 def _decide_removal(removals: list[Candidate], model, data: DiagnosisData,
                     horizon: Horizon | None, steps: int, held_out: bool,
-                    n_jobs: int | None = None) -> Candidate | None:
+                    n_jobs: int | None = None, record: pd.DataFrame | None = None,
+                    cache: dict | None = None) -> Candidate | None:
     """The first superfluous term: its removal lowers the BIC and no held-out error.
 
     A removal is never decided on the derivatives alone when the record can
     be held out: a small real term (a light damping) costs the residual
     little, and only data its fit did not see tell it from a spurious one.
+    Nor is one made that an output-error fit of the whole record rejects
+    (its error raised by more than :data:`PARSIMONY`, both skeletons fitted
+    to the measured ``record``, ends included, when the model was fitted
+    so): where the measurement noise dominates the held-out errors, windows
+    restarted from the noisy states cannot see what a light damping does,
+    and one trajectory through the whole record can (its start, where a
+    release decays, is often what shows it).
     """
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
     for c in sorted((c for c in removals if _group(c) == 0 and c.delta_bic < 0),
                     key=lambda c: c.delta_bic):
         if not held_out:
             return c if c.delta_bic <= -REMOVAL_BIC else None
+        if output_error and record is not None:
+            with_it = _whole_record(model, record, cache)
+            without = _whole_record(c.refit, record)
+        else:
+            with_it = without = math.nan
+        if without > (1 + PARSIMONY) * with_it:
+            c.note = "; ".join(filter(None, [c.note, (
+                f"not removed: the output error of the whole record rises from "
+                f"{with_it:.3g} to {without:.3g} of its spread without it")]))
+            return None
         c.held_out = held_out_check(model, c.refit, data, horizon, c.equations,
                                     max_steps=steps, output_error=output_error,
                                     rule="no_loss", n_jobs=n_jobs)
@@ -1160,6 +1229,32 @@ def _decide_removal(removals: list[Candidate], model, data: DiagnosisData,
                        "the noise and their removal proves nothing")
         return None  # the least costly removal failed: the others cost more
     return None
+
+
+def _whole_record(model, record: pd.DataFrame, cache: dict | None = None) -> float:
+    """The output error (normalised) of ``model``'s skeleton fitted by it to ``record``.
+
+    The measured record as given, ends included (the diagnosis leaves out
+    where its derivative filters settle, and a release often decays there).
+    Inf where that fit fails; ``cache`` keeps the value under
+    ``"whole_record"`` (the model's own, asked for again by each check).
+    """
+    if cache is not None and "whole_record" in cache:
+        return cache["whole_record"]
+    settings = {"fit_mode": "simulation"}
+    if model.get_params().get("n_bootstrap"):
+        settings["n_bootstrap"] = 0
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fitted = clone(model).set_params(**settings).fit(record)
+    except Exception:  # a skeleton the record cannot fit this way is no answer
+        error = math.inf
+    else:
+        error = float(fitted.shooting_.get("nrmse_after", math.inf))
+    if cache is not None:
+        cache["whole_record"] = error
+    return error
 
 
 #: least relative fall of the held-out error that confirms a free curve: it brings many

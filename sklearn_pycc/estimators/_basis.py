@@ -207,6 +207,20 @@ class PolyCurve(Curve):
             return np.full(x.shape, acc)
         return acc
 
+    @classmethod
+    def stack(cls, curves, rows: int) -> Curve | None:
+        """Curves of one basis (the same centre, scale, domain and degree) evaluated at once.
+
+        Horner's rule runs with one coefficient per row: the numbers each
+        block gets are those its own curve gives. None where the curves do
+        not share their basis.
+        """
+        first = curves[0]
+        same = all(c.center == first.center and c.half == first.half
+                   and c.domain == first.domain and c.extrapolation == first.extrapolation
+                   and c.series.shape == first.series.shape for c in curves)
+        return _StackedPolyCurve(curves, rows) if same else None
+
     def polynomial(self) -> np.polynomial.Polynomial:
         """The curve as a power series in its own argument ``x``."""
         u = np.polynomial.Polynomial([-self.center / self.half, 1.0 / self.half])
@@ -235,6 +249,34 @@ class PolyCurve(Curve):
     def __repr__(self) -> str:
         extra = "" if self.extrapolation is None else f", extrapolation={self.extrapolation!r}"
         return f"PolyCurve(degree={len(self.series) - 1}, domain={self.domain}{extra})"
+
+
+class _StackedPolyCurve(Curve):
+    """Polynomial curves of one basis side by side (:meth:`PolyCurve.stack`), on arrays."""
+
+    def __init__(self, curves, rows: int) -> None:
+        first = curves[0]
+        self.domain, self.extrapolation = first.domain, first.extrapolation
+        self._center, self._inv = first.center, first._inv
+        self._coefs = [np.repeat([c._coefs[k] for c in curves], rows)
+                       for k in range(len(first._coefs))]
+        if self.extrapolation == "linear":
+            self._edges = tuple(
+                (first._edges[end][0],
+                 np.repeat([c._edges[end][1] for c in curves], rows),
+                 np.repeat([c._edges[end][2] for c in curves], rows))
+                for end in (0, 1))
+
+    def __call__(self, x):
+        u = (x - self._center) * self._inv
+        acc = self._coefs[0]
+        for c in self._coefs[1:]:
+            acc = acc * u + c
+        if self.extrapolation == "linear":
+            (lo, f_lo, s_lo), (hi, f_hi, s_hi) = self._edges
+            acc = np.where(x < lo, f_lo + s_lo * (x - lo),
+                           np.where(x > hi, f_hi + s_hi * (x - hi), acc))
+        return acc
 
 
 class ZeroCurve(Curve):

@@ -3,7 +3,9 @@
 An expression is compiled once, with the values of its parameters and the
 callables of its curves baked in, into a closure ``fn(env)`` where ``env`` is
 a sequence indexed by variable slot. Constant sub-expressions are folded at
-compile time. Two modes exist:
+compile time. A parameter given as an array (array mode only) holds one value
+per row instead: systems that differ only in their numbers are then evaluated
+side by side as one (see :func:`~.system.stack_systems`). Two modes exist:
 
 ``"array"``
     ``env`` holds numpy arrays; elementary functions are numpy ufuncs.
@@ -132,7 +134,8 @@ class _Compiler:
         if isinstance(node, Number):
             return node.value
         if isinstance(node, Param):
-            return float(self.params[node.name])
+            value = self.params[node.name]
+            return None if isinstance(value, np.ndarray) else float(value)
         return None
 
     def compile(self, node: Node) -> tuple[Compiled, float | None]:
@@ -143,6 +146,9 @@ class _Compiler:
         if isinstance(node, Symbol):
             i = self.slots[node.name]
             return (lambda env: env[i]), None
+        if isinstance(node, Param):  # one value per row (stacked variants of a system)
+            values = self.params[node.name]
+            return (lambda env: values), None
         if isinstance(node, Neg):
             fn, c = self.compile(node.operand)
             if c is not None:
@@ -226,7 +232,8 @@ def compile_expression(
     slots : mapping
         Variable name -> index into the environment sequence.
     params : mapping, optional
-        Values of the ``a`` parameters the expression uses.
+        Values of the ``a`` parameters the expression uses: floats, or (array
+        mode) arrays of one value per row.
     functions : mapping, optional
         Callables of the ``f`` curves the expression uses.
     mode : {"array", "scalar"}

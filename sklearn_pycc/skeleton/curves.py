@@ -9,9 +9,11 @@ them. A plain callable handed over in the middle of a fit is wrapped by
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
-__all__ = ["Curve", "FunctionCurve", "as_curve"]
+import numpy as np
+
+__all__ = ["Curve", "FunctionCurve", "StackedCurve", "as_curve", "stack_curves"]
 
 
 class Curve:
@@ -50,6 +52,35 @@ class Curve:
         """How many fitted numbers define the curve (for information criteria)."""
         return 0
 
+    @classmethod
+    def stack(cls, curves: Sequence[Curve], rows: int) -> Curve | None:
+        """Curves of this kind evaluated block by block in one call, or None.
+
+        Block ``b`` (``rows`` rows) of the argument is read by ``curves[b]``.
+        A subclass whose curves differ only in their numbers may return one
+        that evaluates them all at once; None leaves it to
+        :class:`StackedCurve`, which calls each on its block.
+        """
+        return None
+
+
+class StackedCurve(Curve):
+    """Several curves side by side: block ``b`` (``rows`` rows) of an argument reads ``curves[b]``.
+
+    What :func:`stack_curves` falls back on: one call per curve.
+    """
+
+    def __init__(self, curves: Sequence[Callable], rows: int) -> None:
+        self.curves = list(curves)
+        self.rows = int(rows)
+
+    def __call__(self, x):
+        """Each curve on its own block of ``x`` (a float is every row's argument)."""
+        r = self.rows
+        x = np.broadcast_to(np.asarray(x, dtype=float), (r * len(self.curves),))
+        return np.concatenate([np.broadcast_to(curve(x[b * r:(b + 1) * r]), (r,))
+                               for b, curve in enumerate(self.curves)])
+
 
 class FunctionCurve(Curve):
     """A plain callable seen as a :class:`Curve`."""
@@ -72,3 +103,19 @@ def as_curve(curve) -> Curve:
     if callable(curve):
         return FunctionCurve(curve)
     raise TypeError(f"a curve must be callable on arrays, got {type(curve).__name__}")
+
+
+def stack_curves(curves: Sequence[Callable], rows: int) -> Callable:
+    """One curve for ``len(curves)`` blocks of ``rows`` rows, block ``b`` read by ``curves[b]``.
+
+    The curve itself where every block has the same; the kind's own
+    :meth:`Curve.stack` where it offers one; else a :class:`StackedCurve`.
+    """
+    first = curves[0]
+    if all(curve is first for curve in curves):
+        return first
+    if all(type(curve) is type(first) for curve in curves) and isinstance(first, Curve):
+        stacked = type(first).stack(curves, rows)
+        if stacked is not None:
+            return stacked
+    return StackedCurve(curves, rows)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from operator import itemgetter
 
 import numpy as np
@@ -11,9 +11,10 @@ import numpy as np
 from ..exceptions import SkeletonError
 from ..simulation import Diverged
 from .compiler import compile_expression
+from .curves import stack_curves
 from .equations import TIME, Equation, evaluation_order
 
-__all__ = ["CompiledSystem"]
+__all__ = ["CompiledSystem", "stack_systems"]
 
 
 class _OutsideDomain(ValueError):
@@ -85,6 +86,8 @@ class CompiledSystem:
         limits: Mapping[str, tuple[float, float]] | None = None,
     ) -> None:
         self.states = list(states)
+        #: what it was compiled from, for :func:`stack_systems`
+        self._source = (equations, params, functions)
         self.limits = {s: (float(lo), float(hi)) for s, (lo, hi) in (limits or {}).items()}
         # (position among the states, position among the derivatives, low, high)
         self._limited = [(self.states.index(s), [eq.state for eq in equations].index(s), lo, hi)
@@ -299,3 +302,34 @@ class CompiledSystem:
 
         limited = self._limited
         return rhs
+
+
+def stack_systems(systems: Sequence[CompiledSystem], rows: int) -> CompiledSystem | None:
+    """Systems that differ only in their numbers, compiled as one on ``len(systems) * rows`` rows.
+
+    Block ``b`` of ``rows`` rows of every array the result evaluates follows
+    ``systems[b]``: a parameter that differs is an array of one value per
+    row, a curve that differs a stacked curve. A finite-difference Jacobian
+    then integrates its bumped systems side by side, in one pass of numpy
+    calls instead of one pass each.
+
+    Returns
+    -------
+    CompiledSystem or None
+        Array evaluation only (:meth:`CompiledSystem.batch_rhs` and friends);
+        None where the systems differ in more than numbers (their equations
+        or their states' limits).
+    """
+    first = systems[0]
+    equations, params, functions = first._source
+    if any(s._source[0] is not equations or s.limits != first.limits for s in systems):
+        return None
+    stacked_params = {}
+    for name, value in params.items():
+        values = [s._source[1][name] for s in systems]
+        same = all(v == value for v in values)
+        stacked_params[name] = value if same else np.repeat(np.asarray(values, float), rows)
+    stacked_functions = {name: stack_curves([s._source[2][name] for s in systems], rows)
+                         for name in functions}
+    return CompiledSystem(equations, first.states, first.inputs, stacked_params,
+                          stacked_functions, limits=first.limits)
