@@ -41,6 +41,22 @@ def test_the_noise_level_and_colour_are_read_from_the_record(pole, seed):
     assert reading.snr_db == pytest.approx(40.0, abs=3.0)
 
 
+@pytest.mark.parametrize("ar, innovation, white", [((0.9,), 0.3, 1.0), ((1.2, -0.5), 0.5, 0.2),
+                                                     ((0.6,), 1.0, 0.0), ((), 0.0, 0.7)])
+def test_the_reading_is_also_one_arma_process_with_the_same_spectrum(ar, innovation, white):
+    from sklearn_pycc.measurements.noise import SignalNoise
+
+    noise = SignalNoise("x1", level=1.0, ar=ar, innovation=innovation, white=white, step=0.01)
+    phi, theta, sigma = noise.arma
+    assert phi == ar and len(theta) == (len(ar) if white and ar else 0)
+    assert np.all(np.abs(np.roots([1.0, *theta])) < 1)  # invertible: the innovations exist
+    z = np.exp(-2j * np.pi * np.linspace(0, 50, 101) * 0.01)
+    numerator = np.abs(np.polyval([*theta[::-1], 1.0], z)) ** 2
+    denominator = np.abs(np.polyval([*(-np.asarray(phi))[::-1], 1.0], z)) ** 2
+    np.testing.assert_allclose(2 * 0.01 * sigma**2 * numerator / denominator,
+                               noise.density(np.linspace(0, 50, 101)), rtol=1e-10)
+
+
 def test_a_noise_free_record_reads_no_noise():
     frame = datasets.make_oscillator(hidden=[], n_samples=3000, t_span=(0, 60))
     reading = Measurement(frame[["t", "x1", "x2", "F_ext"]]).noise

@@ -214,6 +214,33 @@ class SignalNoise:
         return float(max(long_run / self.level**2, 1.0))
 
     @property
+    def arma(self) -> tuple[tuple[float, ...], tuple[float, ...], float]:
+        """The same noise as one ARMA process: ``(ar, ma, sigma)``.
+
+        An AR(p) process plus white noise is an ARMA(p, p) process
+        ``e[n] = sum_k ar_k e[n-k] + w[n] + sum_k ma_k w[n-k]`` whose
+        innovations ``w`` have standard deviation ``sigma``: the moving
+        average is the minimum-phase factor of the numerator of the
+        spectrum, so both give the same autocovariance. ``ma`` is empty
+        where the white part is (pure AR), ``ar`` too where the noise is white.
+        """
+        if not self.coloured:
+            return (), (), float(self.white)
+        if self.white <= 0:
+            return tuple(self.ar), (), float(self.innovation)
+        a = np.concatenate([[1.0], -np.asarray(self.ar, dtype=float)])
+        p = len(a) - 1
+        # spectrum's numerator: innovation^2 + white^2 A(z) A(1/z), a symmetric Laurent
+        # polynomial whose roots pair as (r, 1/r); the factor keeps those inside the circle
+        c = self.white**2 * np.correlate(a, a, mode="full")
+        c[p] += self.innovation**2
+        roots = np.roots(c)
+        inside = roots[np.argsort(np.abs(roots))[:p]]
+        b = np.real(np.poly(inside))
+        sigma = float(np.sqrt(c[p] / np.sum(b**2)))
+        return tuple(self.ar), tuple(float(v) for v in b[1:]), sigma
+
+    @property
     def snr_db(self) -> float:
         """Signal-to-noise ratio in decibels (infinite for a noise-free signal)."""
         if self.level <= 0:
@@ -496,13 +523,14 @@ class NoiseReading(Mapping):
     def to_frame(self):
         """The readings as a table, one row per signal.
 
-        Columns: level, SNR, AR order and largest pole, correlation time,
-        quantisation step, band and drift.
+        Columns: level, SNR, orders of the ARMA form (:attr:`SignalNoise.arma`)
+        and largest pole, correlation time, quantisation step, band and drift.
         """
         import pandas as pd
 
         rows = [{"signal": n.name, "level": n.level, "snr_db": n.snr_db,
-                 "ar_order": len(n.ar), "pole": n.poles[0] if n.poles else 0.0,
+                 "ar_order": len(n.ar), "ma_order": len(n.arma[1]),
+                 "pole": n.poles[0] if n.poles else 0.0,
                  "correlation_time": n.correlation_time, "quantum": n.quantum,
                  "band": n.band, "drift": n.drift} for n in self._signals.values()]
         return pd.DataFrame(rows).set_index("signal")
