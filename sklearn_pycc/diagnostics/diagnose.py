@@ -65,6 +65,11 @@ PARSIMONY = 0.05
 #: folds confirmed must also bring (a model fitted by output error): folds fitted on
 #: short blocks can favour a term that one trajectory through the whole record does not
 WHOLE_RECORD_GAIN = 0.01
+#: most relative rise of the whole record's output error that a removal may bring (a model
+#: fitted by output error): a removal is a step to a simpler skeleton that a later round
+#: may complete (a viscous term that stood in for a falling damping), so only a clear
+#: rise blocks it (a light damping under a quadratic drag raised it 18 %)
+REMOVAL_WHOLE_RECORD = 0.1
 #: least fall of the BIC that removes a term when nothing is held out
 REMOVAL_BIC = 2.0
 #: removals refitted, the least costly first, and the most a removal may raise the residual
@@ -1194,9 +1199,10 @@ def _decide_removal(removals: list[Candidate], model, data: DiagnosisData,
     be held out: a small real term (a light damping) costs the residual
     little, and only data its fit did not see tell it from a spurious one.
     Nor is one made that an output-error fit of the whole record rejects
-    (its error raised by more than :data:`PARSIMONY`, both skeletons fitted
-    to the measured ``record``, ends included, when the model was fitted
-    so): where the measurement noise dominates the held-out errors, windows
+    (its error raised by more than :data:`REMOVAL_WHOLE_RECORD`, both
+    skeletons fitted to the measured ``record``, ends included, when the
+    model was fitted so): where the measurement noise dominates the
+    held-out errors, windows
     restarted from the noisy states cannot see what a light damping does,
     and one trajectory through the whole record can (its start, where a
     release decays, is often what shows it).
@@ -1211,7 +1217,7 @@ def _decide_removal(removals: list[Candidate], model, data: DiagnosisData,
             without = _whole_record(c.refit, record)
         else:
             with_it = without = math.nan
-        if without > (1 + PARSIMONY) * with_it:
+        if without > (1 + REMOVAL_WHOLE_RECORD) * with_it:
             c.note = "; ".join(filter(None, [c.note, (
                 f"not removed: the output error of the whole record rises from "
                 f"{with_it:.3g} to {without:.3g} of its spread without it")]))
