@@ -835,14 +835,14 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     eligible = _eligible(ordered, min_improvement, bic_threshold, simulation_rmse)
     judge = window if run_simulation else None
     cache: dict = {}  # the model's own held-out errors, by fold, for every check
-    chosen = _decide(eligible, model, data, judge, failing, steps, n_jobs, cache, X) \
+    chosen = _decide(eligible, model, data, judge, failing, steps, n_jobs, cache, record=X) \
         if held_out else (eligible[0] if eligible else None)
     if chosen is None:
         # nothing to add or swap in: is a term of the skeleton superfluous?
         _refit_all([c for c in removals if c.screen_removed > -REMOVAL_SCREEN][:N_REMOVE],
                    model, data, residuals, rss_before, baseline, n_jobs)
-        chosen = _decide_removal(removals, model, data, judge, steps, held_out, n_jobs, X,
-                                 cache)
+        chosen = _decide_removal(removals, model, data, judge, steps, held_out, n_jobs,
+                                 record=X, cache=cache)
     ordered += _ordered(removals)
     formula, opened = None, []
     if chosen is None and open_curves:
@@ -1075,7 +1075,8 @@ def _eligible(ordered: list[Candidate], min_improvement: float, bic_threshold: f
 
 def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Horizon | None,
             equations: list[int], steps: int, n_jobs: int | None = None,
-            cache: dict | None = None, record: pd.DataFrame | None = None) -> Candidate | None:
+            cache: dict | None = None, *,
+            record: pd.DataFrame | None = None) -> Candidate | None:
     """The first eligible candidate that held-out data confirm, or None.
 
     ``cache`` keeps the model's own held-out errors by fold for later checks.
@@ -1191,7 +1192,7 @@ def _close_rival(leader: Candidate, eligible: list[Candidate]) -> Candidate | No
 
 def _decide_removal(removals: list[Candidate], model, data: DiagnosisData,
                     horizon: Horizon | None, steps: int, held_out: bool,
-                    n_jobs: int | None = None, record: pd.DataFrame | None = None,
+                    n_jobs: int | None = None, *, record: pd.DataFrame | None = None,
                     cache: dict | None = None) -> Candidate | None:
     """The first superfluous term: its removal lowers the BIC and no held-out error.
 
