@@ -162,3 +162,35 @@ def test_the_loop_finds_the_formula_and_simulates_a_fresh_record_as_the_truth_do
         return float(np.sqrt(np.mean((simulated["x1"].to_numpy() - fresh["x1"]) ** 2)))
 
     assert error(loop.model) < 2.0 * error(truth)
+
+
+def test_a_free_curve_the_whole_record_does_not_favour_spares_the_held_out_folds(monkeypatch):
+    # a model fitted by output error: each free curve is first fitted to the whole
+    # record, and only one that lowers its output error by WHOLE_RECORD_GAIN is held out
+    import importlib
+    from types import SimpleNamespace
+
+    decide = importlib.import_module("sklearn_pycc.diagnostics.diagnose")
+    model = SimpleNamespace(fit_mode_="simulation")
+    flat, better = (SimpleNamespace(refit=name, note="", held_out=None)
+                    for name in ("flat", "better"))
+    # the whole record's output error of each fit: the model's, then the curves'
+    errors = {"flat": 0.0996, "better": 0.08}
+    monkeypatch.setattr(decide, "_whole_record", lambda m, record, cache=None:
+                        errors[m] if isinstance(m, str) else 0.1)
+    held = []
+
+    def held_out_check(base, extended, *args, **kwargs):
+        held.append(extended)
+        return SimpleNamespace(confirmed=True)
+
+    monkeypatch.setattr(decide, "held_out_check", held_out_check)
+    chosen = decide._decide_open([flat, better], model, None, None, [1], 100, True,
+                                 record=pd.DataFrame())
+    assert chosen is better and held == ["better"]
+    assert "not confirmed by the whole record" in flat.note and "-0.4 %" in flat.note
+    # fitted by equation error, the folds alone judge
+    held.clear()
+    model.fit_mode_ = "equation"
+    assert decide._decide_open([flat, better], model, None, None, [1], 100, True,
+                               record=pd.DataFrame()) is flat and held == ["flat"]

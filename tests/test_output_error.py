@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from sklearn.base import clone
 
 from sklearn_pycc import PolyCCRegressor, datasets
 
@@ -196,3 +197,30 @@ def test_neural_simulation_mode_needs_solved_equations():
                               hidden_layer_sizes=(4,), max_epochs=5, fit_mode="simulation")
     with pytest.raises(ValueError, match="implicit or reads another derivative"):
         model.fit(frame[["t", "x1", "F_ext"]])
+
+
+def test_a_fit_knows_the_record_and_settings_it_saw():
+    # a refit on the same record with the same settings would repeat the estimate: the
+    # diagnosis then reads the model's own output error instead of fitting it again
+    from sklearn_pycc.diagnostics.diagnose import _whole_record
+    from sklearn_pycc.estimators._fingerprint import fitted_on
+    from sklearn_pycc.measurements import Measurement
+
+    frame = datasets.make_duffing(n_samples=400, noise=40, noise_columns=["x1"], random_state=0)
+    X = frame[["t", "x1", "F_ext"]].copy()
+    model = PolyCCRegressor(equations=SECOND_ORDER, fit_mode="simulation",
+                            shooting_iterations=3).fit(X)
+    assert fitted_on(model, X) and fitted_on(model, X.copy()) and fitted_on(model, Measurement(X))
+    assert _whole_record(model, X) == model.shooting_["nrmse_after"]
+    # the mode it was chosen by and the refits on resamples do not change the estimate
+    assert fitted_on(model.set_params(fit_mode="auto", n_bootstrap=5), X)
+    assert not fitted_on(model, X.iloc[:-1])
+    assert not fitted_on(model.set_params(shooting_window=20), X)
+    assert not fitted_on(clone(model), X)  # unfitted
+    model.set_params(shooting_window=40)
+    changed = X.copy()
+    changed.loc[7, "x1"] += 1e-9
+    assert not fitted_on(model, changed)
+    # a model that is not the fit of the record is fitted again
+    assert _whole_record(model, changed) == pytest.approx(model.shooting_["nrmse_after"],
+                                                          rel=1e-3)

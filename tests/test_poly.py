@@ -434,3 +434,28 @@ def test_basis_matches_numpy_vandermonde_and_curve(kind, parity, degree):
     np.testing.assert_allclose(basis.curve(coef)(x), expected @ coef, atol=1e-10)
     np.testing.assert_allclose([basis.curve(coef)(float(v)) for v in x], expected @ coef,
                                atol=1e-10)
+
+
+def test_a_long_records_multi_start_ranks_on_a_thinned_record_and_lands_alike(monkeypatch):
+    # every k-th row ranks the starting values of a long record's nonlinear parameter;
+    # the winner is then refined on every row, to the optimum the full search finds
+    from sklearn_pycc.estimators import _setup, poly
+
+    rng = np.random.default_rng(3)
+    x = np.sort(rng.uniform(-3.0, 3.0, 12000))
+    X = pd.DataFrame({"x": x})
+    y = 2.0 * np.tanh(0.7 * x) - 0.5 * x + 0.05 * rng.standard_normal(x.size)
+    skeleton = ["x_dot = a1*tanh(a2*x) - a3*x"]
+    seen = []
+    original = _setup.thinned
+    monkeypatch.setattr(poly, "thinned",
+                        lambda problem, rows: seen.append(original(problem, rows)) or seen[-1])
+    fast = PolyCCRegressor(equations=skeleton).fit(X, y)
+    assert [t.data.n_samples for t in seen] == [3000]
+    assert seen[0].data["x"][1] == x[4]
+    monkeypatch.setattr(poly, "_SEARCH_ROWS", 10**9)
+    full = PolyCCRegressor(equations=skeleton).fit(X, y)
+    assert len(seen) == 1
+    for name in ("a1", "a2", "a3"):
+        assert fast.params_[name] == pytest.approx(full.params_[name], rel=1e-7)
+    assert fast.params_["a2"] == pytest.approx(0.7, rel=0.02)

@@ -14,6 +14,7 @@ from sklearn.utils._param_validation import Interval, validate_params
 from sklearn.utils.validation import check_is_fitted
 
 from .._random import check_seed_source
+from ..estimators._fingerprint import fitted_on
 from ..exceptions import SkeletonError
 from ..measurements.measurement import unwrap
 from ..measurements.reconstruct import unmeasured_states
@@ -862,7 +863,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
                      if not run_simulation or not math.isfinite(simulation_rmse)
                      or c.simulation_rmse <= (1 - OPEN_GAIN) * simulation_rmse]
         chosen = _decide_open(promising, model, data, judge, failing, steps, held_out, n_jobs,
-                              cache)
+                              cache, record=X)
         if chosen is not None:
             formula = _formula(chosen, skeleton, model, data, residuals, rss_before, baseline,
                                judge, failing, steps, held_out, n_jobs, cache)
@@ -1248,6 +1249,12 @@ def _whole_record(model, record: pd.DataFrame, cache: dict | None = None) -> flo
     """
     if cache is not None and "whole_record" in cache:
         return cache["whole_record"]
+    if getattr(model, "fit_mode_", None) == "simulation" and fitted_on(model, record):
+        # it was fitted so on this very record
+        error = float(model.shooting_.get("nrmse_after", math.inf))
+        if cache is not None:
+            cache["whole_record"] = error
+        return error
     settings = {"fit_mode": "simulation"}
     if model.get_params().get("n_bootstrap"):
         settings["n_bootstrap"] = 0
@@ -1273,13 +1280,27 @@ N_OPEN = 2
 
 def _decide_open(eligible: list[Candidate], model, data: DiagnosisData,
                  horizon: Horizon | None, equations: list[int], steps: int, held_out: bool,
-                 n_jobs: int | None = None, cache: dict | None = None) -> Candidate | None:
-    """The first free curve that lowers the held-out error clearly, or None."""
+                 n_jobs: int | None = None, cache: dict | None = None, *,
+                 record: pd.DataFrame | None = None) -> Candidate | None:
+    """The first free curve that lowers the held-out error clearly, or None.
+
+    When the model was fitted by output error, the curve must first lower
+    the output error of the whole measured ``record`` as an effect must
+    (:data:`WHOLE_RECORD_GAIN`): one fit that spares the folds' several.
+    """
     if not held_out:
         return eligible[0] if eligible else None
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
     cache = {} if cache is None else cache
     for c in eligible[:N_OPEN]:
+        if output_error and record is not None:
+            before, after = _whole_record(model, record, cache), _whole_record(c.refit, record)
+            if after > (1 - WHOLE_RECORD_GAIN) * before:
+                c.note = "; ".join(filter(None, [c.note, (
+                    f"not confirmed by the whole record: its output error goes from "
+                    f"{before:.4g} to {after:.4g} of its spread "
+                    f"({100 * (after / before - 1):+.1f} %)")]))
+                continue
         c.held_out = held_out_check(model, c.refit, data, horizon, equations, max_steps=steps,
                                     output_error=output_error, cache=cache, n_jobs=n_jobs,
                                     gain=OPEN_GAIN)

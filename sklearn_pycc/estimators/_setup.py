@@ -5,7 +5,7 @@ from __future__ import annotations
 import copy
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 import numpy as np
@@ -320,6 +320,26 @@ class Problem:
     def points(self, function: str) -> list[tuple[float, float]]:
         """Point values ``(at, value)`` the curve must pass through."""
         return points_of(self.constraints[function])
+
+
+def thinned(problem: Problem, rows: int) -> Problem:
+    """``problem`` on every k-th row of its data, k the least that leaves at most ``rows``.
+
+    For ranking starting values cheaply on a long record; the experiments,
+    measured states and signals (what a simulation needs) are left out.
+    """
+    n = problem.data.n_samples
+    step = -(-n // rows)
+    keep = np.arange(0, n, step)
+
+    def cut(values):
+        return values[keep] if values is not None and np.ndim(values) and len(values) == n \
+            else values
+
+    data = FitData({name: cut(v) for name, v in problem.data.columns.items()}, len(keep),
+                   cut(problem.data.trajectory))
+    return replace(problem, data=data, y=cut(problem.y), experiments=None, measured={},
+                   smoothed={}, signals={}, observed={}, rows=None, covariance=False)
 
 
 def parity_of(constraints: list[Constraint]) -> str | None:

@@ -37,6 +37,7 @@ from ..skeleton.nodes import Symbol, sum_terms
 from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
+from ._fingerprint import fit_fingerprint
 from ._hidden import check_visible
 from ._intervals import N_DRAWS, IntervalsMixin, check_level
 from ._noise_model import NOISE_MODELS, fit_noise_model
@@ -59,7 +60,7 @@ _NEEDS_TIME = "fit_mode='simulation' needs the time column 't' in X"
 #: simulation follows the record best as they stand
 INITIAL_STATE_STARTS = 2
 #: private fitted state, cleared with the public fitted attributes when fit starts again
-_PRIVATE_STATE = ("_compiled", "_y_1d", "_covariance")
+_PRIVATE_STATE = ("_compiled", "_y_1d", "_covariance", "_fingerprint")
 #: what ``random_state`` may be: a Generator is honoured like a RandomState
 RANDOM_STATES = [None, Interval(Integral, 0, 2**32 - 1, closed="both"),
                  np.random.RandomState, np.random.Generator]
@@ -427,7 +428,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                               f"output errors of a fit by output error without unmeasured "
                               f"states, and this fit is {how} (noise_model_ is None)",
                               UserWarning, stacklevel=2)
-        facts = {**facts, "noise_model_": noise}
+        facts = {**facts, "noise_model_": noise, "_fingerprint": fit_fingerprint(self, X, y)}
         if n_bootstrap:
             facts = {**facts, **self._bootstrap(problem, result, n_bootstrap, backend)}
         self._store(problem, result, {**facts, "backend_": backend})

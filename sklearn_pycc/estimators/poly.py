@@ -17,7 +17,7 @@ from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
 from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
 from ._linear import curve_arguments, linearize, split_parameters
 from ._lstsq import LstsqResult, bounded_lstsq, constrained_lstsq
-from ._setup import FitResult, Problem, residual_scale
+from ._setup import FitResult, Problem, residual_scale, thinned
 from ._shooting import ShootingPlan, fit_shooting
 from ._uncertainty import DeferredCovariance, sandwich
 from .backend import Backend
@@ -27,6 +27,12 @@ __all__ = ["PolyBackend", "PolyCCRegressor"]
 
 # grid of starting magnitudes for nonlinear parameters: +-10^k
 _LOG_GRID = np.arange(-2.0, 4.01, 0.5)
+#: rows a long record's multi-start ranks its starts on (every k-th, :func:`thinned`)
+_SEARCH_ROWS = 3000
+#: relative tolerance of the multi-start's first refinements (the best is then polished)
+_ROUGH = 1e-6
+#: and of the last
+_PRECISE = 1e-12
 #: highest degree of the Bernstein form that keeps a monotone curve monotone
 _MAX_BERNSTEIN = 24
 
@@ -218,23 +224,31 @@ class PolyBackend(Backend):
         fixed = dict(problem.fixed_params)
         init = problem.starting_values(self.param_init)
 
-        def solve(theta: np.ndarray, keep: list | None = None):
-            values = {**fixed, **dict(zip(nonlinear, theta))}
-            A, b, C, d, layout, bases = design.assemble(values)
-            # the system itself is kept for the covariance: the solve then leaves A as it is
-            overwrite = keep is None
-            if keep is not None:
-                keep += [A, C]
-            G, h = design.inequalities(layout, bases)
-            if G is None:
-                result = constrained_lstsq(A, b, C, d, self.alpha, overwrite_a=overwrite)
-            else:
-                result = bounded_lstsq(A, b, C, d, G, h, self.alpha, overwrite_a=overwrite)
-            return result, layout, bases, values
+        def solver(design: _Design):
+            def solve(theta: np.ndarray, keep: list | None = None):
+                values = {**fixed, **dict(zip(nonlinear, theta))}
+                A, b, C, d, layout, bases = design.assemble(values)
+                # the system itself is kept for the covariance: the solve then leaves A as
+                # it is
+                overwrite = keep is None
+                if keep is not None:
+                    keep += [A, C]
+                G, h = design.inequalities(layout, bases)
+                if G is None:
+                    result = constrained_lstsq(A, b, C, d, self.alpha, overwrite_a=overwrite)
+                else:
+                    result = bounded_lstsq(A, b, C, d, G, h, self.alpha,
+                                           overwrite_a=overwrite)
+                return result, layout, bases, values
+            return solve
 
+        solve = solver(design)
+        # a long record's multi-start ranks its starting values on every k-th row
+        screen = (solver(self._design(thinned(problem, _SEARCH_ROWS))[0])
+                  if nonlinear and problem.data.n_samples > _SEARCH_ROWS else None)
         bounds = problem.bounds
         with blas_threads(1):
-            theta = (self._search(solve, nonlinear, init, bounds) if nonlinear
+            theta = (self._search(solve, nonlinear, init, bounds, screen) if nonlinear
                      else np.zeros(0))
             system: list = []
             result, layout, bases, values = solve(theta, keep=system)
@@ -379,23 +393,41 @@ class PolyBackend(Backend):
 
     # -- nonlinear parameters: variable projection with a multi-start --------------
     def _search(self, solve, names: list[str], init: Mapping[str, float],
-                bounds: Mapping[str, tuple[float, float]]) -> np.ndarray:
+                bounds: Mapping[str, tuple[float, float]], screen=None) -> np.ndarray:
+        """The nonlinear parameters' values: a grid of starts, the best few refined.
+
+        ``screen`` (a solve on a thinned record) ranks the starts and refines
+        the best few; the winner is then refined on the whole record.
+        """
         m = len(names)
         low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in names])
         high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in names])
         bounded = bool(np.isfinite(low).any() or np.isfinite(high).any())
 
-        def residual(theta):
-            r = solve(theta)[0].residual
-            return r if np.isfinite(r).all() else np.full_like(r, 1e150)
-
-        def cost(theta) -> float:
-            try:
+        def residual_of(solve):
+            def residual(theta):
                 r = solve(theta)[0].residual
-            except (np.linalg.LinAlgError, ValueError, FloatingPointError):
-                return np.inf
-            c = float(r @ r)
-            return c if np.isfinite(c) else np.inf
+                return r if np.isfinite(r).all() else np.full_like(r, 1e150)
+            return residual
+
+        def cost_of(solve):
+            def cost(theta) -> float:
+                try:
+                    r = solve(theta)[0].residual
+                except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+                    return np.inf
+                c = float(r @ r)
+                return c if np.isfinite(c) else np.inf
+            return cost
+
+        def refined(residual, start, tol):
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    return (_refine_bounded(residual, start, low, high, m, tol) if bounded
+                            else _refine(residual, start, m, tol))
+            except (np.linalg.LinAlgError, ValueError):
+                return None
 
         free = [k for k, name in enumerate(names) if name not in init]
         base = np.array([float(init.get(name, 1.0)) for name in names])
@@ -418,24 +450,26 @@ class PolyBackend(Backend):
                 starts.append(start)
         if bounded:  # every start within the bounds (a bound is usually a sign)
             starts = list(np.unique(np.clip(np.array(starts), low, high), axis=0))
-        costs = np.array([cost(s) for s in starts])
+        quick = screen or solve
+        quick_cost, quick_residual = cost_of(quick), residual_of(quick)
+        costs = np.array([quick_cost(s) for s in starts])
         order = np.argsort(costs)
         best_theta, best_cost = starts[order[0]], costs[order[0]]
-        tried = 0
-        for k in order:
-            if tried == 3 or not np.isfinite(costs[k]):
+        # the best few starts roughly, then the best of them to the precision of the
+        # record's own optimum
+        polish = screen is not None or len(starts) > 1
+        for k in order[:3]:
+            if not np.isfinite(costs[k]):
                 break
-            tried += 1
-            start = starts[k]
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore", RuntimeWarning)
-                    theta = (_refine_bounded(residual, start, low, high, m) if bounded
-                             else _refine(residual, start, m))
-            except (np.linalg.LinAlgError, ValueError):
-                continue
-            c = cost(theta)
-            if c < best_cost:
+            theta = refined(quick_residual, starts[k], _ROUGH if polish else _PRECISE)
+            if theta is not None and (c := quick_cost(theta)) < best_cost:
+                best_theta, best_cost = theta, c
+        cost = cost_of(solve)
+        if screen is not None:
+            best_cost = cost(best_theta)
+        if polish and np.isfinite(best_cost):
+            theta = refined(residual_of(solve), best_theta, _PRECISE)
+            if theta is not None and (c := cost(theta)) < best_cost:
                 best_theta, best_cost = theta, c
         if not np.isfinite(best_cost):
             raise ValueError(
@@ -673,7 +707,7 @@ def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: 
     return DeferredCovariance(parts, block_diag(*blocks), names)
 
 
-def _refine(residual, start: np.ndarray, m: int) -> np.ndarray:
+def _refine(residual, start: np.ndarray, m: int, tol: float = _PRECISE) -> np.ndarray:
     """Local least squares over the magnitudes (in logs) of parameters of fixed signs."""
     sign = np.where(start < 0, -1.0, 1.0)
     s0 = np.log(np.maximum(np.abs(start), 1e-12))
@@ -681,17 +715,17 @@ def _refine(residual, start: np.ndarray, m: int) -> np.ndarray:
     def fun(s):
         return residual(sign * np.exp(np.clip(s, -700, 700)))
 
-    sol = least_squares(fun, s0, method="trf", xtol=1e-12, ftol=1e-14, gtol=1e-14,
+    sol = least_squares(fun, s0, method="trf", xtol=tol, ftol=tol / 100, gtol=tol / 100,
                         max_nfev=200 * (m + 1))
     return sign * np.exp(sol.x)
 
 
 def _refine_bounded(residual, start: np.ndarray, low: np.ndarray, high: np.ndarray,
-                    m: int) -> np.ndarray:
+                    m: int, tol: float = _PRECISE) -> np.ndarray:
     """Local least squares over the parameters themselves, within their bounds."""
     sol = least_squares(residual, np.clip(start, low, high), bounds=(low, high), method="trf",
-                        x_scale=np.maximum(np.abs(start), 1e-3), xtol=1e-12, ftol=1e-14,
-                        gtol=1e-14, max_nfev=200 * (m + 1))
+                        x_scale=np.maximum(np.abs(start), 1e-3), xtol=tol, ftol=tol / 100,
+                        gtol=tol / 100, max_nfev=200 * (m + 1))
     return np.clip(sol.x, low, high)
 
 

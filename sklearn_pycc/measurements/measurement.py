@@ -170,23 +170,34 @@ class Measurement:
 
     def _digest(self) -> bytes:
         """A digest of the record's values, labels and targets: what the estimates depend on."""
-        digest = hashlib.blake2b(digest_size=16)
-        for part in (self.X, self.y):
-            if part is None:
-                continue
-            if isinstance(part, pd.DataFrame):
-                digest.update(repr(list(part.columns)).encode())
-            if isinstance(part, (pd.DataFrame, pd.Series)):
-                part = pd.util.hash_pandas_object(part, index=True).to_numpy()
-            values = np.ascontiguousarray(part)
-            digest.update(repr(values.shape).encode())
-            digest.update(values.tobytes())
-        return digest.digest()
+        return values_digest(self.X, self.y)
 
     def keep_alive(self, setting: object) -> None:
         """Hold ``setting`` (a differentiator object) as long as estimates keyed by its id."""
         if not any(held is setting for held in self._held):
             self._held.append(setting)
+
+
+def values_digest(*parts) -> bytes | None:
+    """A digest of frames, series and arrays (their values, labels and shapes).
+
+    None parts are skipped; None where a part is another object (an array
+    of objects included), which has no digest.
+    """
+    digest = hashlib.blake2b(digest_size=16)
+    for part in parts:
+        if part is None:
+            continue
+        if isinstance(part, pd.DataFrame):
+            digest.update(repr(list(part.columns)).encode())
+        if isinstance(part, (pd.DataFrame, pd.Series)):
+            part = pd.util.hash_pandas_object(part, index=True).to_numpy()
+        if not isinstance(part, np.ndarray) or part.dtype == object:
+            return None
+        values = np.ascontiguousarray(part)
+        digest.update(repr((values.shape, values.dtype.str)).encode())
+        digest.update(values.tobytes())
+    return digest.digest()
 
 
 def unwrap(X, y=None, *, who: str = "fit"):
