@@ -172,7 +172,7 @@ def test_a_free_curve_the_whole_record_does_not_favour_spares_the_held_out_folds
 
     decide = importlib.import_module("sklearn_pycc.diagnostics.diagnose")
     model = SimpleNamespace(fit_mode_="simulation")
-    flat, better = (SimpleNamespace(refit=name, note="", held_out=None)
+    flat, better = (SimpleNamespace(refit=name, note="", held_out=None, whole_record=None)
                     for name in ("flat", "better"))
     # the whole record's output error of each fit: the model's, then the curves'
     errors = {"flat": 0.0996, "better": 0.08}

@@ -89,6 +89,9 @@ class Candidate:
     simulation_rmse: float = math.nan
     # held-out comparison with the model without the effect (HeldOut), when checked
     held_out: object = None
+    # the output error (normalised) of its skeleton fitted by output error to the whole
+    # record, when asked for
+    whole_record: float | None = None
     # the refit's squared derivative residual per sample, in each equation it changes
     after_squares: np.ndarray | None = None
     # fitted numbers of the free curves the move brings (known once refitted)

@@ -62,9 +62,9 @@ N_HELD_OUT = 2
 #: a simpler effect whose held-out error is within this share of a confirmed leader's
 #: (same equation and variable) is named instead
 PARSIMONY = 0.05
-#: least relative fall of the whole record's output error that an effect the held-out
-#: folds confirmed must also bring (a model fitted by output error): folds fitted on
-#: short blocks can favour a term that one trajectory through the whole record does not
+#: least relative fall of the whole record's output error that an effect must bring before
+#: the held-out folds judge it (a model fitted by output error): folds fitted on short
+#: blocks can favour a term that one trajectory through the whole record does not
 WHOLE_RECORD_GAIN = 0.01
 #: most relative rise of the whole record's output error that a removal may bring (a model
 #: fitted by output error): a removal is a step to a simpler skeleton that a later round
@@ -1081,13 +1081,17 @@ def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Hori
     """The first eligible candidate that held-out data confirm, or None.
 
     ``cache`` keeps the model's own held-out errors by fold for later checks.
-    When the model was fitted by output error, the choice must also lower
-    the output error of the whole measured ``record`` (:func:`_whole_record`).
+    When the model was fitted by output error, a candidate must first lower
+    the output error of the whole measured ``record`` (:func:`_short_of_whole_record`),
+    and only then is it held out.
     """
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
     cache = {} if cache is None else cache
 
     def check(c: Candidate) -> bool:
+        if output_error and record is not None \
+                and _short_of_whole_record(c, model, record, cache):
+            return False
         c.held_out = held_out_check(model, c.refit, data, horizon, equations,
                                     max_steps=steps, output_error=output_error, cache=cache,
                                     n_jobs=n_jobs)
@@ -1096,19 +1100,30 @@ def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Hori
         return c.held_out.confirmed
 
     for c in eligible[:N_HELD_OUT]:
-        if not check(c):
-            continue
-        chosen = _preferred(c, eligible, check)
-        if not output_error or record is None:
-            return chosen
-        before, after = _whole_record(model, record, cache), _whole_record(chosen.refit, record)
-        if after <= (1 - WHOLE_RECORD_GAIN) * before:
-            return chosen
-        chosen.note = "; ".join(filter(None, [chosen.note, (
-            f"not confirmed by the whole record: its output error goes from {before:.4g} to "
-            f"{after:.4g} of its spread ({100 * (after / before - 1):+.1f} %), where the "
-            f"held-out folds said {100 * chosen.held_out.change():+.1f} %")]))
+        if check(c):
+            return _preferred(c, eligible, check)
     return None
+
+
+def _short_of_whole_record(c: Candidate, model, record: pd.DataFrame, cache: dict) -> bool:
+    """Whether ``c`` lowers the whole ``record``'s output error by less than it must.
+
+    Both skeletons fitted by output error to the measured record, ends
+    included (:func:`_whole_record`); ``c`` must lower its error by
+    :data:`WHOLE_RECORD_GAIN`, as said in its note where it does not. One
+    fit that spares the held-out folds' several, and a guard against
+    folds fitted on short blocks that favour a term one trajectory through
+    the whole record does not.
+    """
+    if c.whole_record is None:
+        c.whole_record = _whole_record(c.refit, record)
+    before, after = _whole_record(model, record, cache), c.whole_record
+    if after <= (1 - WHOLE_RECORD_GAIN) * before:
+        return False
+    c.note = "; ".join(filter(None, [c.note, (
+        f"not confirmed by the whole record: its output error goes from {before:.4g} to "
+        f"{after:.4g} of its spread ({100 * (after / before - 1):+.1f} %)")]))
+    return True
 
 
 def _preferred(c: Candidate, eligible: list[Candidate], check) -> Candidate:
@@ -1286,21 +1301,16 @@ def _decide_open(eligible: list[Candidate], model, data: DiagnosisData,
 
     When the model was fitted by output error, the curve must first lower
     the output error of the whole measured ``record`` as an effect must
-    (:data:`WHOLE_RECORD_GAIN`): one fit that spares the folds' several.
+    (:func:`_short_of_whole_record`).
     """
     if not held_out:
         return eligible[0] if eligible else None
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
     cache = {} if cache is None else cache
     for c in eligible[:N_OPEN]:
-        if output_error and record is not None:
-            before, after = _whole_record(model, record, cache), _whole_record(c.refit, record)
-            if after > (1 - WHOLE_RECORD_GAIN) * before:
-                c.note = "; ".join(filter(None, [c.note, (
-                    f"not confirmed by the whole record: its output error goes from "
-                    f"{before:.4g} to {after:.4g} of its spread "
-                    f"({100 * (after / before - 1):+.1f} %)")]))
-                continue
+        if output_error and record is not None \
+                and _short_of_whole_record(c, model, record, cache):
+            continue
         c.held_out = held_out_check(model, c.refit, data, horizon, equations, max_steps=steps,
                                     output_error=output_error, cache=cache, n_jobs=n_jobs,
                                     gain=OPEN_GAIN)

@@ -29,10 +29,9 @@ __all__ = ["PolyBackend", "PolyCCRegressor"]
 _LOG_GRID = np.arange(-2.0, 4.01, 0.5)
 #: rows a long record's multi-start ranks its starts on (every k-th, :func:`thinned`)
 _SEARCH_ROWS = 3000
-#: relative tolerance of the multi-start's first refinements (the best is then polished)
-_ROUGH = 1e-6
-#: and of the last
-_PRECISE = 1e-12
+#: most evaluations of a refinement, per nonlinear parameter and one: a smooth cost
+#: converges in far fewer, and a threshold (a dead zone's) only creeps along its steps
+_MAX_NFEV = 60
 #: highest degree of the Bernstein form that keeps a monotone curve monotone
 _MAX_BERNSTEIN = 24
 
@@ -420,12 +419,12 @@ class PolyBackend(Backend):
                 return c if np.isfinite(c) else np.inf
             return cost
 
-        def refined(residual, start, tol):
+        def refined(residual, start):
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", RuntimeWarning)
-                    return (_refine_bounded(residual, start, low, high, m, tol) if bounded
-                            else _refine(residual, start, m, tol))
+                    return (_refine_bounded(residual, start, low, high, m) if bounded
+                            else _refine(residual, start, m))
             except (np.linalg.LinAlgError, ValueError):
                 return None
 
@@ -455,20 +454,17 @@ class PolyBackend(Backend):
         costs = np.array([quick_cost(s) for s in starts])
         order = np.argsort(costs)
         best_theta, best_cost = starts[order[0]], costs[order[0]]
-        # the best few starts roughly, then the best of them to the precision of the
-        # record's own optimum
-        polish = screen is not None or len(starts) > 1
-        for k in order[:3]:
+        for k in order[:3]:  # the best few starts
             if not np.isfinite(costs[k]):
                 break
-            theta = refined(quick_residual, starts[k], _ROUGH if polish else _PRECISE)
+            theta = refined(quick_residual, starts[k])
             if theta is not None and (c := quick_cost(theta)) < best_cost:
                 best_theta, best_cost = theta, c
         cost = cost_of(solve)
-        if screen is not None:
+        if screen is not None:  # the best of them to the whole record's own optimum
             best_cost = cost(best_theta)
-        if polish and np.isfinite(best_cost):
-            theta = refined(residual_of(solve), best_theta, _PRECISE)
+            theta = refined(residual_of(solve), best_theta) if np.isfinite(best_cost) \
+                else None
             if theta is not None and (c := cost(theta)) < best_cost:
                 best_theta, best_cost = theta, c
         if not np.isfinite(best_cost):
@@ -707,7 +703,7 @@ def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: 
     return DeferredCovariance(parts, block_diag(*blocks), names)
 
 
-def _refine(residual, start: np.ndarray, m: int, tol: float = _PRECISE) -> np.ndarray:
+def _refine(residual, start: np.ndarray, m: int) -> np.ndarray:
     """Local least squares over the magnitudes (in logs) of parameters of fixed signs."""
     sign = np.where(start < 0, -1.0, 1.0)
     s0 = np.log(np.maximum(np.abs(start), 1e-12))
@@ -715,17 +711,17 @@ def _refine(residual, start: np.ndarray, m: int, tol: float = _PRECISE) -> np.nd
     def fun(s):
         return residual(sign * np.exp(np.clip(s, -700, 700)))
 
-    sol = least_squares(fun, s0, method="trf", xtol=tol, ftol=tol / 100, gtol=tol / 100,
-                        max_nfev=200 * (m + 1))
+    sol = least_squares(fun, s0, method="trf", xtol=1e-12, ftol=1e-12, gtol=1e-12,
+                        max_nfev=_MAX_NFEV * (m + 1))
     return sign * np.exp(sol.x)
 
 
 def _refine_bounded(residual, start: np.ndarray, low: np.ndarray, high: np.ndarray,
-                    m: int, tol: float = _PRECISE) -> np.ndarray:
+                    m: int) -> np.ndarray:
     """Local least squares over the parameters themselves, within their bounds."""
     sol = least_squares(residual, np.clip(start, low, high), bounds=(low, high), method="trf",
-                        x_scale=np.maximum(np.abs(start), 1e-3), xtol=tol, ftol=tol / 100,
-                        gtol=tol / 100, max_nfev=200 * (m + 1))
+                        x_scale=np.maximum(np.abs(start), 1e-3), xtol=1e-12, ftol=1e-12,
+                        gtol=1e-12, max_nfev=_MAX_NFEV * (m + 1))
     return np.clip(sol.x, low, high)
 
 
