@@ -189,6 +189,9 @@ def test_a_free_curve_the_whole_record_does_not_favour_spares_the_held_out_folds
                                  record=pd.DataFrame())
     assert chosen is better and held == ["better"]
     assert "not confirmed by the whole record" in flat.note and "-0.4 %" in flat.note
+    # asked again (a rival's check), it is not fitted again nor said twice
+    assert decide._short_of_whole_record(flat, model, pd.DataFrame(), {})
+    assert flat.note.count("not confirmed by the whole record") == 1
     # fitted by equation error, the folds alone judge
     held.clear()
     model.fit_mode_ = "equation"

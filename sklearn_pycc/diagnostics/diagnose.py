@@ -1115,11 +1115,14 @@ def _short_of_whole_record(c: Candidate, model, record: pd.DataFrame, cache: dic
     folds fitted on short blocks that favour a term one trajectory through
     the whole record does not.
     """
-    if c.whole_record is None:
+    asked = c.whole_record is not None  # judged before: its note says so already
+    if not asked:
         c.whole_record = _whole_record(c.refit, record)
     before, after = _whole_record(model, record, cache), c.whole_record
     if after <= (1 - WHOLE_RECORD_GAIN) * before:
         return False
+    if asked:
+        return True
     c.note = "; ".join(filter(None, [c.note, (
         f"not confirmed by the whole record: its output error goes from {before:.4g} to "
         f"{after:.4g} of its spread ({100 * (after / before - 1):+.1f} %)")]))
