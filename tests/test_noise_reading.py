@@ -57,6 +57,24 @@ def test_the_reading_is_also_one_arma_process_with_the_same_spectrum(ar, innovat
                                noise.density(np.linspace(0, 50, 101)), rtol=1e-10)
 
 
+def test_a_signal_read_again_gives_the_same_reading_under_its_own_name():
+    _, noisy = _record(0.9, n=2000)
+    x = noisy["x1"].to_numpy().copy()
+    kept = x.copy()
+    first = read_noise(x, 0.03, name="x1")
+    again = read_noise(x.copy(), 0.03, name="position")
+    assert again.name == "position" and first.name == "x1"
+    assert (again.level, again.ar, again.band) == (first.level, first.ar, first.band)
+    np.testing.assert_array_equal(x, kept)
+    # the spectrum kept with a reading cannot be changed under another's feet
+    with pytest.raises(ValueError):
+        again.spectrum[1][0] = 0.0
+    # one changed sample or another step is another signal
+    x[100] += 1.0
+    assert read_noise(x, 0.03).level != first.level
+    assert read_noise(kept, 0.06).band != first.band
+
+
 def test_a_noise_free_record_reads_no_noise():
     frame = datasets.make_oscillator(hidden=[], n_samples=3000, t_span=(0, 60))
     reading = Measurement(frame[["t", "x1", "x2", "F_ext"]]).noise

@@ -166,16 +166,18 @@ def test_the_loop_finds_the_formula_and_simulates_a_fresh_record_as_the_truth_do
 
 def test_a_free_curve_the_whole_record_does_not_favour_spares_the_held_out_folds(monkeypatch):
     # a model fitted by output error: each free curve is first fitted to the whole
-    # record, and only one that lowers its output error by WHOLE_RECORD_GAIN is held out
+    # record, and only one that lowers its output error by OPEN_GAIN (as much as the folds
+    # ask of it, more than an effect's WHOLE_RECORD_GAIN) is held out
     import importlib
     from types import SimpleNamespace
 
     decide = importlib.import_module("sklearn_pycc.diagnostics.diagnose")
     model = SimpleNamespace(fit_mode_="simulation")
-    flat, better = (SimpleNamespace(refit=name, note="", held_out=None, whole_record=None)
-                    for name in ("flat", "better"))
+    flat, slight, better = (SimpleNamespace(refit=name, note="", held_out=None,
+                                            whole_record=None)
+                            for name in ("flat", "slight", "better"))
     # the whole record's output error of each fit: the model's, then the curves'
-    errors = {"flat": 0.0996, "better": 0.08}
+    errors = {"flat": 0.0996, "slight": 0.097, "better": 0.08}
     monkeypatch.setattr(decide, "_whole_record", lambda m, record, cache=None:
                         errors[m] if isinstance(m, str) else 0.1)
     held = []
@@ -189,6 +191,11 @@ def test_a_free_curve_the_whole_record_does_not_favour_spares_the_held_out_folds
                                  record=pd.DataFrame())
     assert chosen is better and held == ["better"]
     assert "not confirmed by the whole record" in flat.note and "-0.4 %" in flat.note
+    # 3 % would do for an effect of the catalogue, not for a free curve
+    held.clear()
+    assert decide._decide_open([slight], model, None, None, [1], 100, True,
+                               record=pd.DataFrame()) is None and held == []
+    assert "-3.0 %" in slight.note
     # asked again (a rival's check), it is not fitted again nor said twice
     assert decide._short_of_whole_record(flat, model, pd.DataFrame(), {})
     assert flat.note.count("not confirmed by the whole record") == 1

@@ -1105,12 +1105,13 @@ def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Hori
     return None
 
 
-def _short_of_whole_record(c: Candidate, model, record: pd.DataFrame, cache: dict) -> bool:
+def _short_of_whole_record(c: Candidate, model, record: pd.DataFrame, cache: dict, *,
+                           gain: float = WHOLE_RECORD_GAIN) -> bool:
     """Whether ``c`` lowers the whole ``record``'s output error by less than it must.
 
     Both skeletons fitted by output error to the measured record, ends
     included (:func:`_whole_record`); ``c`` must lower its error by
-    :data:`WHOLE_RECORD_GAIN`, as said in its note where it does not. One
+    ``gain``, as said in its note where it does not. One
     fit that spares the held-out folds' several, and a guard against
     folds fitted on short blocks that favour a term one trajectory through
     the whole record does not.
@@ -1119,7 +1120,7 @@ def _short_of_whole_record(c: Candidate, model, record: pd.DataFrame, cache: dic
     if not asked:
         c.whole_record = _whole_record(c.refit, record)
     before, after = _whole_record(model, record, cache), c.whole_record
-    if after <= (1 - WHOLE_RECORD_GAIN) * before:
+    if after <= (1 - gain) * before:
         return False
     if asked:
         return True
@@ -1303,8 +1304,10 @@ def _decide_open(eligible: list[Candidate], model, data: DiagnosisData,
     """The first free curve that lowers the held-out error clearly, or None.
 
     When the model was fitted by output error, the curve must first lower
-    the output error of the whole measured ``record`` as an effect must
-    (:func:`_short_of_whole_record`).
+    the output error of the whole measured ``record`` by as much as it must
+    lower the held-out error (:data:`OPEN_GAIN`, :func:`_short_of_whole_record`):
+    the data a fit saw favour its own many numbers more, never less, and a
+    curve short of that on the whole record is not worth its folds.
     """
     if not held_out:
         return eligible[0] if eligible else None
@@ -1312,7 +1315,7 @@ def _decide_open(eligible: list[Candidate], model, data: DiagnosisData,
     cache = {} if cache is None else cache
     for c in eligible[:N_OPEN]:
         if output_error and record is not None \
-                and _short_of_whole_record(c, model, record, cache):
+                and _short_of_whole_record(c, model, record, cache, gain=OPEN_GAIN):
             continue
         c.held_out = held_out_check(model, c.refit, data, horizon, equations, max_steps=steps,
                                     output_error=output_error, cache=cache, n_jobs=n_jobs,

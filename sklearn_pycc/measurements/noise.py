@@ -19,8 +19,10 @@ always was.
 
 from __future__ import annotations
 
+import hashlib
+from collections import OrderedDict
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import ndimage, optimize, signal
@@ -52,6 +54,10 @@ CEILING = 2.0
 POLE_PRIOR = 1.0
 #: passes of the fit-and-widen iteration
 WIDENINGS = 4
+#: readings remembered by their samples: every fit of one record (a loop's rounds, a
+#: diagnosis's refits) reads the same signals, and a reading takes a fraction of a second
+REMEMBERED = 16
+_readings: OrderedDict[tuple, SignalNoise] = OrderedDict()
 
 
 #: time-bandwidth product and number of the Slepian tapers of the multitaper spectrum
@@ -364,11 +370,27 @@ def read_noise(x: np.ndarray, step: float, *, name: str = "x", quantum=None) -> 
     -------
     SignalNoise
     """
-    x = np.asarray(x, dtype=float)
+    x = np.ascontiguousarray(x, dtype=float)
+    key = (hashlib.blake2b(x.tobytes(), digest_size=16).digest(), len(x), float(step),
+           None if quantum is None else (float(quantum.step), float(quantum.noise_variance)))
+    reading = _readings.get(key)
+    if reading is None:
+        reading = _readings[key] = _read(x, step, quantum)
+        while len(_readings) > REMEMBERED:
+            _readings.popitem(last=False)
+    else:
+        _readings.move_to_end(key)
+    return replace(reading, name=name)
+
+
+def _read(x: np.ndarray, step: float, quantum) -> SignalNoise:
+    """:func:`read_noise` itself, under the name ``"x"``."""
+    name = "x"
     detrended = signal.detrend(x, type="linear")
     spread = float(np.std(detrended))
     drift = float(np.polyfit(np.arange(len(x)) * step, x, 1)[0]) if len(x) > 1 else 0.0
     frequencies, raw, segments = multitaper_density(x, step)
+    frequencies.flags.writeable = raw.flags.writeable = False  # a remembered reading's
     # the spectrum averaged over neighbouring bins: the ceiling a noise model must stay under
     smooth = np.convolve(raw, np.ones(5) / 5, mode="same")
     nyquist = float(frequencies[-1])
