@@ -11,16 +11,11 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
+from ._utils.figures import pyplot
 from .skeleton.compiler import compile_expression
 from .skeleton.parser import parse_expression
 
 __all__ = ["plot_comparison", "plot_curves", "plot_diagnosis", "plot_loop", "plot_noise"]
-
-
-def _pyplot():
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def label_axis(ax, axis: str, name: str, units: Mapping | None = None) -> None:
@@ -63,7 +58,7 @@ def plot_curves(model, *, level="auto", truth=None, n: int = 200, domain=None):
         One panel per curve: the fitted curve against its argument, its
         band, the true curve and the measured range.
     """
-    plt = _pyplot()
+    plt = pyplot()
     if level == "auto":
         try:
             curves = model.cc_curves(n=n, level=0.95, domain=domain)
@@ -124,7 +119,7 @@ def plot_diagnosis(report) -> dict:
         the free curve with its 95 % band beside the terms it would replace
         and the formula proposed for it.
     """
-    plt = _pyplot()
+    plt = pyplot()
     figures = {}
     if not report.simulation.empty:
         figures["trajectories"] = _trajectory_figure(plt, report)
@@ -411,7 +406,7 @@ def plot_comparison(table: pd.DataFrame):
         table has one): the held-out score of each skeleton, on data its
         fit did not see.
     """
-    plt = _pyplot()
+    plt = pyplot()
     measures = [c for c in ("derivative_rmse", "derivative_nrmse", "simulation_rmse",
                             "simulation_nrmse")
                 if c in table.columns and np.isfinite(table[c].to_numpy(dtype=float)).any()]
@@ -540,7 +535,7 @@ def plot_noise(noise, *, signals=None):
     reading = getattr(noise, "noise", noise)
     names = list(signals) if signals is not None else [
         name for name, n in reading.items() if n.level > 0] or list(reading)
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(len(names), 1, figsize=(7, 2.6 * len(names)), squeeze=False)
     for ax, name in zip(axes[:, 0], names):
         n = reading[name]

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 from scipy import integrate
 
-from ._bandlimited import bandlimited_slopes
+from ._utils.bandlimited import bandlimited_slopes
 from .exceptions import SimulationError
 
 __all__ = ["DEFAULT_MAX_STEPS", "INPUT_HOLDS", "STEP_BUDGET", "Diverged", "InputSignals",

@@ -9,6 +9,7 @@ from sklearn_pycc import PolyCCRegressor, datasets
 from sklearn_pycc.estimators import _hidden
 from sklearn_pycc.estimators._projected_start import projected_start
 from sklearn_pycc.estimators._swapped_speeds import speed_parameters, swapped_starts
+from sklearn_pycc.estimators._whole_record import WholeRecord
 
 #: the issue's cascade: x1 unmeasured, the lower tank's parameters a3 and a4 its own
 ISSUE = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
@@ -49,10 +50,10 @@ def overflowing():
 @pytest.mark.slow
 def test_the_ratio_start_follows_the_record_where_a_common_factor_cannot(overflowing):
     _, truth, problem = overflowing
-    whole = _hidden.WholeRecord(problem)
+    whole = WholeRecord(problem)
 
     def error(params):
-        return _hidden._settled_error(whole, problem, params)[0]
+        return _hidden.settled_error(whole, problem, params)[0]
 
     defaults = dict.fromkeys(truth.params, 1.0)
     common = min(error(dict.fromkeys(truth.params, f)) for f in _hidden.START_FACTORS)
@@ -64,9 +65,9 @@ def test_the_ratio_start_follows_the_record_where_a_common_factor_cannot(overflo
 
 
 def _projected(problem, given=()):
-    whole = _hidden.WholeRecord(problem)
+    whole = WholeRecord(problem)
     return projected_start(problem, dict.fromkeys(problem.free_params, 1.0), list(given),
-                           lambda params: _hidden._settled_error(whole, problem, params)[0])
+                           lambda params: _hidden.settled_error(whole, problem, params)[0])
 
 
 @pytest.mark.slow
@@ -108,7 +109,7 @@ SMALL_LOWER = {"a1": 0.02, "a2": 0.04, "a3": 0.125, "a4": 0.1125}
 
 
 def _course(problem, params):
-    whole = _hidden.WholeRecord(problem)
+    whole = WholeRecord(problem)
     system = problem.skeleton.compile({}, {**problem.fixed_params, **params})
     first = whole.first_states(system)
     whole.choose_substeps(system, first)

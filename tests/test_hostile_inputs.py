@@ -187,7 +187,7 @@ def _blas_limits():
 
 
 def test_two_fits_in_two_threads_restore_the_blas_limit(stick_slip_model):
-    from sklearn_pycc._threads import blas_threads
+    from sklearn_pycc._utils.threads import blas_threads
 
     _, data = stick_slip_model
     X, y = data[["x1", "x2", "F_ext"]], data[["x1_dot", "x2_dot"]]

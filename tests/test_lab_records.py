@@ -5,8 +5,8 @@ import pandas as pd
 import pytest
 
 from sklearn_pycc import PolyCCRegressor, compare_skeletons, datasets, diagnose
+from sklearn_pycc._utils.bandlimited import central_derivative, even_grid
 from sklearn_pycc.measurements import resolve_differentiation
-from sklearn_pycc.measurements.lowpass import central_derivative, even_grid
 from sklearn_pycc.measurements.spectral import find_quantum
 from sklearn_pycc.model_selection import make_simulation_scorer
 

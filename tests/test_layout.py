@@ -82,3 +82,111 @@ def test_the_allow_list_has_no_stale_lines():
         if text in source:
             used.add((relative, text))
     assert used == ALLOWED
+
+
+# -- imports and sizes -----------------------------------------------------------------
+#: the longest function body (its docstring aside) a module may hold
+MAX_BODY_LINES = 150
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(path: Path, name: str) -> list[tuple[str, str]]:
+    """``(module, imported name)`` of each of the package's imports, deferred ones too."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+    found = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        if node.level:
+            base = package[:len(package) - (node.level - 1)]
+            module = ".".join(base + ([node.module] if node.module else []))
+        else:
+            module = node.module or ""
+        if module.split(".")[0] == "sklearn_pycc":
+            found += [(module, alias.name) for alias in node.names]
+    return found
+
+
+def _graph() -> dict[str, set[str]]:
+    modules = {_module_name(p): p for p in PACKAGE.rglob("*.py")}
+    edges = {}
+    for name, path in modules.items():
+        targets = set()
+        for module, imported in _imports(path, name):
+            if f"{module}.{imported}" in modules:  # a module imported from its package
+                targets.add(f"{module}.{imported}")
+            elif module in modules:
+                targets.add(module)
+        edges[name] = targets - {name}
+    return edges
+
+
+def _circles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected groups of more than one module (Tarjan's algorithm)."""
+    index, low, stack, on_stack, found = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in edges.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                found.append(sorted(group))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_modules_import_each_other():
+    assert _circles(_graph()) == []
+
+
+def test_the_circle_check_sees_a_circle():
+    edges = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    assert _circles(edges) == [["a", "b", "c"]]
+
+
+def test_no_private_name_is_imported_from_another_module():
+    offenders = [f"{_module_name(path)} imports {module}.{imported}"
+                 for path in sorted(PACKAGE.rglob("*.py"))
+                 for module, imported in _imports(path, _module_name(path))
+                 if imported.startswith("_") and not imported.startswith("__")]
+    assert not offenders, "\n".join(offenders)
+
+
+def _body_lines(function: ast.FunctionDef) -> int:
+    lines = function.end_lineno - function.lineno + 1
+    first = function.body[0]
+    if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) \
+            and isinstance(first.value.value, str):
+        lines -= first.end_lineno - first.lineno + 1
+    return lines
+
+
+def test_no_function_is_longer_than_a_reader_can_follow():
+    long = [f"{path.relative_to(PACKAGE)}:{node.lineno} {node.name} ({_body_lines(node)} lines)"
+            for path in sorted(PACKAGE.rglob("*.py"))
+            for node in ast.walk(ast.parse(path.read_text()))
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
+            and _body_lines(node) > MAX_BODY_LINES]
+    assert not long, "\n".join(long)

@@ -14,7 +14,7 @@ import pytest
 from scipy.signal import lfilter
 
 from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, Skeleton, datasets
-from sklearn_pycc._blocks import bandwidth
+from sklearn_pycc._utils.blocks import bandwidth
 from sklearn_pycc.estimators._uncertainty import long_run_covariance
 
 PARAMETRIC = ["x1_dot = x2", "x2_dot = F - a1 x2 - a2 x1 - a3 x1^3"]

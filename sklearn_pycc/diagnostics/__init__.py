@@ -5,8 +5,9 @@ from ._failures import ResidualMap
 from ._open_curves import OpenCurve
 from ._trajectories import Divergence
 from .compare import compare_skeletons
-from .diagnose import Diagnosis, Suggestion, diagnose
+from .diagnose import diagnose
 from .loop import HypothesisLoop, Refinement, Round
+from .report import Diagnosis, Suggestion
 
 __all__ = ["Diagnosis", "Divergence", "HypothesisLoop", "OpenCurve", "Refinement", "ResidualMap",
            "Round", "Suggestion",

@@ -189,7 +189,7 @@ def enumerate_candidates(skeleton: Skeleton, roles: list[EquationRoles],
                 seen.add(key)
                 candidate = Candidate(effect, r, variable, additions,
                                       _curve_term(effect, r, variable))
-                if not _absorbed(skeleton, candidate):
+                if not absorbed(skeleton, candidate):
                     out.append(candidate)
     return out
 
@@ -198,7 +198,7 @@ def _equation(skeleton: Skeleton, index: int):
     return next(eq for eq in skeleton.parsed if eq.index == index)
 
 
-def _fitted_terms(skeleton: Skeleton, roles: EquationRoles, inputs: set[str]):
+def fitted_terms(skeleton: Skeleton, roles: EquationRoles, inputs: set[str]):
     """``(sign, node)`` of an equation's terms with fitted numbers and no input.
 
     Terms with a free curve are left alone: a curve already takes any shape.
@@ -208,7 +208,7 @@ def _fitted_terms(skeleton: Skeleton, roles: EquationRoles, inputs: set[str]):
         if any(isinstance(n, Unknown) for n in items) or \
                 not any(isinstance(n, Param) for n in items):
             continue
-        if _symbols(node) & inputs:
+        if symbols_in(node) & inputs:
             continue  # a gain: the skeleton's own input, not a physical effect to swap
         yield sign, node
 
@@ -232,7 +232,7 @@ def _effect_of(node: Node, roles: EquationRoles, has_time: bool) -> tuple[catalo
             if len(additions) == 1 and _shape_key(
                     parse_expression(additions[0][1], kind="term")) == key:
                 return effect, variable
-    return UNNAMED, ", ".join(sorted(_symbols(node)))
+    return UNNAMED, ", ".join(sorted(symbols_in(node)))
 
 
 def enumerate_moves(skeleton: Skeleton, roles: list[EquationRoles],
@@ -247,7 +247,7 @@ def enumerate_moves(skeleton: Skeleton, roles: list[EquationRoles],
     inputs = set(skeleton.inputs)
     out = []
     for r in roles:
-        for sign, node in _fitted_terms(skeleton, r, inputs):
+        for sign, node in fitted_terms(skeleton, r, inputs):
             text = to_text(node)
             reduced = skeleton.remove_term(r.index, text)
             gone = [a for a in skeleton.params if a not in reduced.params]
@@ -262,13 +262,13 @@ def enumerate_moves(skeleton: Skeleton, roles: list[EquationRoles],
                     candidate = Candidate(effect, r, variable, additions,
                                           _curve_term(effect, r, variable), move="replace",
                                           **removed)
-                    if not _absorbed(reduced, candidate):
+                    if not absorbed(reduced, candidate):
                         out.append(candidate)
     return out
 
 
 # -- redundancy with a free curve already in the equation -----------------------------
-def _symbols(node: Node) -> set[str]:
+def symbols_in(node: Node) -> set[str]:
     return {n.name for n in walk(node) if isinstance(n, Symbol)}
 
 
@@ -304,7 +304,7 @@ def _shape(factors: list[Node]) -> list[Node]:
     return [f for f in factors if not isinstance(f, (Param, Number))]
 
 
-def _absorbed(skeleton: Skeleton, candidate: Candidate) -> bool:
+def absorbed(skeleton: Skeleton, candidate: Candidate) -> bool:
     """Whether the equation can already take the term's shape.
 
     A term already present up to its coefficient (``a3 x2`` beside
@@ -335,7 +335,7 @@ def _absorbed(skeleton: Skeleton, candidate: Candidate) -> bool:
                     break
                 rest.remove(match)
             else:
-                symbols = set().union(*(_symbols(f) for f in rest)) if rest else set()
+                symbols = set().union(*(symbols_in(f) for f in rest)) if rest else set()
                 if not symbols <= {z}:
                     continue
                 kinds = {c.kind for c in skeleton.constraints_of(curve.name)}
@@ -517,6 +517,10 @@ def _delta_bic(before, after, floor, n_new: int, n: int) -> tuple[float, float]:
     after = np.maximum(np.asarray(after, dtype=float), floor)
     bic = float(n * np.sum(np.log(after / before)) + n_new * math.log(n))
     return bic, float(1.0 - after.sum() / before.sum())
+
+
+#: scores this close to the leader's (relative, absolute) count as a tie won by fewer parameters
+TIE = (0.02, 10.0)
 
 
 # -- refit of the extended skeleton -------------------------------------------------

@@ -301,3 +301,32 @@ def held_out_check(base, extended, data: DiagnosisData, horizon: Horizon | None,
                             and 2 * result.wins > result.n_folds
                             and all(change < HELD_OUT_GAIN for change in others))
     return result
+
+
+def pooled_errors(model, data, equations: list[int], horizon, max_steps: int):
+    """Errors of ``model`` refitted without each fold, on that fold, pooled over folds."""
+    description, folds = make_folds(data)
+    states = model.skeleton_.states
+    spreads = {"states": np.std(np.column_stack([data.columns[s] for s in states]), axis=0),
+               "derivatives": np.std(data.derivatives[:, equations], axis=0)}
+    for value in spreads.values():
+        value[value == 0] = 1.0
+    output_error = getattr(model, "fit_mode_", "equation") == "simulation"
+    everything = np.arange(data.n_samples)
+    totals: dict[str, float] = {}
+    count = 0
+    for held in folds:
+        train = np.setdiff1d(everything, held)
+        try:
+            fitted = _fit(model, data, train, _labels(data, held), output_error)
+            errors = _errors(fitted, subset(data, held), spreads, horizon, max_steps,
+                             equations)
+        except Exception:  # a fold the skeleton cannot be fitted on counts as a failure
+            errors = {"derivatives": math.inf}
+            if horizon is not None:
+                errors["simulation"] = math.inf
+        for name, value in errors.items():
+            totals[name] = totals.get(name, 0.0) + len(held) * value
+        count += len(held)
+    names = {"derivatives": "held_out_nrmse", "simulation": "held_out_simulation_nrmse"}
+    return description, {names[k]: math.sqrt(v / count) for k, v in totals.items()}

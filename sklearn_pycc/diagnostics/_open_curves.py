@@ -26,7 +26,7 @@ from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import Node, Number, Param, Symbol, Unknown, product_factors, walk
 from ..skeleton.parser import parse_expression
 from ..skeleton.printer import to_text
-from ._candidates import Candidate, _absorbed, _fitted_terms, _symbols
+from ._candidates import Candidate, absorbed, fitted_terms, symbols_in
 from ._roles import EquationRoles
 from .effects import Effect
 
@@ -52,7 +52,7 @@ OUTSIDE = Effect("outside_catalogue", "a formula the symbolic engine proposes fo
 def _role_of(node: Node, roles: EquationRoles) -> str | None:
     """Which free curve would take the term's place (None: no curve does)."""
     x, v = roles.position, roles.velocity
-    symbols = _symbols(node)
+    symbols = symbols_in(node)
     if not roles.second_order:
         return "state" if symbols == {x} else None
     if symbols == {x}:
@@ -62,7 +62,7 @@ def _role_of(node: Node, roles: EquationRoles) -> str | None:
     factors = product_factors(node)
     bare = [f for f in factors if isinstance(f, Symbol) and f.name == v]
     rest = [f for f in factors if f not in bare]
-    if len(bare) == 1 and set().union(*(_symbols(f) for f in rest)) == {x}:
+    if len(bare) == 1 and set().union(*(symbols_in(f) for f in rest)) == {x}:
         return "damping"
     return None
 
@@ -81,7 +81,7 @@ def open_candidates(skeleton: Skeleton, roles: list[EquationRoles]) -> list[Cand
     for r in roles:
         kinds = ("restoring", "friction", "damping") if r.second_order else ("state",)
         terms = {kind: [] for kind in kinds}
-        for sign, node in _fitted_terms(skeleton, r, inputs):
+        for sign, node in fitted_terms(skeleton, r, inputs):
             kind = _role_of(node, r)
             if kind in terms:
                 terms[kind].append((sign, node))
@@ -102,7 +102,7 @@ def open_candidates(skeleton: Skeleton, roles: list[EquationRoles]) -> list[Cand
                 removals=[(r.index, to_text(node)) for _, node in terms[kind]],
                 removed_params=[a for a in skeleton.params if a not in reduced.params],
                 removed_nodes=[(r.index, sign, node) for sign, node in terms[kind]])
-            if not _absorbed(reduced, candidate):
+            if not absorbed(reduced, candidate):
                 out.append(candidate)
     return out
 

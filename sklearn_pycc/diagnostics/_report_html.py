@@ -6,7 +6,7 @@ import html
 
 import pandas as pd
 
-from .._html import equations_html, figure_html, page, preformatted, table_html
+from .._utils.html_pages import equations_html, figure_html, page, preformatted, table_html
 
 __all__ = ["RANKING_NOTE", "diagnosis_html", "loop_page"]
 

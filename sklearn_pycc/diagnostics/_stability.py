@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._blocks import MIN_EXPERIMENTS, block_length, draw_blocks, segments
-from .._random import seeds
+from .._utils.blocks import MIN_EXPERIMENTS, block_length, draw_blocks, segments
+from .._utils.randomness import seeds
 from ._candidates import Candidate, rss_floor
 
 __all__ = ["Stability", "selection_stability"]

@@ -31,7 +31,7 @@ from ..measurements.reconstruct import unmeasured_states
 from ..model_selection._scoring import pooled_nrmse
 from ._held_out import HeldOut
 from ._metrics import error_table_row
-from .diagnose import Diagnosis, Suggestion
+from .report import Diagnosis, Suggestion
 
 __all__ = ["UnmeasuredDiagnosis", "diagnose_unmeasured"]
 
@@ -120,9 +120,10 @@ class UnmeasuredDiagnosis(Diagnosis):
         Each measured signal against its simulation, and the unmeasured
         states as simulated, one panel each.
         """
-        from ..plotting import _pyplot, label_axis
+        from .._utils.figures import pyplot
+        from ..plotting import label_axis
 
-        plt = _pyplot()
+        plt = pyplot()
         frame = self.simulation
         names = [c[:-4] for c in frame.columns if c.endswith("_sim")]
         if not names:  # the model escaped: nothing simulated to draw

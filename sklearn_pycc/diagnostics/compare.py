@@ -19,7 +19,7 @@ from ..simulation import judged_step_limit
 from ..skeleton import Skeleton
 from ._candidates import rss_floor
 from ._data import check_units, read_measurements
-from ._held_out import _errors, _fit, _labels, make_folds, subset
+from ._held_out import pooled_errors
 from ._metrics import rmse
 from ._roles import equation_roles
 from ._trajectories import Horizon, horizon_of, simulate_against
@@ -205,7 +205,7 @@ def _row(skeleton, base, *, X, y, record, cv, simulate: bool, horizon, held_out:
                 worst = max(worst, row[f"{state}_simulation_rmse"] / scale)
         row["simulation_nrmse"] = worst if worst > 0 else math.nan
     if held_out:
-        held_out_text, errors = _held_out_errors(model, data, active,
+        held_out_text, errors = pooled_errors(model, data, active,
                                                  window if simulate else None,
                                                  50 * n + 10_000)
         row.update(errors)
@@ -216,32 +216,3 @@ def _row(skeleton, base, *, X, y, record, cv, simulate: bool, horizon, held_out:
         row["cv_score"] = float(np.mean(scores))
     row["fit_time"] = fit_time
     return row, window, held_out_text
-
-
-def _held_out_errors(model, data, equations: list[int], horizon, max_steps: int):
-    """Errors of ``model`` refitted without each fold, on that fold, pooled over folds."""
-    description, folds = make_folds(data)
-    states = model.skeleton_.states
-    spreads = {"states": np.std(np.column_stack([data.columns[s] for s in states]), axis=0),
-               "derivatives": np.std(data.derivatives[:, equations], axis=0)}
-    for value in spreads.values():
-        value[value == 0] = 1.0
-    output_error = getattr(model, "fit_mode_", "equation") == "simulation"
-    everything = np.arange(data.n_samples)
-    totals: dict[str, float] = {}
-    count = 0
-    for held in folds:
-        train = np.setdiff1d(everything, held)
-        try:
-            fitted = _fit(model, data, train, _labels(data, held), output_error)
-            errors = _errors(fitted, subset(data, held), spreads, horizon, max_steps,
-                             equations)
-        except Exception:  # a fold the skeleton cannot be fitted on counts as a failure
-            errors = {"derivatives": math.inf}
-            if horizon is not None:
-                errors["simulation"] = math.inf
-        for name, value in errors.items():
-            totals[name] = totals.get(name, 0.0) + len(held) * value
-        count += len(held)
-    names = {"derivatives": "held_out_nrmse", "simulation": "held_out_simulation_nrmse"}
-    return description, {names[k]: math.sqrt(v / count) for k, v in totals.items()}

@@ -16,7 +16,8 @@ from ..simulation import judged_step_limit
 from ..skeleton import Skeleton
 from ..skeleton.nodes import Param, product_factors, rename, signed_terms, walk
 from ..skeleton.printer import to_text
-from .diagnose import Diagnosis, Suggestion, diagnose
+from .diagnose import diagnose
+from .report import Diagnosis, Suggestion
 
 __all__ = ["HypothesisLoop", "Refinement", "Round"]
 
@@ -329,8 +330,7 @@ class HypothesisLoop:
         Refinement or None
             Also kept as :attr:`refinement`.
         """
-        from ._held_out import HELD_OUT_GAIN
-        from .compare import _held_out_errors
+        from ._held_out import HELD_OUT_GAIN, pooled_errors
 
         if not self.rounds:
             raise ValueError("the loop has not run yet: call step() or run() first")
@@ -349,8 +349,8 @@ class HypothesisLoop:
         equations = [k for k, d in enumerate(model.skeleton_.derivatives)
                      if d in last.diagnosis.maps] or list(range(len(model.skeleton_.states)))
         steps = judged_step_limit(data.n_samples)
-        folds, before = _held_out_errors(model, data, equations, horizon, steps)
-        _, after = _held_out_errors(refined, data, equations, horizon, steps)
+        folds, before = pooled_errors(model, data, equations, horizon, steps)
+        _, after = pooled_errors(refined, data, equations, horizon, steps)
         key = "held_out_simulation_nrmse" if "held_out_simulation_nrmse" in before \
             else "held_out_nrmse"
         adopted = after[key] <= (1 - HELD_OUT_GAIN) * before[key]
@@ -456,7 +456,7 @@ class HypothesisLoop:
         return document
 
     def _repr_html_(self) -> str:
-        from .._html import preformatted, table_html
+        from .._utils.html_pages import preformatted, table_html
 
         if not self.rounds:
             return preformatted(repr(self))

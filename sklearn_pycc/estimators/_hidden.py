@@ -17,17 +17,15 @@ import pandas as pd
 from scipy.optimize import least_squares
 
 from ..skeleton.nodes import Symbol, walk
-from ..windows import Windows
 from ._projected_start import projected_start
 from ._setup import Problem
-from ._shooting import state_bounds
 from ._uncertainty import sandwich_covariance
+from ._whole_record import ESCAPED, WholeRecord, state_bounds, within_limits, zero_curves
 
-__all__ = ["ESCAPED", "START_FACTORS", "WholeRecord", "along_hidden_scale",
-           "check_initial_stretch", "check_visible", "equilibrium", "hidden_trajectories",
+__all__ = ["START_FACTORS", "along_hidden_scale", "check_visible", "hidden_trajectories",
            "initial_table", "limit_start", "opened_limits", "rates_on", "ratio_start",
-           "rescaled", "scale_family", "scaled_start", "sensor_readings", "single_shooting",
-           "starting_params", "unseen_directions", "whole_record_covariance", "within_limits"]
+           "rescaled", "scale_family", "scaled_start", "settled_error", "single_shooting",
+           "starting_params", "unseen_directions", "whole_record_covariance"]
 
 
 def _reads(skeleton) -> dict[str, set[str]]:
@@ -82,33 +80,6 @@ def starting_params(problem: Problem, param_init: Mapping[str, float] | None) ->
     return out
 
 
-def equilibrium(system, hidden: Sequence[str], values: Mapping[str, float]) -> dict:
-    """Hidden states at rest with the others at ``values`` (least squares; zeros if it fails).
-
-    ``values`` gives every measured state, input and ``t`` at one instant.
-    """
-    states = list(system.states)
-    index = [states.index(s) for s in hidden]
-
-    def rates(z: np.ndarray) -> np.ndarray:
-        point = {name: np.array([float(v)]) for name, v in values.items()}
-        point.update({s: np.array([float(v)]) for s, v in zip(hidden, z)})
-        with np.errstate(all="ignore"):
-            out = np.asarray(system.evaluate(point, 1), dtype=float)[0, index]
-        return np.where(np.isfinite(out), out, 1e6)
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            solution = least_squares(rates, np.ones(len(hidden)), max_nfev=200)
-            z = solution.x
-            if np.all(np.isfinite(z)) and np.all(np.abs(rates(z)) < 1e-6 * (1 + np.abs(z))):
-                return dict(zip(hidden, z.tolist()))
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
-            pass
-    return dict.fromkeys(hidden, 0.0)
-
-
 def hidden_trajectories(problem: Problem, system) -> dict[str, np.ndarray]:
     """Each hidden state on every row of the record, simulated by ``system``.
 
@@ -149,199 +120,6 @@ def initial_table(problem: Problem, first: np.ndarray, states: Sequence[str]) ->
                         columns=list(problem.hidden))
 
 
-#: the scaled error of a sample where the simulation has escaped
-ESCAPED = 1e3
-
-
-class WholeRecord:
-    """Every experiment simulated whole from its initial state, against what was measured.
-
-    The measured states, and the static outputs (a sensor's reading)
-    computed from the simulated states, are compared with the record.
-    """
-
-    def __init__(self, problem: Problem) -> None:
-        skeleton = problem.skeleton
-        self.problem = problem
-        self.states = list(skeleton.states)
-        self.inputs = [name for name in skeleton.inputs if name != "t"]
-        measured = [s for s in self.states if s in problem.measured]
-        self.index = [self.states.index(s) for s in measured]
-        self.outputs = list(problem.observed)
-        n = len(next(iter({**problem.measured, **problem.observed}.values())))
-        self.windows = Windows(self.states, self.inputs, "t" in skeleton.variables,
-                               [(e.rows, e.t) for e in problem.experiments],
-                               {s: np.zeros(n) for s in self.states},
-                               {name: problem.signals[name] for name in self.inputs},
-                               max(e.n_samples for e in problem.experiments), merge_tail=False,
-                               hold=problem.input_hold)
-        read = [problem.measured[s] for s in measured] + [problem.observed[o]
-                                                         for o in self.outputs]
-        rows = self.windows.rows
-        self.targets = np.stack([values[rows] for values in read], axis=-1)
-        self.scale = np.array([np.sqrt(np.mean(values ** 2)) or 1.0 for values in read])
-        times = np.zeros(n)
-        for experiment in problem.experiments:
-            times[experiment.rows] = experiment.t
-        self.n_rows, self.times = n, times
-        self.drive = {name: problem.signals[name][rows] for name in self.inputs}
-        self.drive["t"] = times[rows]
-
-    def errors(self, system, first: np.ndarray, skip: float = 0.0) -> np.ndarray:
-        """Scaled errors of what was measured on every row (large where the model escapes).
-
-        ``skip`` leaves out that share of each experiment's first rows.
-        """
-        first = within_limits(system, first)
-        with np.errstate(all="ignore"):
-            simulated, _ = self.windows.simulate(system, first)
-            compared = simulated[:, :, self.index]
-            if self.outputs:
-                compared = np.concatenate([compared, self.outputs_of(system, simulated)],
-                                          axis=-1)
-        valid = self.windows.valid
-        if skip:
-            steps = np.arange(valid.shape[1])
-            valid = valid & (steps >= skip * valid.sum(axis=1, keepdims=True))
-        error = ((compared - self.targets) / self.scale)[valid]
-        return np.where(np.isfinite(error), error, ESCAPED).ravel()
-
-    def course(self, system, first: np.ndarray) -> dict[str, np.ndarray]:
-        """Every state simulated from ``first``, the inputs and ``t``, on the record's rows.
-
-        A row no experiment simulates is NaN.
-        """
-        first = within_limits(system, first)
-        with np.errstate(all="ignore"):
-            simulated, _ = self.windows.simulate(system, first)
-        windows = self.windows
-        out = {name: np.asarray(self.problem.signals[name], dtype=float)
-               for name in self.inputs}
-        out["t"] = self.times
-        for q, name in enumerate(self.states):
-            values = np.full(self.n_rows, np.nan)
-            for k in range(windows.n_segments):
-                valid = windows.valid[k]
-                values[windows.rows[k, valid]] = simulated[k, valid, q]
-            out[name] = values
-        return out
-
-    def unknowns(self, first_shape: tuple[int, int]):
-        """``(names, residuals, low, high)`` of a fit of the free parameters and initial states.
-
-        ``residuals(z)`` are the scaled errors (:meth:`errors`) with ``z``
-        the free parameters then each experiment's initial state; ``low``
-        and ``high`` bound ``z`` (an experiment starts within the states'
-        hard limits).
-        """
-        problem = self.problem
-        names = list(problem.free_params)
-        p = len(names)
-        functions = _zero_curves(problem)
-
-        def residuals(z: np.ndarray) -> np.ndarray:
-            values = {**problem.fixed_params, **dict(zip(names, z[:p]))}
-            return self.errors(problem.skeleton.compile(functions, values),
-                               z[p:].reshape(first_shape))
-
-        bounds = problem.bounds
-        low_s, high_s = state_bounds(problem.skeleton)
-        low = np.r_[[bounds.get(a, (-np.inf, np.inf))[0] for a in names],
-                    np.tile(low_s, first_shape[0])]
-        high = np.r_[[bounds.get(a, (-np.inf, np.inf))[1] for a in names],
-                     np.tile(high_s, first_shape[0])]
-        return names, residuals, low, high
-
-    def outputs_of(self, system, simulated: np.ndarray) -> np.ndarray:
-        """The static outputs along simulated states ``(K, L + 1, n_states)``."""
-        shape = simulated.shape[:2]
-        data = {s: simulated[:, :, q].ravel() for q, s in enumerate(self.states)}
-        data.update({name: values.ravel() for name, values in self.drive.items()})
-        return sensor_readings(system, data, self.outputs).reshape(*shape, len(self.outputs))
-
-
-    def first_states(self, system) -> np.ndarray:
-        """Each experiment's first sample, the hidden states at rest with it."""
-        problem = self.problem
-        first = np.empty((len(problem.experiments), len(self.states)))
-        for e, experiment in enumerate(problem.experiments):
-            row = int(experiment.rows[0])
-            point = {s: problem.smoothed[s][row] for s in self.states if s in problem.smoothed}
-            point.update({name: problem.signals[name][row] for name in self.inputs})
-            point["t"] = float(experiment.t[0])
-            point.update(equilibrium(system, list(problem.hidden), point))
-            first[e] = [point[s] for s in self.states]
-        return within_limits(system, np.clip(first, *state_bounds(problem.skeleton)))
-
-    def choose_substeps(self, system, first: np.ndarray) -> None:
-        """RK4 substeps for ``system`` near the experiments' first states."""
-        columns = {s: np.full(1, first[0, q]) for q, s in enumerate(self.states)}
-        row = int(self.problem.experiments[0].rows[0])
-        columns.update({name: self.problem.signals[name][row:row + 1] for name in self.inputs})
-        columns["t"] = np.array([float(self.problem.experiments[0].t[0])])
-        self.windows.choose_substeps(system, columns)
-
-
-def within_limits(system, states: np.ndarray) -> np.ndarray:
-    """States ``(..., n_states)`` moved onto the limits of ``system`` they lie beyond (a copy).
-
-    Every simulation starts within the limits the model holds its states in,
-    an end to fit at its value in ``system``.
-    """
-    return system.clip(np.array(states, dtype=float))
-
-
-def check_initial_stretch(t: np.ndarray, drive: Mapping[str, np.ndarray],
-                          unknown: Sequence[str]) -> None:
-    """Refuse a stretch of record an initial state cannot be estimated on, saying why.
-
-    The record's first row holds its first time: the times must increase.
-    The states ``unknown`` (not in the record) are fitted by simulating the
-    model over the stretch, which needs two rows or more, finite times and
-    finite inputs ``drive``.
-
-    Raises
-    ------
-    ValueError
-        Naming the row, the column and the problem.
-    """
-    which = f"{', '.join(unknown)} (not in X)"
-    if unknown and len(t) < 2:
-        raise ValueError(f"X has a single row: {which} can only be estimated by simulating "
-                         "the model over two rows or more against the states X holds; give "
-                         "more rows of the record")
-    bad = np.flatnonzero(~np.isfinite(t))
-    if bad.size and (unknown or bad[0] == 0):
-        raise ValueError(f"X's time column 't' is NaN or infinite at row {bad[0]}: drop or "
-                         "fill that row")
-    steps = np.diff(t)
-    if steps.size and np.all(steps < 0):
-        raise ValueError(f"X's times run backwards (t falls from {t[0]:.6g} to {t[-1]:.6g}): "
-                         "the state is estimated at the record's first time, and a record is "
-                         "simulated forward; sort it by 't'")
-    bad = np.flatnonzero(~(steps > 0))
-    if bad.size and unknown:
-        k = int(bad[0]) + 1
-        raise ValueError(f"X's times do not increase at row {k} (t = {t[k - 1]:.6g}, then "
-                         f"{t[k]:.6g}): sort the record by 't' and drop repeated times")
-    for name, values in drive.items() if unknown else ():
-        bad = np.flatnonzero(~np.isfinite(np.asarray(values, dtype=float)))
-        if bad.size:
-            raise ValueError(f"X's input {name!r} is NaN or infinite at row {bad[0]} (t = "
-                             f"{t[bad[0]]:.6g}): {which} is estimated by simulating the model "
-                             "through the rows; fill or drop that row")
-
-
-def sensor_readings(system, data: Mapping[str, np.ndarray], outputs: Sequence[str]) -> np.ndarray:
-    """The static outputs ``outputs`` on columns of every state, input and ``t``.
-
-    Returns an array ``(n, len(outputs))`` (a static equation reads no
-    derivative: the skeleton refuses one that does).
-    """
-    values = system.evaluate_outputs(data, len(data["t"]))
-    return values[:, [list(system.outputs).index(o) for o in outputs]]
-
-
 #: common factors of the starting parameters tried before output error (param_init aside)
 START_FACTORS = 10.0 ** np.arange(-4.0, 2.01, 0.5)
 
@@ -363,7 +141,7 @@ def _scaled(problem: Problem, params: Mapping[str, float], free: Sequence[str],
     return trial
 
 
-def _settled_error(whole: WholeRecord, problem: Problem, params: Mapping[str, float],
+def settled_error(whole: WholeRecord, problem: Problem, params: Mapping[str, float],
                    first: np.ndarray | None = None) -> tuple[float, np.ndarray | None]:
     """How well ``params`` simulate the record past each experiment's first rows.
 
@@ -371,7 +149,7 @@ def _settled_error(whole: WholeRecord, problem: Problem, params: Mapping[str, fl
     first sample); returns the RMS of the scaled errors, ``inf`` where the
     model cannot be integrated, and the initial states used.
     """
-    system = problem.skeleton.compile(_zero_curves(problem), {**problem.fixed_params, **params})
+    system = problem.skeleton.compile(zero_curves(problem), {**problem.fixed_params, **params})
     if first is None:
         first = whole.first_states(system)
     try:
@@ -401,7 +179,7 @@ def scaled_start(problem: Problem, params: Mapping[str, float],
     best, best_error = dict(params), np.inf
     for factor in START_FACTORS:
         trial = _scaled(problem, params, free, factor)
-        error = np.inf if trial is None else _settled_error(whole, problem, trial)[0]
+        error = np.inf if trial is None else settled_error(whole, problem, trial)[0]
         if error < best_error:
             best, best_error = trial, error
     return limit_start(problem, best, given)
@@ -418,7 +196,7 @@ def ratio_start(problem: Problem, params: Mapping[str, float],
     """
     whole = WholeRecord(problem)
     found = projected_start(problem, params, given,
-                            lambda trial: _settled_error(whole, problem, trial)[0])
+                            lambda trial: settled_error(whole, problem, trial)[0])
     return None if found is None else found[0]
 
 
@@ -463,7 +241,7 @@ def limit_start(problem: Problem, params: Mapping[str, float],
             values = np.asarray(problem.smoothed.get(state, problem.measured[state]))
             params[name] = float(values.max() if side == "high" else values.min())
             continue
-        system = problem.skeleton.compile(_zero_curves(problem),
+        system = problem.skeleton.compile(zero_curves(problem),
                                           {**problem.fixed_params, **params})
         course = hidden_trajectories(problem, system)[state]
         course = course[np.isfinite(course)]
@@ -476,7 +254,7 @@ def limit_start(problem: Problem, params: Mapping[str, float],
         best, best_error = params[name], np.inf
         for level in [*levels, beyond]:
             trial = _scaled(problem, {**params, name: float(level)}, (), 1.0)
-            error = np.inf if trial is None else _settled_error(whole, problem, trial)[0]
+            error = np.inf if trial is None else settled_error(whole, problem, trial)[0]
             if error < best_error:
                 best, best_error = float(level), error
         params[name] = best
@@ -505,7 +283,7 @@ def rescaled(problem: Problem, params: Mapping[str, float],
         if trial is None:
             continue
         for first_guess in (None, given):
-            error, used = _settled_error(whole, problem, trial, first_guess)
+            error, used = settled_error(whole, problem, trial, first_guess)
             if error < best_error:
                 best, best_error = (None if factor == 1 else (trial, used)), error
     return best
@@ -551,7 +329,7 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
                                  ftol=WHOLE_RECORD_FTOL)
     z = solution.x if solution.cost <= 0.5 * float(np.sum(residuals(z0) ** 2)) else z0
     # a start beyond a fitted limit (x1(0) above a rim a5) simulates as one at it: say so
-    fitted = problem.skeleton.compile(_zero_curves(problem),
+    fitted = problem.skeleton.compile(zero_curves(problem),
                                       {**problem.fixed_params, **dict(zip(names, z[:p]))})
     z = np.r_[z[:p], within_limits(fitted, z[p:].reshape(first.shape)).ravel()]
     error = residuals(z)
@@ -581,7 +359,7 @@ def rates_on(problem: Problem, values: Mapping[str, float],
     record's rows); the free parameters are ``values``, the fixed ones the
     problem's. NaN where the model cannot be evaluated.
     """
-    system = problem.skeleton.compile(_zero_curves(problem), {**problem.fixed_params, **values})
+    system = problem.skeleton.compile(zero_curves(problem), {**problem.fixed_params, **values})
     n = len(columns["t"])
     with np.errstate(all="ignore"):
         derivatives = system.evaluate(columns, n, hold=False)
@@ -658,7 +436,7 @@ def along_hidden_scale(problem: Problem, params: Mapping[str, float], first: np.
         return None
     whole = WholeRecord(problem)
     whole.windows.substeps = int(substeps)
-    system = skeleton.compile(_zero_curves(problem), {**problem.fixed_params, **params})
+    system = skeleton.compile(zero_curves(problem), {**problem.fixed_params, **params})
     course = whole.course(system, first)
     low, high = state_bounds(skeleton)
     fitted = float(np.sqrt(np.mean(whole.errors(system, first) ** 2)))
@@ -806,9 +584,3 @@ def unseen_directions(jacobian: np.ndarray, z: np.ndarray, labels: Sequence[str]
         listed = ", ".join(moves[:-1]) + " and " + moves[-1] if len(moves) > 1 else moves[0]
         out.append(f"scaling {listed} (any c > 0) leaves every measured state as it is")
     return out
-
-
-def _zero_curves(problem: Problem) -> dict:
-    from ._basis import ZeroCurve
-
-    return {name: ZeroCurve() for name in problem.zeroed}

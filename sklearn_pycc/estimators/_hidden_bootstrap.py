@@ -22,10 +22,11 @@ from dataclasses import replace
 import numpy as np
 from joblib import delayed
 
-from .._blocks import block_length
-from ._hidden import ESCAPED, WholeRecord, single_shooting
+from .._utils.blocks import block_length
+from ._hidden import single_shooting
 from ._resampling import REFIT_FAILURES, Member, run_refits
 from ._setup import Problem
+from ._whole_record import ESCAPED, WholeRecord
 
 __all__ = ["NoiseResampler", "hidden_members"]
 

@@ -22,7 +22,7 @@ from scipy.stats import norm
 from scipy.stats import t as student
 from sklearn.utils.validation import check_is_fitted
 
-from .._random import seeds
+from .._utils.randomness import seeds
 from ..exceptions import SimulationError
 from ._uncertainty import DeferredCovariance
 

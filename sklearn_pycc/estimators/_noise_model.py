@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import sparse
 
+from ._whole_record import WholeRecord
+
 __all__ = ["NOISE_MODELS", "NoiseModel", "SignalNoiseModel", "fit_noise_model",
            "whitening_matrix"]
 
@@ -265,8 +267,6 @@ def _whole_record(problem, result):
     found (``shooting_["initial_states"]``), else from the record's first
     samples.
     """
-    from ._hidden import WholeRecord
-
     system = problem.skeleton.compile(result.functions,
                                       {**problem.fixed_params, **result.params})
     whole = WholeRecord(problem)

@@ -31,6 +31,7 @@ from ..skeleton import Skeleton
 from ..skeleton.equations import unknown_names
 from ..skeleton.skeleton import simulate_system
 from ._setup import Problem
+from ._whole_record import equilibrium
 
 __all__ = ["projected_start"]
 
@@ -137,8 +138,6 @@ def _hidden_course(problem: Problem, params: Mapping[str, float], hidden):
     rest with its first sample; None where that cannot be integrated. (An
     adaptive integrator: the grid visits rates far faster than the record's.)
     """
-    from ._hidden import equilibrium
-
     texts = [eq.text for eq in hidden]
     limits = problem.skeleton.limits
     ends = [f"{s} <= {hi:.17g}" for s, (_, hi) in limits.items()

@@ -27,7 +27,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from joblib import Parallel, delayed, effective_n_jobs
 
-from .._blocks import MIN_EXPERIMENTS, block_length, draw_blocks, segments
+from .._utils.blocks import MIN_EXPERIMENTS, block_length, draw_blocks, segments
 from ..measurements.columns import FitData
 from ..measurements.experiments import Experiment
 from .backend import Backend, FitResult, Problem

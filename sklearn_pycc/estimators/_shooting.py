@@ -23,6 +23,7 @@ from ..skeleton.system import CompiledSystem, stack_systems
 from ..windows import Windows
 from ._noise_model import whitening_matrix
 from ._setup import Problem
+from ._whole_record import state_bounds
 
 __all__ = ["ShootingPlan", "check_iterations", "fit_shooting"]
 
@@ -196,24 +197,6 @@ def _side_by_side(plan: ShootingPlan, systems: list, starts: list) -> list | Non
         states, _ = plan.simulate(stacked, np.concatenate(starts[chunk]), copies=copies)
         out.extend(states.reshape(copies, K, L + 1, -1))
     return out
-
-
-def state_bounds(skeleton) -> tuple[np.ndarray, np.ndarray]:
-    """Each state's hard limits (``-inf``/``inf`` where it has none), in state order.
-
-    An end still to fit (``x1 <= a5``) is open here: the simulation holds
-    the state within the fitted value.
-    """
-    limits = skeleton.limits
-
-    def number(end, open_end: float) -> float:
-        return open_end if isinstance(end, str) else float(end)
-
-    low = np.array([number(limits.get(s, (-np.inf, np.inf))[0], -np.inf)
-                    for s in skeleton.states])
-    high = np.array([number(limits.get(s, (-np.inf, np.inf))[1], np.inf)
-                     for s in skeleton.states])
-    return low, high
 
 
 def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], CompiledSystem],

@@ -24,8 +24,9 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..skeleton.equations import unknown_names
-from ._hidden import WholeRecord, _settled_error, _zero_curves, rates_on
+from ._hidden import rates_on, settled_error
 from ._setup import Problem
+from ._whole_record import WholeRecord, zero_curves
 
 __all__ = ["speed_parameters", "swapped_starts"]
 
@@ -103,7 +104,7 @@ def swapped_starts(problem: Problem, params: Mapping[str, float], first: np.ndar
     """
     whole = WholeRecord(problem)
     whole.windows.substeps = int(substeps)
-    system = problem.skeleton.compile(_zero_curves(problem), {**problem.fixed_params, **params})
+    system = problem.skeleton.compile(zero_curves(problem), {**problem.fixed_params, **params})
     course = whole.course(system, first)
     own = speed_parameters(problem, params, course)
     speeds = {state: _self_rate(problem, params, course, state) for state in own}
@@ -126,7 +127,7 @@ def swapped_starts(problem: Problem, params: Mapping[str, float], first: np.ndar
                 if not all(lo <= trial[a] <= hi for a, (lo, hi) in problem.bounds.items()
                            if a in trial):
                     continue
-                error, initial = _settled_error(whole, problem, trial)
+                error, initial = settled_error(whole, problem, trial)
                 if error < best_error:
                     best, best_error = (trial, initial), error
             if best is not None:

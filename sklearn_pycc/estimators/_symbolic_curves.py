@@ -17,9 +17,10 @@ import numpy as np
 import sympy
 
 from ..skeleton.curves import Curve
-from ._readable import rounded
+from ._readable import rounded, tidy, without_negligible
 
-__all__ = ["VARIABLE", "SymbolicCurve", "Template", "constants_of", "with_constants"]
+__all__ = ["VARIABLE", "FittedCurve", "SymbolicCurve", "Template", "constants_of",
+           "with_constants"]
 
 #: the variable every curve expression is written in
 VARIABLE = sympy.Symbol("x", real=True)
@@ -196,3 +197,48 @@ class SymbolicCurve(Curve):
 
     def __repr__(self) -> str:
         return f"SymbolicCurve({self.expression})"
+
+
+class FittedCurve:
+    """A curve during fitting: ``T(g)`` with the numbers of ``g`` free."""
+
+    def __init__(self, g: sympy.Expr, template: Template, domain) -> None:
+        self.template = template
+        self.domain = domain
+        self.set_g(g)
+
+    def set_g(self, g: sympy.Expr) -> None:
+        self.g = g
+        self.shape, self.symbols, self.values = with_constants(g)
+        raw = sympy.lambdify([VARIABLE, *self.symbols], self.shape, modules="numpy")
+
+        def g_of(x, c):
+            with np.errstate(all="ignore"):
+                out = raw(x, *c)
+            return np.broadcast_to(np.asarray(out, dtype=float), np.shape(x))
+
+        self._g_of = g_of
+
+    def drop_negligible(self) -> None:
+        """Drop the numbers of ``g`` that do nothing over the domain (and its mirror).
+
+        The mirror counts only for an odd or even curve, which reads ``g(-x)``.
+        """
+        grid = np.linspace(self.domain[0], self.domain[1], 101)
+        if self.template.parity is not None:
+            grid = np.concatenate([grid, -grid])
+        kept = without_negligible(self.values, lambda c: self._g_of(grid, c))
+        if np.count_nonzero(kept) < np.count_nonzero(self.values):
+            self.set_g(tidy(self.shape.xreplace({
+                s: sympy.Float(v) if v else sympy.Integer(0)
+                for s, v in zip(self.symbols, kept)})))
+
+    def function(self, values: np.ndarray | None = None):
+        c = self.values if values is None else values
+        return self.template.numeric(lambda x: self._g_of(np.asarray(x, dtype=float), c))
+
+    def expression(self, values: np.ndarray | None = None) -> sympy.Expr:
+        """``T(g)`` with its numbers, written with as few numbers and nodes as algebra allows."""
+        c = self.values if values is None else values
+        g = self.shape.xreplace({s: sympy.Float(v) for s, v in zip(self.symbols, c)})
+        return tidy(self.template.symbolic(g))

@@ -465,8 +465,9 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
     stage's summary (with ``unseen``, the directions the measurements do
     not see).
     """
-    from ._hidden import WholeRecord, hidden_trajectories, rescaled, single_shooting
+    from ._hidden import hidden_trajectories, rescaled, single_shooting
     from ._shooting import ShootingPlan, fit_shooting
+    from ._whole_record import WholeRecord
 
     names = list(problem.free_params)
 

@@ -17,7 +17,7 @@ from sklearn.metrics import r2_score
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
-from .._random import seeds
+from .._utils.randomness import seeds
 from ..exceptions import DomainWarning, ExtrapolationWarning, SimulationError
 from ..measurements import read_record
 from ..measurements.columns import read_X, read_y
@@ -712,7 +712,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             When the model cannot be simulated over the stretch from any
             guess (the estimate is then unchecked).
         """
-        from ._hidden import check_initial_stretch, equilibrium, sensor_readings
+        from ._whole_record import check_initial_stretch, equilibrium, sensor_readings
 
         check_is_fitted(self, "functions_")
         skeleton = self.skeleton_
@@ -1114,7 +1114,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         html = super()._html_repr()
         if not hasattr(self, "functions_"):
             return html
-        from .._html import equations_html
+        from .._utils.html_pages import equations_html
 
         return equations_html(self) + html
 

@@ -13,14 +13,15 @@ from sklearn.base import clone
 from sklearn.utils._param_validation import Interval, StrOptions, validate_params
 from sklearn.utils.validation import check_is_fitted
 
-from .._random import seeds
+from .._utils.randomness import seeds
 from ..exceptions import GaugeWarning
 from ..skeleton import Skeleton
 from ._basis import ZeroCurve
 from ._readable import Readability
 from ._setup import build_skeleton, gauge_skeleton, parity_of, points_of
-from ._symbolic_curves import SymbolicCurve, Template
+from ._symbolic_curves import FittedCurve, SymbolicCurve, Template
 from ._symbolic_engines import make_engine
+from ._symbolic_residuals import CurveResiduals
 from .base import CCRegressor, adopt, backend_of, make_problem, set_fitted
 from .interpolated import (
     InterpolatedCCRegressor,
@@ -30,14 +31,7 @@ from .interpolated import (
     sample_curve,
     tabulate,
 )
-from .symbolic import (
-    MODEL_SELECTIONS,
-    SymbolicCCRegressor,
-    _Curve,
-    _Residuals,
-    choose_candidate,
-    polish,
-)
+from .symbolic import MODEL_SELECTIONS, SymbolicCCRegressor, choose_candidate, polish
 
 __all__ = ["from_tables", "to_interpolated", "to_symbolic"]
 
@@ -180,10 +174,10 @@ def to_symbolic(
     problem = residuals = None
     if X is not None:
         problem = make_problem(target, X, y)
-        residuals = _Residuals(problem)
+        residuals = CurveResiduals(problem)
     functions = dict(model.functions_)
     params = dict(model.params_)
-    curves: dict[str, _Curve] = {}
+    curves: dict[str, FittedCurve] = {}
     checks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     pareto, summary = {}, []
     for name in free:

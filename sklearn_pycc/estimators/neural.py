@@ -8,8 +8,8 @@ from numbers import Integral, Real
 import numpy as np
 from sklearn.utils._param_validation import Interval, StrOptions
 
-from .._random import seeds
-from .._threads import torch_threads
+from .._utils.randomness import seeds
+from .._utils.threads import torch_threads
 from ._activations import ACTIVATIONS
 from ._basis import ZeroCurve
 from ._numpy_mlp import EXTRAPOLATIONS, NumpyCurve

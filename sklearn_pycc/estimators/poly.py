@@ -11,8 +11,8 @@ from scipy.linalg import block_diag, null_space
 from scipy.optimize import least_squares
 from sklearn.utils._param_validation import Interval, StrOptions
 
-from .._random import seeds
-from .._threads import blas_threads
+from .._utils.randomness import seeds
+from .._utils.threads import blas_threads
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
 from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
 from ._linear import curve_arguments, linearize, split_parameters

@@ -12,14 +12,12 @@ import sympy
 from scipy.optimize import least_squares
 from sklearn.utils._param_validation import Interval, StrOptions
 
-from .._random import seeds
+from .._utils.randomness import seeds
 from ..exceptions import SkeletonError
-from ..skeleton.compiler import compile_expression
-from ..skeleton.nodes import Unknown, walk
 from ._basis import ZeroCurve
-from ._readable import Readability, nesting, tidy, without_negligible
-from ._setup import FitResult, Problem, active_residuals
-from ._symbolic_curves import VARIABLE, SymbolicCurve, Template, with_constants
+from ._readable import Readability, nesting, tidy
+from ._setup import FitResult, Problem
+from ._symbolic_curves import VARIABLE, FittedCurve, SymbolicCurve, Template
 from ._symbolic_engines import (
     BINARY_OPERATORS,
     ENGINES,
@@ -27,6 +25,7 @@ from ._symbolic_engines import (
     Candidate,
     make_engine,
 )
+from ._symbolic_residuals import CurveResiduals
 from .backend import Backend
 from .base import OUTPUT_ERROR_SETTINGS, RANDOM_STATES, RESAMPLING, CCRegressor, backend_of
 
@@ -115,94 +114,6 @@ def _bounds_of(problem: Problem, names: list[str]) -> tuple[np.ndarray, np.ndarr
     return low, high
 
 
-class _Residuals:
-    """Weighted residuals of the active equations for given curves and parameters.
-
-    Each residual is compiled once per set of parameter values (the
-    compiler folds them in); curves are read through proxies, so trying
-    another curve costs no compilation.
-    """
-
-    def __init__(self, problem: Problem) -> None:
-        self.problem = problem
-        self.slots, self.env = problem.environment()
-        self.nodes, self.weights = active_residuals(problem)
-        self.n = problem.data.n_samples
-        self._functions: Mapping = {}
-        self._proxies = {name: self._proxy(name) for name in problem.skeleton.functions}
-        self._key: tuple | None = None
-        self._compiled: list = []
-
-    def _proxy(self, name: str):
-        return lambda x: self._functions[name](x)
-
-    def _closures(self, params: Mapping) -> list:
-        values = {**self.problem.fixed_params, **params}
-        key = tuple(sorted(values.items()))
-        if key != self._key:
-            self._compiled = [compile_expression(node, self.slots, values, self._proxies)
-                              for node in self.nodes]
-            self._key = key
-        return self._compiled
-
-    def equation(self, k: int, functions: Mapping, params: Mapping) -> np.ndarray:
-        closure = self._closures(params)[k]
-        self._functions = functions
-        with np.errstate(all="ignore"):
-            out = closure(self.env)
-        return self.weights[k] * np.broadcast_to(np.asarray(out, dtype=float), (self.n,))
-
-    def __call__(self, functions: Mapping, params: Mapping) -> np.ndarray:
-        return np.concatenate([self.equation(k, functions, params)
-                               for k in range(len(self.nodes))])
-
-    def loss(self, functions: Mapping, params: Mapping) -> float:
-        r = self(functions, params)
-        value = float(np.mean(r * r))
-        return value if np.isfinite(value) else np.inf
-
-    def argument(self, node, params: Mapping, functions: Mapping) -> np.ndarray:
-        values = {**self.problem.fixed_params, **params}
-        with np.errstate(all="ignore"):
-            out = compile_expression(node, self.slots, values, functions)(self.env)
-        return np.broadcast_to(np.asarray(out, dtype=float), (self.n,))
-
-    def isolated(self, name: str, functions: Mapping, params: Mapping):
-        """``(argument, target, weight)`` samples for the curve ``name``.
-
-        For each equation applying the curve, the value the curve would need
-        for that equation's residual to vanish, given everything else (a
-        Gauss-Newton step, exact when the curve enters linearly), weighted by
-        the squared sensitivity of the residual to the curve.
-        """
-        current = functions[name]
-
-        def bumped(x):
-            return current(x) + 1.0
-
-        xs, targets, weights = [], [], []
-        for k, node in enumerate(self.nodes):
-            uses = [sub for sub in walk(node) if isinstance(sub, Unknown) and sub.name == name]
-            if not uses:
-                continue
-            if len(uses) > 1:
-                eq = self.problem.equations[self.problem.active[k]]
-                raise SkeletonError(
-                    f"SymbolicCCRegressor isolates each curve in each equation, but {name} "
-                    f"appears {len(uses)} times here", equation=eq.index,
-                    position=max(uses[1].pos, 0), text=eq.text)
-            r0 = self.equation(k, functions, params)
-            r1 = self.equation(k, {**functions, name: bumped}, params)
-            slope = r1 - r0
-            x = self.argument(uses[0].arg, params, functions)
-            usable = np.isfinite(slope) & np.isfinite(r0) & np.isfinite(x) & (
-                np.abs(slope) > 1e-12 * max(float(np.nanmax(np.abs(slope))), 1e-300))
-            xs.append(x[usable])
-            targets.append(current(x[usable]) - r0[usable] / slope[usable])
-            weights.append(slope[usable] ** 2)
-        return np.concatenate(xs), np.concatenate(targets), np.concatenate(weights)
-
-
 def _binned(x: np.ndarray, y: np.ndarray, w: np.ndarray, n_bins: int):
     """Weighted means of ``x`` and ``y`` over equal-count bins of ``x``."""
     order = np.argsort(x, kind="stable")
@@ -217,51 +128,6 @@ def _binned(x: np.ndarray, y: np.ndarray, w: np.ndarray, n_bins: int):
         xb.append(float(weight @ x[chunk] / total))
         yb.append(float(weight @ y[chunk] / total))
     return np.array(xb), np.array(yb)
-
-
-class _Curve:
-    """A curve during fitting: ``T(g)`` with the numbers of ``g`` free."""
-
-    def __init__(self, g: sympy.Expr, template: Template, domain) -> None:
-        self.template = template
-        self.domain = domain
-        self.set_g(g)
-
-    def set_g(self, g: sympy.Expr) -> None:
-        self.g = g
-        self.shape, self.symbols, self.values = with_constants(g)
-        raw = sympy.lambdify([VARIABLE, *self.symbols], self.shape, modules="numpy")
-
-        def g_of(x, c):
-            with np.errstate(all="ignore"):
-                out = raw(x, *c)
-            return np.broadcast_to(np.asarray(out, dtype=float), np.shape(x))
-
-        self._g_of = g_of
-
-    def drop_negligible(self) -> None:
-        """Drop the numbers of ``g`` that do nothing over the domain (and its mirror).
-
-        The mirror counts only for an odd or even curve, which reads ``g(-x)``.
-        """
-        grid = np.linspace(self.domain[0], self.domain[1], 101)
-        if self.template.parity is not None:
-            grid = np.concatenate([grid, -grid])
-        kept = without_negligible(self.values, lambda c: self._g_of(grid, c))
-        if np.count_nonzero(kept) < np.count_nonzero(self.values):
-            self.set_g(tidy(self.shape.xreplace({
-                s: sympy.Float(v) if v else sympy.Integer(0)
-                for s, v in zip(self.symbols, kept)})))
-
-    def function(self, values: np.ndarray | None = None):
-        c = self.values if values is None else values
-        return self.template.numeric(lambda x: self._g_of(np.asarray(x, dtype=float), c))
-
-    def expression(self, values: np.ndarray | None = None) -> sympy.Expr:
-        """``T(g)`` with its numbers, written with as few numbers and nodes as algebra allows."""
-        c = self.values if values is None else values
-        g = self.shape.xreplace({s: sympy.Float(v) for s, v in zip(self.symbols, c)})
-        return tidy(self.template.symbolic(g))
 
 
 def choose_candidate(found, template: Template, domain: tuple[float, float],
@@ -289,7 +155,7 @@ def choose_candidate(found, template: Template, domain: tuple[float, float],
     """
     scored = []
     for candidate in found:
-        curve = _Curve(tidy(candidate.expression), template, domain)
+        curve = FittedCurve(tidy(candidate.expression), template, domain)
         curve.drop_negligible()
         if not keeps_monotone(curve.function(), domain, monotone):
             continue
@@ -359,10 +225,10 @@ class SymbolicBackend(Backend):
         """Search each curve's expression in turn, then refine every number jointly."""
         engine = make_engine(self.engine)
         rng = seeds(self.random_state)
-        residuals = _Residuals(problem)
+        residuals = CurveResiduals(problem)
         functions, params = self._start(problem)
         free = problem.free_functions
-        curves: dict[str, _Curve] = {}
+        curves: dict[str, FittedCurve] = {}
         pareto: dict[str, pd.DataFrame] = {}
         history = []
         loss = residuals.loss(functions, params)
@@ -443,7 +309,7 @@ class SymbolicBackend(Backend):
         return {"expressions_": expressions}
 
 
-def refit_params(residuals: _Residuals, problem: Problem, functions, params) -> dict:
+def refit_params(residuals: CurveResiduals, problem: Problem, functions, params) -> dict:
     """The free parameters refitted by least squares with the curves held."""
     names = problem.free_params
     if not names:
@@ -458,7 +324,7 @@ def refit_params(residuals: _Residuals, problem: Problem, functions, params) -> 
     result = least_squares(fun, start, bounds=(low, high))
     return dict(zip(names, (float(v) for v in np.clip(result.x, low, high))))
 
-def polish(residuals: _Residuals, problem: Problem, curves: dict, functions,
+def polish(residuals: CurveResiduals, problem: Problem, curves: dict, functions,
             params, effort: int = 200) -> dict:
     """Refine every number of every expression and every parameter jointly.
 

@@ -566,7 +566,7 @@ class NoiseReading(Mapping):
 
 def read_frame_noise(frame, columns) -> dict[str, SignalNoise]:
     """The noise of some columns of a record with ``t``, each read on its longest experiment."""
-    from .._bandlimited import even_grid
+    from .._utils.bandlimited import even_grid
     from .experiments import TIME, TRAJECTORY, split_experiments
     from .spectral import find_quantum
 

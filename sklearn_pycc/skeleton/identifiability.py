@@ -382,6 +382,22 @@ def analyse(skeleton, seed: int = 0) -> IdentifiabilityReport:
                 break
 
     # 4. additive constants exchanged between curves and offsets ----------------------------
+    report.ambiguities += _additive_constants(skeleton, probe, curves=curves, params=params,
+                                              cons=cons, fixed_params=fixed_params,
+                                              zeroed=zeroed)
+    return report
+
+
+def _additive_constants(skeleton, probe, *, curves: dict, params: dict, cons: dict,
+                        fixed_params: set[str], zeroed: set[str]) -> list[Ambiguity]:
+    """Additive constants a curve trades with offsets, and parameters nothing tells apart.
+
+    The sensitivities of the residuals to each free parameter and to a
+    constant added to each curve, and where one is a combination of those
+    before it, the ambiguity that makes it so.
+    """
+    found: list[Ambiguity] = []
+    fs = skeleton.functions
     reference = probe(curves, params)
     columns, labels = [], []
     for a in skeleton.params:
@@ -415,7 +431,7 @@ def analyse(skeleton, seed: int = 0) -> IdentifiabilityReport:
         name = labels[j]
         if name in skeleton.functions:
             others = _and(partners) if partners else "the data"
-            report.ambiguities.append(Ambiguity(
+            found.append(Ambiguity(
                 "additive_constant", (name, *partners),
                 f"{name} exchanges an additive constant with {others} in "
                 f"{_where(skeleton, [name, *partners])}: adding a constant to {name} can be "
@@ -425,10 +441,10 @@ def analyse(skeleton, seed: int = 0) -> IdentifiabilityReport:
                 Fix("curve_value", name, at=0.0, value=0.0)))
         else:
             others = _and(partners) if partners else "nothing"
-            report.ambiguities.append(Ambiguity(
+            found.append(Ambiguity(
                 "redundant_parameter", (name, *partners),
                 f"{name} enters {_where(skeleton, [name])} only in combination with "
                 f"{others}: it cannot be told apart from them.",
                 f"Fixed {name}=0 (or remove it from the skeleton).",
                 Fix("param_value", name, value=0.0)))
-    return report
+    return found

@@ -18,20 +18,20 @@ from scipy.integrate import solve_ivp
 from sklearn.utils import Bunch
 
 from ._generation import (
-    _add_noise,
-    _check_n_samples,
-    _check_noise,
-    _check_noise_columns,
-    _check_random_state,
-    _check_real,
-    _check_t_span,
+    add_noise,
+    check_n_samples,
+    check_noise,
+    check_noise_columns,
+    check_random_state,
+    check_real,
+    check_t_span,
 )
 
 __all__ = ["make_pendulum", "make_positioning_axis", "make_resonator"]
 
 
-def _positive(name: str, value, *, minimum: float = 0.0) -> float:
-    value = _check_real(name, value)
+def positive(name: str, value, *, minimum: float = 0.0) -> float:
+    value = check_real(name, value)
     if value <= minimum:
         raise ValueError(f"{name} must be greater than {minimum:g}, got {value!r}")
     return value
@@ -56,7 +56,7 @@ def _drop(frame: pd.DataFrame, fraction: float, rng: np.random.Generator) -> pd.
 
 def _sweep_reference(t: np.ndarray, stroke: float, rng: np.random.Generator) -> np.ndarray:
     """A smooth random reference: a multisine of 0.1 to 2 Hz scaled to the stroke."""
-    u = _multisine(rng, (0.1, 2.0), 1.0, t[-1] - t[0] + (t[1] - t[0]), 20)
+    u = multisine(rng, (0.1, 2.0), 1.0, t[-1] - t[0] + (t[1] - t[0]), 20)
     values = u(t - t[0])
     return stroke * values / np.max(np.abs(values))
 
@@ -181,28 +181,28 @@ def make_positioning_axis(
     ValueError
         For a setting out of its range, named.
     """
-    n = _check_n_samples(n_samples)
-    start, end = _check_t_span(t_span)
+    n = check_n_samples(n_samples)
+    start, end = check_t_span(t_span)
     fs = (n - 1) / (end - start)
-    noise = _check_noise(noise)
-    noisy = _check_noise_columns(noise_columns, ["t", "x1", "F"], ["x1"])
-    m = _positive("mass", mass)
+    noise = check_noise(noise)
+    noisy = check_noise_columns(noise_columns, ["t", "x1", "F"], ["x1"])
+    m = positive("mass", mass)
     forward, backward = _viscous_pair(viscous)
     # viscous friction c v + d |v|: forward + backward over 2, and half their difference
     c, d = (forward + backward) / 2, (forward - backward) / 2
     fc, f0 = float(coulomb), float(offset)
-    k_motor = _positive("gain", gain)
-    v_max = _positive("saturation", saturation)
-    eps = _positive("coulomb_velocity", coulomb_velocity)
+    k_motor = positive("gain", gain)
+    v_max = positive("saturation", saturation)
+    eps = positive("coulomb_velocity", coulomb_velocity)
     q = float(encoder_step)
-    rng = _check_random_state(random_state)
+    rng = check_random_state(random_state)
     h = 1.0 / fs
     t = start + np.arange(n) * h
     if reference not in ("sweep", "moves"):
         raise ValueError(f"reference must be 'sweep' or 'moves', got {reference!r}")
     make_reference = _sweep_reference if reference == "sweep" else _reference
-    r = make_reference(t, _positive("stroke", stroke), rng)
-    wn = 2 * math.pi * _positive("bandwidth", bandwidth)
+    r = make_reference(t, positive("stroke", stroke), rng)
+    wn = 2 * math.pi * positive("bandwidth", bandwidth)
     kp, kd = m * wn**2 / k_motor, 2 * 0.7 * wn * m / k_motor
     alpha = math.exp(-2 * math.pi * 200.0 * h)  # 200 Hz filter on the encoder velocity
 
@@ -237,7 +237,7 @@ def make_positioning_axis(
             v += dt * (a1 + 2 * a2 + 2 * a3 + a4) / 6
     frame = pd.DataFrame({"t": t, "x1": xs, "F": forces})
     if noise is not None and noisy:
-        frame = _add_noise(frame, noise, noisy, rng)
+        frame = add_noise(frame, noise, noisy, rng)
     if not return_truth:
         return frame
     equations = ["x1_dot = x2", "x2_dot = a1 F - a2 x2 - a3 tanh(a4 x2) - a5"]
@@ -271,7 +271,7 @@ class Multisine:
         return self.line_amplitude * out if out.ndim else float(self.line_amplitude * out)
 
 
-def _multisine(rng: np.random.Generator, band: tuple[float, float], amplitude: float,
+def multisine(rng: np.random.Generator, band: tuple[float, float], amplitude: float,
                period: float, components: int) -> Multisine:
     """A random-phase multisine on harmonics of ``1 / period`` within ``band`` (Hz)."""
     base = 1.0 / period
@@ -384,29 +384,29 @@ def make_resonator(
     ValueError
         For a setting out of its range, named.
     """
-    n = _check_n_samples(n_samples)
-    f_n = _positive("natural_frequency", natural_frequency)
+    n = check_n_samples(n_samples)
+    f_n = positive("natural_frequency", natural_frequency)
     if t_span is not None and samples_per_period is not None:
         raise ValueError("give t_span or samples_per_period, not both")
     if t_span is None:
-        per = _positive("samples_per_period", 10.0 if samples_per_period is None
+        per = positive("samples_per_period", 10.0 if samples_per_period is None
                         else samples_per_period, minimum=2.0)
         start = 0.0
     else:
-        start, end = _check_t_span(t_span)
+        start, end = check_t_span(t_span)
         per = (n - 1) / (end - start) / f_n
-    noise = _check_noise(noise)
-    noisy = _check_noise_columns(noise_columns, ["t", "x1", "u"], ["x1"])
-    zeta = _positive("damping_ratio", damping_ratio)
-    g = _positive("input_gain", input_gain)
+    noise = check_noise(noise)
+    noisy = check_noise_columns(noise_columns, ["t", "x1", "u"], ["x1"])
+    zeta = positive("damping_ratio", damping_ratio)
+    g = positive("input_gain", input_gain)
     drop = _fraction("drop_fraction", drop_fraction)
-    rng = _check_random_state(random_state)
+    rng = check_random_state(random_state)
     k = (2 * math.pi * f_n) ** 2
     c = 2 * zeta * math.sqrt(k)
     h = 1.0 / (per * f_n)
     t = start + np.arange(n) * h
-    level = _positive("amplitude", amplitude) * 0.02 * k / g
-    u = _multisine(rng, (band[0] * f_n, band[1] * f_n), level, t[-1] + h, 64)
+    level = positive("amplitude", amplitude) * 0.02 * k / g
+    u = multisine(rng, (band[0] * f_n, band[1] * f_n), level, t[-1] + h, 64)
     # the linear response's rms sets the cubic coefficient
     gains = g / np.abs(k - u.omegas**2 + 1j * c * u.omegas)
     x_rms = u.line_amplitude * float(np.sqrt(np.sum(gains**2) / 2))
@@ -415,7 +415,7 @@ def make_resonator(
     x1, x2 = _duffing_rk4(h, n, u, g, c, k, k3, substeps=16, y0=y0, start=start)
     frame = pd.DataFrame({"t": t, "x1": x1, "u": u(t)})
     if noise is not None and noisy:
-        frame = _add_noise(frame, noise, noisy, rng)
+        frame = add_noise(frame, noise, noisy, rng)
     states = pd.DataFrame({"x1": x1, "x2": x2})
     if drop:
         frame = _drop(frame.assign(_x1=x1, _x2=x2), drop, rng)
@@ -491,17 +491,17 @@ def make_pendulum(
     ValueError
         For a setting out of its range, named.
     """
-    n = _check_n_samples(n_samples)
-    start, end = _check_t_span(t_span)
-    noise = _check_noise(noise)
-    noisy = _check_noise_columns(noise_columns, ["t", "x1"], ["x1"])
-    w0 = 2 * math.pi * _positive("natural_frequency", natural_frequency)
-    c = 2 * _positive("damping_ratio", damping_ratio) * w0
-    q = _check_real("pixel", pixel)
+    n = check_n_samples(n_samples)
+    start, end = check_t_span(t_span)
+    noise = check_noise(noise)
+    noisy = check_noise_columns(noise_columns, ["t", "x1"], ["x1"])
+    w0 = 2 * math.pi * positive("natural_frequency", natural_frequency)
+    c = 2 * positive("damping_ratio", damping_ratio) * w0
+    q = check_real("pixel", pixel)
     if q < 0:
         raise ValueError(f"pixel must be non-negative, got {pixel!r}")
     drop = _fraction("drop_fraction", drop_fraction)
-    rng = _check_random_state(random_state)
+    rng = check_random_state(random_state)
     t = np.linspace(start, end, n)
 
     def rhs(_, y):
@@ -518,7 +518,7 @@ def make_pendulum(
     reading = np.round(x1 / q) * q if q > 0 else x1.copy()
     frame = pd.DataFrame({"t": t, "x1": reading})
     if noise is not None and noisy:
-        frame = _add_noise(frame, noise, noisy, rng)
+        frame = add_noise(frame, noise, noisy, rng)
     frame = _drop(frame.assign(_x1=x1, _x2=x2), drop, rng)
     states = frame[["_x1", "_x2"]].set_axis(["x1", "x2"], axis=1)
     frame = frame[["t", "x1"]]

@@ -16,14 +16,14 @@ import pandas as pd
 from sklearn.utils import Bunch
 
 from ._generation import (
-    _add_noise,
-    _check_n_samples,
-    _check_noise,
-    _check_noise_columns,
-    _check_random_state,
-    _check_t_span,
+    add_noise,
+    check_n_samples,
+    check_noise,
+    check_noise_columns,
+    check_random_state,
+    check_t_span,
 )
-from ._lab_records import _multisine, _positive
+from ._lab_records import multisine, positive
 
 __all__ = ["HeldInput", "make_two_tanks"]
 
@@ -163,32 +163,32 @@ def make_two_tanks(
     >>> list(frame.columns), len(frame), float(frame.t[1] - frame.t[0])
     (['t', 'u', 'x2'], 1024, 4.0)
     """
-    n = _check_n_samples(n_samples)
-    start_time, end_time = (0.0, 4.0 * (n - 1)) if t_span is None else _check_t_span(t_span)
+    n = check_n_samples(n_samples)
+    start_time, end_time = (0.0, 4.0 * (n - 1)) if t_span is None else check_t_span(t_span)
     h = (end_time - start_time) / max(n - 1, 1)
-    noise = _check_noise(noise)
+    noise = check_noise(noise)
     measured = list(measured)
     odd = [name for name in measured if name not in ("x1", "x2")]
     if odd or not measured or len(set(measured)) != len(measured):
         raise ValueError(f"measured must name some of 'x1' and 'x2' once each, got {measured!r}")
-    noisy = _check_noise_columns(noise_columns, ["t", "u", *measured], measured)
+    noisy = check_noise_columns(noise_columns, ["t", "u", *measured], measured)
     values = {"a1": 0.02, "a2": 0.04, "a3": 0.05, "a4": 0.045}
     if params is not None:
         unknown = [name for name in params if name not in values]
         if unknown:
             raise ValueError(f"params names {unknown[0]!r}; the tanks have a1, a2, a3 and a4")
-        values.update({name: _positive(name, value) for name, value in params.items()})
-    rim = np.array([_positive("rims[0]", rims[0]), _positive("rims[1]", rims[1])])
+        values.update({name: positive(name, value) for name, value in params.items()})
+    rim = np.array([positive("rims[0]", rims[0]), positive("rims[1]", rims[1])])
     low, high = float(pump[0]), float(pump[1])
     if not 0 <= low < high:
         raise ValueError(f"pump must be (least, largest) voltage with 0 <= least < largest, "
                          f"got {pump!r}")
-    short, long = _positive("periods[0]", periods[0]), _positive("periods[1]", periods[1])
+    short, long = positive("periods[0]", periods[0]), positive("periods[1]", periods[1])
     if not short < long:
         raise ValueError(f"periods must be (shortest, longest), got {periods!r}")
-    rng = _check_random_state(random_state)
+    rng = check_random_state(random_state)
     t = start_time + np.arange(n) * h
-    wave = _multisine(rng, (1.0 / long, 1.0 / short), 1.0, max(n * h, long), 32)(t)
+    wave = multisine(rng, (1.0 / long, 1.0 / short), 1.0, max(n * h, long), 32)(t)
     spread = float(np.max(np.abs(wave))) or 1.0
     # the multisine's peaks reach a little beyond the pump's range, where it clips
     u = np.clip(0.5 * (low + high) + 0.6 * (high - low) * wave / spread, low, high)
@@ -201,7 +201,7 @@ def make_two_tanks(
     frame = pd.DataFrame({"t": t, "u": u, **{name: levels[:, int(name[1]) - 1]
                                              for name in measured}})
     if noise is not None and noisy:
-        frame = _add_noise(frame, noise, noisy, rng)
+        frame = add_noise(frame, noise, noisy, rng)
     if not return_truth:
         return frame
     at_rim = np.isclose(levels, rim[None, :], rtol=0.0, atol=1e-9)

@@ -9,21 +9,21 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-__all__ = ["_add_noise", "_check_n_samples", "_check_noise", "_check_noise_columns",
-           "_check_random_state", "_check_real", "_check_t_span"]
+__all__ = ["add_noise", "check_n_samples", "check_noise", "check_noise_columns",
+           "check_random_state", "check_real", "check_t_span"]
 
 _TIME = "t"
 
 
 # -- validation ---------------------------------------------------------------
-def _check_n_samples(n_samples) -> int:
+def check_n_samples(n_samples) -> int:
     if (not isinstance(n_samples, numbers.Integral) or isinstance(n_samples, bool)
             or n_samples < 2):
         raise ValueError(f"n_samples must be an integer >= 2, got {n_samples!r}")
     return int(n_samples)
 
 
-def _check_t_span(t_span) -> tuple[float, float]:
+def check_t_span(t_span) -> tuple[float, float]:
     if isinstance(t_span, (str, bytes)):
         raise ValueError(f"t_span must be a pair (t_start, t_end) of floats, got {t_span!r}")
     try:
@@ -42,7 +42,7 @@ def _check_t_span(t_span) -> tuple[float, float]:
     return start, end
 
 
-def _check_real(name: str, value) -> float:
+def check_real(name: str, value) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ValueError(f"{name} must be a finite float, got {value!r}")
     value = float(value)
@@ -51,7 +51,7 @@ def _check_real(name: str, value) -> float:
     return value
 
 
-def _check_noise(noise) -> float | None:
+def check_noise(noise) -> float | None:
     if noise is None:
         return None
     if isinstance(noise, bool) or not isinstance(noise, numbers.Real):
@@ -64,7 +64,7 @@ def _check_noise(noise) -> float | None:
     return noise
 
 
-def _check_noise_columns(noise_columns, columns: Sequence[str],
+def check_noise_columns(noise_columns, columns: Sequence[str],
                          states: Sequence[str]) -> list[str]:
     if noise_columns is None:
         return list(states)
@@ -88,7 +88,7 @@ def _check_noise_columns(noise_columns, columns: Sequence[str],
     return list(dict.fromkeys(chosen))
 
 
-def _check_random_state(random_state) -> np.random.Generator:
+def check_random_state(random_state) -> np.random.Generator:
     try:
         return np.random.default_rng(random_state)
     except (TypeError, ValueError) as exc:
@@ -98,7 +98,7 @@ def _check_random_state(random_state) -> np.random.Generator:
 
 
 # -- noise ----------------------------------------------------------------------
-def _add_noise(frame: pd.DataFrame, snr_db: float, columns: Sequence[str],
+def add_noise(frame: pd.DataFrame, snr_db: float, columns: Sequence[str],
                rng: np.random.Generator) -> pd.DataFrame:
     """Add white Gaussian noise at a signal-to-noise ratio to some columns.
 

@@ -1,12 +1,4 @@
-"""Derivatives of noisy samples: the ``differentiation`` hyperparameter.
-
-A differentiator turns one experiment's samples ``x(t)`` into a smoothed
-``x`` and its derivatives up to a given order. The hyperparameter is a name
-(``"auto"``, ``"lowpass"``, ``"spline"``, ``"savgol"``,
-``"finite_difference"``, ``"kalman"``, ``"trend_filtered"``), a dict
-``{"method": name, **options}``, an object of the ``derivative`` package
-(anything with ``d(x, t)``), or a callable ``f(x, t) -> dx/dt``.
-"""
+"""The classic differentiators: smoothing spline, Savitzky-Golay, finite differences, packages."""
 
 from __future__ import annotations
 
@@ -16,7 +8,9 @@ import numpy as np
 from scipy.interpolate import make_smoothing_spline
 from scipy.signal import savgol_filter
 
-__all__ = ["DIFFERENTIATION_METHODS", "Differentiator", "resolve_differentiation"]
+__all__ = ["CallableDifferentiator", "Differentiator", "FiniteDifferences",
+           "PackageDifferentiator", "SavgolDifferentiator", "SplineDifferentiator", "kalman",
+           "trend_filtered"]
 
 
 class Differentiator:
@@ -214,7 +208,7 @@ def _derivative_package():
     return derivative
 
 
-def _kalman(alpha: float | None = None) -> Differentiator:
+def kalman(alpha: float | None = None) -> Differentiator:
     derivative = _derivative_package()
     if alpha is not None and not (np.isfinite(alpha) and alpha > 0):
         raise ValueError(f"kalman alpha must be a positive number or None, got {alpha!r}")
@@ -246,76 +240,10 @@ def _kalman_alpha(t: np.ndarray, x: np.ndarray) -> float:
     return float(np.clip(sigma2 / q, 1e-12, 1e12)) if sigma2 > 0 else 1e-12
 
 
-def _trend_filtered(order: int = 2, alpha: float = 1e-4, max_iter: int = 10000) -> Differentiator:
+def trend_filtered(order: int = 2, alpha: float = 1e-4, max_iter: int = 10000) -> Differentiator:
     derivative = _derivative_package()
     method = derivative.TrendFiltered(order=order, alpha=alpha, max_iter=max_iter)
     differentiator = PackageDifferentiator(
         method, f"trend filtering (order {order}, alpha {alpha:g})", min_samples=order + 3)
     differentiator.uniform_only = True  # the package reads one time step, t[1] - t[0]
     return differentiator
-
-
-def _auto() -> Differentiator:
-    from .lowpass import AutoDifferentiator
-
-    return AutoDifferentiator()
-
-
-def _lowpass(cutoff: float | None = None, order: int = 6,
-             filter_inputs: bool = True) -> Differentiator:
-    from .lowpass import LowpassDifferentiator
-
-    return LowpassDifferentiator(cutoff, order, filter_inputs)
-
-
-#: name -> factory of its default differentiator (options as keyword arguments)
-DIFFERENTIATION_METHODS: dict[str, Callable[..., Differentiator]] = {
-    "auto": _auto,
-    "lowpass": _lowpass,
-    "spline": SplineDifferentiator,
-    "savgol": SavgolDifferentiator,
-    "finite_difference": FiniteDifferences,
-    "kalman": _kalman,
-    "trend_filtered": _trend_filtered,
-}
-
-
-def resolve_differentiation(spec) -> Differentiator:
-    """Turn the ``differentiation`` hyperparameter into a :class:`Differentiator`.
-
-    Raises
-    ------
-    ValueError
-        For an unknown name or option; the message lists the known ones.
-    """
-    if isinstance(spec, Differentiator):
-        return spec
-    if isinstance(spec, str):
-        return _by_name(spec, {})
-    if isinstance(spec, Mapping):
-        options = dict(spec)
-        name = options.pop("method", None)
-        if not isinstance(name, str):
-            raise ValueError("a differentiation dict needs a 'method' key naming one of "
-                             f"{sorted(DIFFERENTIATION_METHODS)}, got {spec!r}")
-        return _by_name(name, options)
-    if hasattr(spec, "d") and callable(spec.d):
-        return PackageDifferentiator(spec, type(spec).__name__)
-    if callable(spec):
-        return CallableDifferentiator(spec)
-    raise ValueError(
-        f"differentiation must be one of {sorted(DIFFERENTIATION_METHODS)}, a dict "
-        f"{{'method': name, **options}}, a callable f(x, t) or an object with d(x, t); "
-        f"got {spec!r}")
-
-
-def _by_name(name: str, options: dict) -> Differentiator:
-    if name not in DIFFERENTIATION_METHODS:
-        raise ValueError(f"unknown differentiation method {name!r}; choose one of "
-                         f"{sorted(DIFFERENTIATION_METHODS)}, a callable f(x, t) or an "
-                         "object with d(x, t)")
-    try:
-        return DIFFERENTIATION_METHODS[name](**options)
-    except TypeError as error:
-        raise ValueError(f"bad options {options} for the differentiation method {name!r}: "
-                         f"{error}") from None

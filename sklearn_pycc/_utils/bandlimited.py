@@ -21,7 +21,7 @@ from scipy.interpolate import CubicSpline
 __all__ = ["EvenGrid", "bandlimited_slopes", "central_derivative", "even_grid"]
 
 #: half-length of the band-limited differentiator (41 taps)
-_HALF = 20
+HALF = 20
 #: Kaiser window of the differentiator: error below 1e-4 up to 0.84 of the Nyquist frequency
 _BETA = 10.0
 #: sixth-order central first derivative (near the ends), weights of x[i-3] ... x[i+3]
@@ -30,7 +30,7 @@ _STENCIL = np.array([-1 / 60, 3 / 20, -3 / 4, 0.0, 3 / 4, -3 / 20, 1 / 60])
 
 def _differentiator_taps() -> np.ndarray:
     """The ideal differentiator ``(-1)^(k+1) / k``, Kaiser-windowed, as convolution taps."""
-    k = np.arange(-_HALF, _HALF + 1)
+    k = np.arange(-HALF, HALF + 1)
     taps = np.zeros(len(k))
     nonzero = k != 0
     taps[nonzero] = (-1.0) ** (k[nonzero] + 1) / k[nonzero]
@@ -59,8 +59,8 @@ def central_derivative(z: np.ndarray, step: float) -> np.ndarray:
             if w:
                 inner += w * z[k:n - 6 + k]
         out[3:-3] = inner / step
-    if n > 2 * _HALF:
-        out[_HALF:-_HALF] = np.convolve(z, _TAPS, mode="valid") / step
+    if n > 2 * HALF:
+        out[HALF:-HALF] = np.convolve(z, _TAPS, mode="valid") / step
     return out
 
 

@@ -12,7 +12,7 @@ for dropped ones is filled by cubic interpolation before filtering and read
 back at its own samples; an irregular one is resampled on an even grid.
 
 :class:`AutoDifferentiator` (``differentiation="auto"``) chooses the cutoff
-per experiment from the record's spectrum (see :mod:`.spectral`).
+per experiment from the record's spectrum (see :mod:`sklearn_pycc.measurements.spectral`).
 """
 
 from __future__ import annotations
@@ -20,10 +20,10 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from .._bandlimited import _HALF, EvenGrid, central_derivative, even_grid
-from .differentiation import Differentiator
-from .noise import read_noise
-from .spectral import choose_cutoff, find_quantum, read_spectrum
+from ..._utils.bandlimited import HALF, EvenGrid, central_derivative, even_grid
+from ..noise import read_noise
+from ..spectral import choose_cutoff, find_quantum, read_spectrum
+from ._classic import Differentiator
 
 __all__ = ["AutoDifferentiator", "LowpassDifferentiator", "central_derivative", "even_grid"]
 
@@ -127,7 +127,7 @@ class LowpassDifferentiator(Differentiator):
         grid = even_grid(t)
         if not self._filters(grid):
             return 0.0
-        return max(SETTLING_PERIODS / self.cutoff, _HALF * grid.step)
+        return max(SETTLING_PERIODS / self.cutoff, HALF * grid.step)
 
     def smooth_input(self, t: np.ndarray, u: np.ndarray) -> np.ndarray | None:
         """The input through the same filter (None when nothing is filtered)."""

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from ._generation import _check_noise_columns, _check_random_state
+from ._generation import check_noise_columns, check_random_state
 
 __all__ = ["add_sensor_noise"]
 
@@ -72,8 +72,8 @@ def add_sensor_noise(frame: pd.DataFrame, columns: Sequence[str] | None = None, 
     if not (np.isfinite(drift) and drift >= 0):
         raise ValueError(f"drift must be a non-negative share of the RMS, got {drift!r}")
     names = [c for c in frame.columns if c not in ("t", "trajectory")]
-    chosen = _check_noise_columns(columns, [str(c) for c in frame.columns], names)
-    rng = _check_random_state(random_state)
+    chosen = check_noise_columns(columns, [str(c) for c in frame.columns], names)
+    rng = check_random_state(random_state)
     noisy = frame.copy()
     n = len(frame)
     for name in chosen:

@@ -1,41 +1,4 @@
-"""Benchmark systems with known characteristic curves, simulated on demand.
-
-Each ``make_*`` function simulates one system of ordinary differential
-equations whose hidden curves are known, and returns a
-:class:`pandas.DataFrame` with the columns ``t``, the states, the inputs and
-the exact (noise-free) derivatives ``NAME_dot``, evaluated from the
-right-hand side on the trajectory. Gaussian measurement noise may be added
-at a given signal-to-noise ratio to chosen columns.
-
-With ``return_truth=True`` the functions also return a
-:class:`~sklearn.utils.Bunch` describing the ground truth: the functional
-skeleton, the true curves, the true parameters, the input signals and the
-initial state.
-
-The truth also names what a hypothesis loop should find: ``base_equations``
-is the linear skeleton the loop starts from and ``hidden`` the catalogue
-names (:mod:`sklearn_pycc.effects`) of the effects it lacks.
-
-The systems follow the families of the method's papers:
-
-- :func:`make_stick_slip`: the seed paper's Duffing oscillator with
-  stick-slip friction;
-- :func:`make_duffing`: a forced chaotic Duffing oscillator;
-- :func:`make_van_der_pol`: a forced van der Pol oscillator in Liénard form;
-- :func:`make_first_order`: a first-order nonlinear RC or RL circuit,
-  written unsolved for the derivative;
-- :func:`make_two_dof`: two oscillators joined by a nonlinear spring;
-- :func:`make_oscillator`: a linear oscillator with chosen effects of the
-  catalogue hidden in it.
-
-and records as a laboratory hands them over (positions only, quantised,
-sampled in closed loop, few samples per period, dropped samples):
-
-- :func:`make_positioning_axis`: a positioning axis under a sampled PD
-  controller, read by an incremental encoder;
-- :func:`make_resonator`: a lightly damped hardening oscillator driven by a
-  multisine and sampled at about ten samples per period.
-"""
+"""Oscillators, circuits and coupled bodies with hidden curves (:mod:`sklearn_pycc.datasets`)."""
 
 from __future__ import annotations
 
@@ -48,32 +11,24 @@ import numpy as np
 import pandas as pd
 from sklearn.utils import Bunch
 
+from ..skeleton import Skeleton
 from ._generation import (
-    _add_noise,
-    _check_n_samples,
-    _check_noise,
-    _check_noise_columns,
-    _check_random_state,
-    _check_real,
-    _check_t_span,
+    add_noise,
+    check_n_samples,
+    check_noise,
+    check_noise_columns,
+    check_random_state,
+    check_real,
+    check_t_span,
 )
-from ._lab_records import make_pendulum, make_positioning_axis, make_resonator
-from ._process_records import make_two_tanks
-from ._sensor_noise import add_sensor_noise
-from .skeleton import Skeleton
 
 __all__ = [
-    "add_sensor_noise",
     "make_duffing",
     "make_experiments",
     "make_first_order",
     "make_oscillator",
-    "make_pendulum",
-    "make_positioning_axis",
-    "make_resonator",
     "make_stick_slip",
     "make_two_dof",
-    "make_two_tanks",
     "make_van_der_pol",
 ]
 
@@ -144,13 +99,13 @@ def _generate(
     With ``simulate_parametric`` the data come from ``parametric_equations``
     and ``params`` rather than from ``equations`` and ``functions``.
     """
-    n_samples = _check_n_samples(n_samples)
-    start, end = _check_t_span(t_span)
-    noise = _check_noise(noise)
+    n_samples = check_n_samples(n_samples)
+    start, end = check_t_span(t_span)
+    noise = check_noise(noise)
     skeleton = Skeleton(parametric_equations if simulate_parametric else equations)
     columns = [_TIME, *skeleton.states, *skeleton.inputs, *skeleton.derivatives]
-    chosen = _check_noise_columns(noise_columns, columns, skeleton.states)
-    rng = _check_random_state(random_state)
+    chosen = check_noise_columns(noise_columns, columns, skeleton.states)
+    rng = check_random_state(random_state)
     try:
         y0 = tuple(float(v) for v in y0)
     except (TypeError, ValueError):
@@ -168,7 +123,7 @@ def _generate(
                               rtol=_RTOL, atol=_ATOL, return_derivatives=True)
     frame = frame[columns].reset_index(drop=True)
     if noise is not None and chosen:
-        frame = _add_noise(frame, noise, chosen, rng)
+        frame = add_noise(frame, noise, chosen, rng)
     if not return_truth:
         return frame
     truth = Bunch(
@@ -279,10 +234,10 @@ def make_stick_slip(
     ['t', 'x1', 'x2', 'F_ext', 'x1_dot', 'x2_dot']
 
     """
-    alpha, beta = _check_real("alpha", alpha), _check_real("beta", beta)
-    delta, mu = _check_real("delta", delta), _check_real("mu", mu)
-    steepness = _check_real("steepness", steepness)
-    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
+    alpha, beta = check_real("alpha", alpha), check_real("beta", beta)
+    delta, mu = check_real("delta", delta), check_real("mu", mu)
+    steepness = check_real("steepness", steepness)
+    amplitude, omega = check_real("amplitude", amplitude), check_real("omega", omega)
     return _generate(
         equations=list(_SECOND_ORDER),
         functions={
@@ -367,9 +322,9 @@ def make_duffing(
         If the trajectory diverges.
 
     """
-    alpha, beta = _check_real("alpha", alpha), _check_real("beta", beta)
-    delta = _check_real("delta", delta)
-    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
+    alpha, beta = check_real("alpha", alpha), check_real("beta", beta)
+    delta = check_real("delta", delta)
+    amplitude, omega = check_real("amplitude", amplitude), check_real("omega", omega)
     return _generate(
         equations=list(_SECOND_ORDER),
         functions={
@@ -445,8 +400,8 @@ def make_van_der_pol(
         If the trajectory diverges.
 
     """
-    mu = _check_real("mu", mu)
-    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
+    mu = check_real("mu", mu)
+    amplitude, omega = check_real("amplitude", amplitude), check_real("omega", omega)
     return _generate(
         equations=["x1_dot = x2", "x2_dot = F_ext - f1(x1) x2 - f2(x1)"],
         functions={
@@ -544,7 +499,7 @@ def make_first_order(
     else:
         raise ValueError(
             f"kind must be one of {', '.join(map(repr, _FIRST_ORDER_KINDS))}, got {kind!r}")
-    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
+    amplitude, omega = check_real("amplitude", amplitude), check_real("omega", omega)
     return _generate(
         equations=["F_ext = f1(x1) + f2(x1) x1_dot"],
         functions=functions,
@@ -632,13 +587,13 @@ def make_two_dof(
         If the trajectory diverges.
 
     """
-    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
-    damping1 = _check_real("damping1", damping1)
-    stiffness1 = _check_real("stiffness1", stiffness1)
-    coupling = _check_real("coupling", coupling)
-    coupling_cubic = _check_real("coupling_cubic", coupling_cubic)
-    damping2 = _check_real("damping2", damping2)
-    stiffness2 = _check_real("stiffness2", stiffness2)
+    amplitude, omega = check_real("amplitude", amplitude), check_real("omega", omega)
+    damping1 = check_real("damping1", damping1)
+    stiffness1 = check_real("stiffness1", stiffness1)
+    coupling = check_real("coupling", coupling)
+    coupling_cubic = check_real("coupling_cubic", coupling_cubic)
+    damping2 = check_real("damping2", damping2)
+    stiffness2 = check_real("stiffness2", stiffness2)
     return _generate(
         equations=[
             "x1_dot = x3",
@@ -788,10 +743,10 @@ def make_oscillator(
     'x2_dot = F_ext - a1 x2 - a2 x1 - a3*x1^3'
 
     """
-    from .diagnostics.effects import get as get_effect
+    from ..diagnostics.effects import get as get_effect
 
-    damping, stiffness = _check_real("damping", damping), _check_real("stiffness", stiffness)
-    amplitude, omega = _check_real("amplitude", amplitude), _check_real("omega", omega)
+    damping, stiffness = check_real("damping", damping), check_real("stiffness", stiffness)
+    amplitude, omega = check_real("amplitude", amplitude), check_real("omega", omega)
     skeleton = Skeleton(_LINEAR)
     params = {"a1": damping, "a2": stiffness}
     roles = {"velocity": {"v": "x2"}, "position": {"x": "x1"},
@@ -820,7 +775,7 @@ def make_oscillator(
         extended = skeleton.add_term("x2", term)
         new = [a for a in extended.params if a not in skeleton.params]
         for a, value in zip(new, own):
-            params[a] = _check_real(f"hidden: {name!r} {value}", values[value])
+            params[a] = check_real(f"hidden: {name!r} {value}", values[value])
         skeleton = extended
     return _generate(
         equations=list(skeleton.equations),
@@ -899,7 +854,7 @@ def make_experiments(
             where = "the shared arguments" if k == 0 else f"experiment {k - 1}"
             raise ValueError(f"{where} set {sorted(clash)[0]!r}; pass it to make_experiments "
                              "itself")
-    streams = _check_random_state(random_state).spawn(len(settings))
+    streams = check_random_state(random_state).spawn(len(settings))
     frames, truths = [], []
     for k, (item, stream) in enumerate(zip(settings, streams)):
         try:
