@@ -330,6 +330,7 @@ def integrate_system(
     y0: np.ndarray,
     names: Sequence[str],
     method: str = "LSODA",
+    *,
     rtol: float = 1e-6,
     atol: float = 1e-8,
     max_steps: int | None = DEFAULT_MAX_STEPS,
@@ -440,7 +441,7 @@ _E1, _E3, _E4, _E5, _E6, _E7 = (71 / 57600, -71 / 16695, 71 / 1920, -17253 / 339
 STIFF_STEPS = 16
 
 
-def _stiff_interval(fun, start: float, end: float, y: list, rtol: float, atol: float,
+def _stiff_interval(fun, start: float, end: float, y: list, rtol: float, *, atol: float,
                     budget: float) -> tuple[list, int]:
     """Integrate one sample interval with LSODA; return the state at its end and the steps."""
     solver = integrate.LSODA(lambda time, state: fun(time, state.tolist()), start,
@@ -475,6 +476,7 @@ def integrate_sampled(
     y0: np.ndarray,
     names: Sequence[str],
     signals: InputSignals,
+    *,
     rtol: float = 1e-6,
     atol: float = 1e-8,
     max_steps: int | None = DEFAULT_MAX_STEPS,
@@ -532,7 +534,8 @@ def integrate_sampled(
                 if here == STIFF_STEPS:
                     # stability, not accuracy, limits the step: finish this interval with
                     # an implicit method (the input is held as in the explicit steps)
-                    y, used = _stiff_interval(fun, now, end, y, rtol, atol, limit - steps)
+                    y, used = _stiff_interval(fun, now, end, y, rtol, atol=atol,
+                                              budget=limit - steps)
                     steps += used
                     now, k1 = end, list(fun(end, y))
                     break

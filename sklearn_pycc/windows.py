@@ -101,8 +101,8 @@ class Windows:
 
     def __init__(self, states: Sequence[str], inputs: Sequence[str], uses_time: bool,
                  experiments: Sequence[tuple[np.ndarray, np.ndarray]],
-                 starts: Mapping[str, np.ndarray], signals: Mapping[str, np.ndarray],
-                 window: int, *, merge_tail: bool = True, hold: str = "bandlimited") -> None:
+                 starts: Mapping[str, np.ndarray], *, signals: Mapping[str, np.ndarray],
+                 window: int, merge_tail: bool = True, hold: str = "bandlimited") -> None:
         self.states = list(states)
         self.hold = hold
         self.inputs = list(inputs)
@@ -452,7 +452,7 @@ def _positive(value) -> bool:
 
 
 def simulate_windows(system, states: Sequence[str], inputs: Sequence[str], uses_time: bool,
-                     columns: Mapping[str, np.ndarray], signals: Mapping[str, np.ndarray],
+                     columns: Mapping[str, np.ndarray], *, signals: Mapping[str, np.ndarray],
                      experiments: Sequence[tuple[np.ndarray, np.ndarray]], horizon: Horizon,
                      n_samples: int, hold: str = "bandlimited"):
     """Every row predicted from the measured state one horizon (or less) before it.
@@ -472,7 +472,8 @@ def simulate_windows(system, states: Sequence[str], inputs: Sequence[str], uses_
         experiments where some did.
     """
     windows = Windows(states, inputs, uses_time, experiments,
-                      {s: columns[s] for s in states}, signals, horizon.samples, hold=hold)
+                      {s: columns[s] for s in states}, signals=signals, window=horizon.samples,
+                      hold=hold)
     windows.choose_substeps(system, columns)
     out, escaped = windows.simulate(system, windows.initial)
     # each row once: a window's first sample is the previous window's last prediction
@@ -509,7 +510,7 @@ class Divergence:
 
 def simulate_rows(model, columns: Mapping[str, np.ndarray], signals: Mapping[str, np.ndarray],
                   experiments: Sequence[tuple[object, np.ndarray, np.ndarray]],
-                  horizon: Horizon, n_samples: int, *, max_steps: int, rtol: float = 1e-6,
+                  horizon: Horizon, *, n_samples: int, max_steps: int, rtol: float = 1e-6,
                   atol: float = 1e-8,
                   capture_warnings: bool = True) -> tuple[np.ndarray, list[Divergence], list[str]]:
     """A fitted model simulated against a record, on every row.
@@ -554,8 +555,9 @@ def simulate_rows(model, columns: Mapping[str, np.ndarray], signals: Mapping[str
     if horizon.samples is not None:
         system = skeleton.compile(model.functions_, model.params_)
         simulated, escaped = simulate_windows(
-            system, states, inputs, "t" in skeleton.variables, columns, drive,
-            [(rows, t) for _, rows, t in experiments], horizon, n_samples,
+            system, states, inputs, "t" in skeleton.variables, columns, signals=drive,
+            experiments=[(rows, t) for _, rows, t in experiments], horizon=horizon,
+            n_samples=n_samples,
             hold=fitted_hold(model))
         stops = [Divergence(experiments[e][0], start, end,
                       f"{count} of {total} windows of the horizon left the states' range")

@@ -304,11 +304,12 @@ def test_refits_with_an_unmeasured_state_are_timed_and_announced(monkeypatch):
     with pytest.warns(UserWarning, match=r"^12 refits on resamples: the first took [\d.e-]+ s "
                       r"each, so the other 10 take about \d+ s on 1 worker"):
         members, failures, method = _hidden_bootstrap.hidden_members(
-            problem, {"a1": 1.0}, {}, attributes, 12, 0, None, 5)
+            problem, {"a1": 1.0}, {}, attributes, 12, seed=0, n_jobs=None, iterations=5)
     assert len(members) == 12 and not failures and method == "redrawn noise"
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        _hidden_bootstrap.hidden_members(problem, {"a1": 1.0}, {}, attributes, 12, 0, None, 5,
+        _hidden_bootstrap.hidden_members(problem, {"a1": 1.0}, {}, attributes, 12, seed=0,
+                                         n_jobs=None, iterations=5,
                                          verbose=True)
 
 

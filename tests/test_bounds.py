@@ -143,7 +143,7 @@ def test_impossible_constraints_are_named(record):
     A, b = np.eye(3), np.ones(3)
     with pytest.raises(InfeasibleError, match="no coefficients satisfy"):
         bounded_lstsq(A, b, None, None, np.array([[1.0, 0, 0], [-1.0, 0, 0]]),
-                      np.array([1.0, 0.0]))
+                      h=np.array([1.0, 0.0]))
     with pytest.raises(ValueError, match="param_init gives a1 = -1"):
         PolyCCRegressor(equations=PARAMETRIC, constraints=["a1 >= 0"],
                         param_init={"a1": -1.0}).fit(X, y)

@@ -261,7 +261,7 @@ def test_held_inputs_are_integrated_as_steps_when_the_estimator_says_so():
     system = Skeleton(["x1_dot = u"]).compile({}, {})
     for hold, exact in (("zoh", True), ("bandlimited", False)):
         windows = Windows(["x1"], ["u"], False, [(np.arange(len(t)), t)], {"x1": np.zeros(len(t))},
-                          {"u": u}, len(t), merge_tail=False, hold=hold)
+                          signals={"u": u}, window=len(t), merge_tail=False, hold=hold)
         path = windows.simulate(system, np.zeros((1, 1)))[0][0, :, 0]
         steps = np.r_[0.0, np.cumsum(u[:-1] * 0.5)]
         assert np.allclose(path, steps, atol=1e-12) == exact

@@ -93,7 +93,8 @@ def test_the_resampled_choice_keeps_the_penalty_of_each_candidate():
         candidate = SimpleNamespace(key="c", equations=[0], n_change=n_change,
                                     after_squares=math.exp(-fall / 300) * residuals)
         stability = selection_stability([candidate], residuals, residuals, groups, (10.0, 0.01),
-                                        (0.0, 0.0), set(), 20, 0)
+                                        tie=(0.0, 0.0), simulates_better=set(), n_resamples=20,
+                                        random_state=0)
         return stability.wins.get("c", 0)
 
     # just either side of the threshold, for one and for two numbers added

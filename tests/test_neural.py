@@ -139,8 +139,9 @@ def test_constraints_hold_exactly(small_stick_slip, constraints):
 
 def test_curve_network_constraints_hold_in_torch():
     generator = torch.Generator().manual_seed(3)
-    net = CurveNet("f1", (8, 8), "tanh", 0.0, 2.0, "odd", [(1.0, 0.5)], True, generator,
-                   torch.float64)
+    net = CurveNet("f1", (8, 8), "tanh", 0.0, 2.0, parity="odd", points=[(1.0, 0.5)], exact=True,
+                   generator=generator,
+                   dtype=torch.float64)
     x = torch.linspace(-2, 2, 17, dtype=torch.float64)
     with torch.no_grad():
         torch.testing.assert_close(net(x), -net(-x))
@@ -179,8 +180,9 @@ def test_contradictory_point_and_parity_is_an_error(small_stick_slip):
 # -- export to numpy ---------------------------------------------------------------------
 def test_exported_curve_matches_the_network():
     generator = torch.Generator().manual_seed(0)
-    net = CurveNet("f2", (16, 16), "silu", 0.3, 1.7, None, [(0.5, 1.0)], True, generator,
-                   torch.float64)
+    net = CurveNet("f2", (16, 16), "silu", 0.3, 1.7, parity=None, points=[(0.5, 1.0)], exact=True,
+                   generator=generator,
+                   dtype=torch.float64)
     exported = net.export((-1.4, 2.0), "linear")
     x = np.linspace(-1.4, 2.0, 301)
     with torch.no_grad():
@@ -194,8 +196,9 @@ def test_exported_curve_matches_the_network():
                                         "gelu"])
 def test_every_activation_exports_exactly(activation):
     generator = torch.Generator().manual_seed(1)
-    net = CurveNet("f1", (6, 5), activation, 0.0, 1.0, "odd", [], True, generator,
-                   torch.float64)
+    net = CurveNet("f1", (6, 5), activation, 0.0, 1.0, parity="odd", points=[], exact=True,
+                   generator=generator,
+                   dtype=torch.float64)
     exported = net.export((-1.0, 1.0), "linear")
     x = np.linspace(-1.0, 1.0, 51)
     with torch.no_grad():
@@ -236,9 +239,12 @@ def test_predict_and_simulate_never_call_torch(stick_slip, stick_slip_model, mon
 def test_extrapolation_policies():
     layers = [(np.array([[1.0], [-2.0]]), np.array([0.1, 0.3])),
               (np.array([[0.5, 0.7]]), np.array([0.2]))]
-    linear = NumpyCurve("f1", layers, "tanh", 0.0, 1.0, None, [], [], (-1.0, 1.0), "linear")
-    clip = NumpyCurve("f1", layers, "tanh", 0.0, 1.0, None, [], [], (-1.0, 1.0), "clip")
-    strict = NumpyCurve("f1", layers, "tanh", 0.0, 1.0, None, [], [], (-1.0, 1.0), "raise")
+    linear = NumpyCurve("f1", layers, "tanh", 0.0, 1.0, parity=None, exponents=[],
+                        coefficients=[], domain=(-1.0, 1.0), extrapolation="linear")
+    clip = NumpyCurve("f1", layers, "tanh", 0.0, 1.0, parity=None, exponents=[], coefficients=[],
+                      domain=(-1.0, 1.0), extrapolation="clip")
+    strict = NumpyCurve("f1", layers, "tanh", 0.0, 1.0, parity=None, exponents=[],
+                        coefficients=[], domain=(-1.0, 1.0), extrapolation="raise")
     edge_value, _, edge_slope, _ = linear._edges
     assert linear(-3.0) == pytest.approx(edge_value - 2.0 * edge_slope)
     np.testing.assert_allclose(linear(np.array([-3.0])), edge_value - 2.0 * edge_slope)
@@ -272,7 +278,8 @@ def test_raise_policy_stops_the_simulation(stick_slip, stick_slip_model):
     for name, curve in model.functions_.items():
         model.functions_[name] = NumpyCurve(
             curve.name, curve.layers, curve.activation, curve.center, curve.scale,
-            curve.parity, curve.exponents, curve.coefficients, curve.domain, "raise")
+            parity=curve.parity, exponents=curve.exponents, coefficients=curve.coefficients,
+            domain=curve.domain, extrapolation="raise")
     model._compiled = None
     with pytest.raises(SimulationError, match="training range") as info:
         model.simulate(frame["t"], y0=truth.y0, inputs={"F_ext": lambda t: 3 * np.cos(t)})

@@ -144,7 +144,7 @@ def test_numbers_that_do_nothing_are_dropped():
 def test_a_chosen_curve_is_tidied_and_loses_its_idle_numbers():
     found = [Candidate(sympy.Mul(F(1.0), SATURATING + F(2e-9), evaluate=False), 7, 0.0)]
     curve, _, table = choose_candidate(found, Template(None, []), (-1.5, 1.5), None,
-                                       lambda c: (1.0, {}, None), "best")
+                                       lambda c: (1.0, {}, None), rule="best")
     assert curve.expression() == SATURATING and len(curve.values) == 3
     assert table["expression"].tolist() == [SATURATING] and table["nesting"].tolist() == [1]
 

@@ -15,8 +15,8 @@ def _windows(hold: str, n_windows: int) -> Windows:
     n = len(t) * n_windows
     rows = np.arange(n).reshape(n_windows, len(t))
     return Windows(["x1", "x2"], ["u"], True, [(r, t) for r in rows],
-                   {"x1": np.zeros(n), "x2": np.zeros(n)}, {"u": np.tile(u, n_windows)},
-                   len(t), merge_tail=False, hold=hold)
+                   {"x1": np.zeros(n), "x2": np.zeros(n)}, signals={"u": np.tile(u, n_windows)},
+                   window=len(t), merge_tail=False, hold=hold)
 
 
 @pytest.mark.parametrize("hold", ["bandlimited", "zoh"])

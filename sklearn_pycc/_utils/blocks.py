@@ -55,11 +55,11 @@ def bandwidth(scores: np.ndarray, runs: list[slice]) -> int:
         now_before += np.einsum("ij,ij->j", block[1:], block[:-1])
         count += len(block) - 1
     longest = max(s.stop - s.start for s in runs)
-    return plug_in_lag(now_now, now_before, before_before, count, n, longest)
+    return plug_in_lag(now_now, now_before, before_before, count, n, longest=longest)
 
 
 def plug_in_lag(now_now: np.ndarray, now_before: np.ndarray, before_before: np.ndarray,
-                count: int, n: int, longest: int) -> int:
+                count: int, n: int, *, longest: int) -> int:
     """Andrews' AR(1) plug-in lag from sums over ``count`` pairs of samples.
 
     ``now_now``, ``now_before`` and ``before_before`` hold each column's sums of

@@ -282,7 +282,7 @@ def multisine(rng: np.random.Generator, band: tuple[float, float], amplitude: fl
     return Multisine(2 * math.pi * base * lines, phases, amplitude * math.sqrt(2.0 / len(lines)))
 
 
-def _duffing_rk4(h: float, n: int, u: Multisine, g: float, c: float, k: float, k3: float,
+def _duffing_rk4(h: float, n: int, u: Multisine, g: float, c: float, *, k: float, k3: float,
                  substeps: int, y0, start: float) -> tuple[np.ndarray, np.ndarray]:
     """``x'' = g u - c x' - k x - k3 x^3`` from ``y0`` by RK4 at ``h / substeps`` (u exact)."""
     dt = h / substeps
@@ -412,7 +412,7 @@ def make_resonator(
     x_rms = u.line_amplitude * float(np.sqrt(np.sum(gains**2) / 2))
     k3 = float(hardening) * k / x_rms**2
 
-    x1, x2 = _duffing_rk4(h, n, u, g, c, k, k3, substeps=16, y0=y0, start=start)
+    x1, x2 = _duffing_rk4(h, n, u, g, c, k=k, k3=k3, substeps=16, y0=y0, start=start)
     frame = pd.DataFrame({"t": t, "x1": x1, "u": u(t)})
     if noise is not None and noisy:
         frame = add_noise(frame, noise, noisy, rng)

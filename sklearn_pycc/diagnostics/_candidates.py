@@ -435,7 +435,7 @@ def removed_contribution(model, candidate: Candidate, data: DiagnosisData) -> np
 
 
 def screen_candidates(candidates: list[Candidate], data: DiagnosisData, residuals: np.ndarray,
-                      states: list[str], max_rows: int = 2000, model=None) -> None:
+                      states: list[str], max_rows: int = 2000, *, model=None) -> None:
     """Fit each candidate's term(s) to the residual of its equation(s) alone.
 
     A move that takes terms out (``model`` then gives their fitted values)
@@ -530,7 +530,7 @@ def _environment(data: DiagnosisData) -> tuple[dict[str, int], list[np.ndarray]]
 
 
 def refit_candidate(model, candidate: Candidate, data: DiagnosisData, residuals: np.ndarray,
-                    rss_before: np.ndarray, baseline: frozenset = frozenset()) -> None:
+                    rss_before: np.ndarray, *, baseline: frozenset = frozenset()) -> None:
     """Fit the extended skeleton with a clone of ``model``; judge the added term.
 
     ``baseline`` holds the ``(equation, role)`` pairs the model itself already

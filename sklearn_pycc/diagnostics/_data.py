@@ -108,7 +108,7 @@ def check_units(units, X, skeleton) -> dict[str, str]:
 
 
 def read_measurements(skeleton, X, y, differentiation="auto",
-                      smooth: bool = True, who: str = "diagnose") -> DiagnosisData:
+                      smooth: bool = True, *, who: str = "diagnose") -> DiagnosisData:
     """Check ``X`` and ``y`` against a skeleton and line them up.
 
     This is :func:`~sklearn_pycc.measurements.read_record`, the path ``fit``

@@ -94,7 +94,7 @@ def _rolling_mean(values: np.ndarray, width: int) -> np.ndarray:
 
 def worst_windows(data: DiagnosisData, simulation_error: np.ndarray | None,
                   derivative_error: np.ndarray, divergences: list[Divergence],
-                  n_windows: int = 3, fraction: float = 0.1) -> pd.DataFrame:
+                  n_windows: int = 3, *, fraction: float = 0.1) -> pd.DataFrame:
     """The time windows where the model is furthest from the measurements.
 
     ``simulation_error`` and ``derivative_error`` are squared errors per
@@ -173,7 +173,7 @@ class ResidualMap:
 
 
 def residual_map(equation: str, residual: np.ndarray, x_name: str, x: np.ndarray,
-                 y_name: str, y: np.ndarray, bins: int = 15) -> ResidualMap:
+                 y_name: str, *, y: np.ndarray, bins: int = 15) -> ResidualMap:
     """Bin the residual over ``(x, y)`` on a regular grid."""
     def edges(values):
         lo, hi = float(np.min(values)), float(np.max(values))

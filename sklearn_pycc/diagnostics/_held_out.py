@@ -178,7 +178,7 @@ def _fit(estimator, data: DiagnosisData, train: np.ndarray, labels: np.ndarray,
 
 
 def _errors(model, test: DiagnosisData, spreads, horizon: Horizon | None,
-            steps: int, equations) -> dict[str, float]:
+            steps: int, *, equations) -> dict[str, float]:
     """Normalised mean squared errors of ``model`` on the held-out rows."""
     out = {}
     if horizon is not None:
@@ -196,6 +196,7 @@ def _errors(model, test: DiagnosisData, spreads, horizon: Horizon | None,
 
 
 def _fold_errors(base, extended, data: DiagnosisData, held: np.ndarray, spreads,
+                 *,
                  horizon: Horizon | None, max_steps: int, equations, output_error: bool):
     """Held-out errors on one fold of ``base`` and ``extended``, each refitted without it.
 
@@ -211,7 +212,7 @@ def _fold_errors(base, extended, data: DiagnosisData, held: np.ndarray, spreads,
             continue
         try:
             out.append(_errors(_fit(model, data, train, labels, output_error), test, spreads,
-                               horizon, max_steps, equations))
+                               horizon, max_steps, equations=equations))
         except Exception:  # a fold a model cannot be fitted on is a finding, not a crash
             out.append(None)
     return tuple(out)
@@ -268,7 +269,8 @@ def held_out_check(base, extended, data: DiagnosisData, horizon: Horizon | None,
     cache = {} if cache is None else cache
     keys = [(i, tuple(equations)) for i in range(len(folds))]
     jobs = [delayed(_fold_errors)(base if key not in cache else None, extended, data, held,
-                                  spreads, horizon, max_steps, equations, output_error)
+                                  spreads, horizon=horizon, max_steps=max_steps,
+                                  equations=equations, output_error=output_error)
             for key, held in zip(keys, folds)]
     outcomes = jobs and (Parallel(n_jobs=n_jobs)(jobs) if n_jobs not in (None, 1)
                          else [job[0](*job[1], **job[2]) for job in jobs])
@@ -320,7 +322,7 @@ def pooled_errors(model, data, equations: list[int], horizon, max_steps: int):
         try:
             fitted = _fit(model, data, train, _labels(data, held), output_error)
             errors = _errors(fitted, subset(data, held), spreads, horizon, max_steps,
-                             equations)
+                             equations=equations)
         except Exception:  # a fold the skeleton cannot be fitted on counts as a failure
             errors = {"derivatives": math.inf}
             if horizon is not None:

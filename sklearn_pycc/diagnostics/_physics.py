@@ -102,7 +102,7 @@ def _rms(values: np.ndarray) -> float:
     return float(np.sqrt(np.mean(values**2))) if values.size else 0.0
 
 
-def _evaluate(node: Node, slots, env, params, functions, n: int) -> np.ndarray:
+def _evaluate(node: Node, slots, env, params, functions, *, n: int) -> np.ndarray:
     with np.errstate(all="ignore"):
         values = compile_expression(node, slots, params, functions)(env)
     return np.broadcast_to(np.asarray(values, dtype=float), (n,))
@@ -164,7 +164,7 @@ def implausible_terms(model, data: DiagnosisData,
                 continue
             scale = fitted
         n = data.n_samples
-        terms = [_Term(sign, node, sign * _evaluate(node, slots, env, params, functions, n)
+        terms = [_Term(sign, node, sign * _evaluate(node, slots, env, params, functions, n=n)
                        / scale) for sign, node in signed_terms(eq.rhs)]
         if roles.second_order:
             mirrored = list(env)
@@ -172,18 +172,19 @@ def implausible_terms(model, data: DiagnosisData,
             for term in terms:
                 if _symbols(term.node) == {roles.velocity}:
                     back = term.sign * _evaluate(term.node, slots, mirrored, params, functions,
-                                                 n) / scale
+                                                 n=n) / scale
                     term.even = bool(np.any(term.values)) and np.allclose(
                         back, term.values, rtol=1e-9, atol=1e-12 * _rms(term.values))
         size = _rms(data.derivatives[:, roles.index])
         skipped = {node for k, node in skip if k == roles.index}
-        out.extend(_check_equation(roles, eq.derivative, terms, skipped, size, data, inputs,
-                                   params, slots))
+        out.extend(_check_equation(roles, eq.derivative, terms, skipped, size, data=data,
+                                   inputs=inputs,
+                                   params=params, slots=slots))
     return out
 
 
 def _check_equation(roles: EquationRoles, derivative: str, terms: list[_Term], skipped,
-                    size: float, data: DiagnosisData, inputs: set[str], params,
+                    size: float, *, data: DiagnosisData, inputs: set[str], params,
                     slots) -> list[Implausibility]:
     out = []
     significant = SIGNIFICANT * size
@@ -202,8 +203,8 @@ def _check_equation(roles: EquationRoles, derivative: str, terms: list[_Term], s
                 out.append(Implausibility(derivative, "gain", why))
     if friction:
         out.extend(_dissipation(derivative, friction, skipped, data.columns[roles.velocity],
-                                significant, params, excitation,
-                                data.columns[roles.position]))
+                                significant, params=params, excitation=excitation,
+                                position=data.columns[roles.position]))
     if springs:
         why = _stiffness(springs, data.columns[roles.position], significant, roles.position)
         if why:
@@ -216,7 +217,7 @@ def _gain(term: _Term, params, slots, data: DiagnosisData) -> str:
         return ""
     ones = {name: 1.0 for name in params}
     env = [data.columns[name] for name in slots]
-    written = term.sign * _evaluate(term.node, slots, env, ones, {}, data.n_samples)
+    written = term.sign * _evaluate(term.node, slots, env, ones, {}, n=data.n_samples)
     if float(np.mean(term.values * written)) > 0:
         return ""
     return (f"the input term '{term.text(params)} pushes against the sign it is written "
@@ -229,7 +230,7 @@ LARGE_AMPLITUDE = 0.25
 
 
 def _dissipation(derivative: str, friction: list[_Term], skipped, velocity: np.ndarray,
-                 significant: float, params, excitation: list[_Term] = (),
+                 significant: float, *, params, excitation: list[_Term] = (),
                  position: np.ndarray | None = None) -> list[Implausibility]:
     """Friction terms that feed energy in.
 

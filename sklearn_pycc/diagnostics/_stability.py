@@ -56,7 +56,7 @@ class Stability:
 
 def selection_stability(contenders: list[Candidate], residuals: np.ndarray,
                         derivatives: np.ndarray, groups: list[np.ndarray],
-                        thresholds: tuple[float, float], tie: tuple[float, float],
+                        thresholds: tuple[float, float], *, tie: tuple[float, float],
                         simulates_better: set, n_resamples: int,
                         random_state) -> Stability:
     """Re-make the diagnosis's choice among ``contenders`` on ``n_resamples`` resamples.

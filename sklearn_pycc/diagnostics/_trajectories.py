@@ -59,5 +59,6 @@ def simulate_against(model, data: DiagnosisData, horizon: Horizon, *, max_steps:
     columns = {**{s: data.columns[s] for s in skeleton.states},
                **{name: data.columns[name] for name in inputs}, TIME: data.columns[TIME]}
     experiments = [(label, rows, data.columns[TIME][rows]) for label, rows in data.experiments]
-    return simulate_rows(model, columns, data.signals, experiments, horizon, data.n_samples,
+    return simulate_rows(model, columns, data.signals, experiments, horizon,
+                         n_samples=data.n_samples,
                          max_steps=max_steps)

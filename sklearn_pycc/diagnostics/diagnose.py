@@ -289,7 +289,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         notes.append("X has no time column 't': the model was not simulated.")
     measured_states = np.column_stack([data.columns[s] for s in states])
     simulated, divergences, trajectory_table, simulation_frame = _simulated_record(
-        model, data, window, steps, measured_states, units, notes)
+        model, data, window, steps, measured_states, units=units, notes=notes)
     simulation_rmse = math.nan if simulated is None else rmse(measured_states, simulated)
 
     # -- where it fails -----------------------------------------------------------------
@@ -322,21 +322,24 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     implausible = implausible_terms(model, data)
     baseline = frozenset((item.equation, item.role) for item in implausible)
     leaders = _leaders(screened, n_refit)
-    _refit_all(leaders, model, data, residuals, rss_before, baseline, n_jobs)
+    _refit_all(leaders, model, data, residuals, rss_before, baseline=baseline, n_jobs=n_jobs)
     refitted = [c for c in leaders if c.refit is not None]
     if run_simulation:
-        _simulate_leaders(refitted, data, measured_states, window, steps, divergences)
+        _simulate_leaders(refitted, data, measured_states, window, steps,
+                          base_divergences=divergences)
     ordered = _ordered([c for c in candidates if c.move != "remove"])
     eligible = _eligible(ordered, min_improvement, bic_threshold, simulation_rmse)
     judge = window if run_simulation else None
     cache: dict = {}  # the model's own held-out errors, by fold, for every check
-    chosen = _decide(eligible, model, data, judge, failing, steps, n_jobs, cache, record=X) \
+    chosen = _decide(eligible, model, data, judge, failing, steps=steps, n_jobs=n_jobs,
+                     cache=cache, record=X) \
         if held_out else (eligible[0] if eligible else None)
     if chosen is None:
         # nothing to add or swap in: is a term of the skeleton superfluous?
         _refit_all([c for c in removals if c.screen_removed > -REMOVAL_SCREEN][:N_REMOVE],
-                   model, data, residuals, rss_before, baseline, n_jobs)
-        chosen = _decide_removal(removals, model, data, judge, steps, held_out, n_jobs,
+                   model, data, residuals, rss_before, baseline=baseline, n_jobs=n_jobs)
+        chosen = _decide_removal(removals, model, data, judge, steps, held_out=held_out,
+                                 n_jobs=n_jobs,
                                  record=X, cache=cache)
     ordered += _ordered(removals)
     formula, opened = None, []
@@ -345,10 +348,10 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         opened = open_candidates(skeleton, roles)
         for candidate in opened:
             extend(skeleton, candidate)
-        _refit_all(opened, model, data, residuals, rss_before, baseline, n_jobs)
+        _refit_all(opened, model, data, residuals, rss_before, baseline=baseline, n_jobs=n_jobs)
         if run_simulation:
             _simulate_leaders([c for c in opened if c.refit is not None], data,
-                              measured_states, window, steps, divergences)
+                              measured_states, window, steps, base_divergences=divergences)
         opened = _ordered(opened)
         # a curve that does not simulate the record itself clearly better will not do so
         # on data it has not seen: spare the held-out fits
@@ -356,18 +359,22 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
                                           simulation_rmse)
                      if not run_simulation or not math.isfinite(simulation_rmse)
                      or c.simulation_rmse <= (1 - OPEN_GAIN) * simulation_rmse]
-        chosen = _decide_open(promising, model, data, judge, failing, steps, held_out, n_jobs,
-                              cache, record=X)
+        chosen = _decide_open(promising, model, data, judge, failing, steps=steps,
+                              held_out=held_out, n_jobs=n_jobs,
+                              cache=cache, record=X)
         if chosen is not None:
-            formula = _formula(chosen, skeleton, model, data, residuals, rss_before, baseline,
-                               judge, failing, steps, held_out, n_jobs, cache)
+            formula = _formula(chosen, skeleton, model, data, residuals, rss_before=rss_before,
+                               baseline=baseline,
+                               horizon=judge, equations=failing, steps=steps, held_out=held_out,
+                               n_jobs=n_jobs, cache=cache)
         candidates += opened
         ordered += opened
     if chosen is not None:
         ordered.remove(chosen)
         ordered.insert(0, chosen)
     stability = _stability(ordered, residuals, data, min_improvement, bic_threshold,
-                           simulation_rmse, int(n_bootstrap), random_state)
+                           simulation_rmse=simulation_rmse, n_resamples=int(n_bootstrap),
+                           random_state=random_state)
     ranking = _ranking(ordered, explained, stability)
     tried = probes(opened, model, chosen, formula)
     best = None if chosen is None else _suggestion(chosen, skeleton, model, formula, tried)
@@ -397,7 +404,7 @@ def _check_settings(bic_threshold, n_bootstrap, random_state, n_jobs) -> None:
 
 
 def _simulated_record(model, data: DiagnosisData, window: Horizon | None, steps: int,
-                      measured_states: np.ndarray, units: dict, notes: list[str]):
+                      measured_states: np.ndarray, *, units: dict, notes: list[str]):
     """The model simulated against the record over ``window`` (None: not simulated).
 
     Returns ``(simulated, divergences, trajectory_table, simulation_frame)``;
@@ -425,13 +432,13 @@ def _simulated_record(model, data: DiagnosisData, window: Horizon | None, steps:
 
 
 def _refitted(model, candidate: Candidate, data: DiagnosisData, residuals: np.ndarray,
-              rss_before: np.ndarray, baseline: frozenset) -> Candidate:
-    refit_candidate(model, candidate, data, residuals, rss_before, baseline)
+              rss_before: np.ndarray, *, baseline: frozenset) -> Candidate:
+    refit_candidate(model, candidate, data, residuals, rss_before, baseline=baseline)
     return candidate
 
 
 def _refit_all(candidates: list[Candidate], model, data: DiagnosisData, residuals: np.ndarray,
-               rss_before: np.ndarray, baseline: frozenset, n_jobs: int | None) -> None:
+               rss_before: np.ndarray, *, baseline: frozenset, n_jobs: int | None) -> None:
     """Refit ``candidates`` in place, in parallel when ``n_jobs`` asks for it.
 
     A worker process refits a copy; its findings are written back onto the
@@ -439,12 +446,12 @@ def _refit_all(candidates: list[Candidate], model, data: DiagnosisData, residual
     """
     if n_jobs is None or n_jobs == 1 or len(candidates) < 2:
         for candidate in candidates:
-            refit_candidate(model, candidate, data, residuals, rss_before, baseline)
+            refit_candidate(model, candidate, data, residuals, rss_before, baseline=baseline)
         return
     from joblib import Parallel, delayed
 
     done = Parallel(n_jobs=n_jobs)(
-        delayed(_refitted)(model, c, data, residuals, rss_before, baseline)
+        delayed(_refitted)(model, c, data, residuals, rss_before, baseline=baseline)
         for c in candidates)
     for candidate, result in zip(candidates, done):
         if result is not candidate:
@@ -477,7 +484,7 @@ def _leaders(screened: list[Candidate], n_refit: int) -> list[Candidate]:
 
 
 def _stability(ordered: list[Candidate], residuals: np.ndarray, data: DiagnosisData,
-               min_improvement: float, bic_threshold: float, simulation_rmse: float,
+               min_improvement: float, bic_threshold: float, *, simulation_rmse: float,
                n_resamples: int, random_state) -> Stability | None:
     """The choice made again on resamples of the record (None without resamples)."""
     if n_resamples == 0:
@@ -489,8 +496,9 @@ def _stability(ordered: list[Candidate], residuals: np.ndarray, data: DiagnosisD
     better = {c.key for c in contenders if _simulates_better(c, simulation_rmse)}
     return selection_stability(contenders, residuals, data.derivatives,
                                [rows for _, rows in data.experiments],
-                               (bic_threshold, min_improvement), TIE, better, n_resamples,
-                               random_state)
+                               (bic_threshold, min_improvement), tie=TIE, simulates_better=better,
+                               n_resamples=n_resamples,
+                               random_state=random_state)
 
 
 def _simulates_better(c: Candidate, simulation_rmse: float) -> bool:
@@ -509,11 +517,11 @@ def _map_of(roles: EquationRoles, residuals, data: DiagnosisData, inputs) -> Res
     else:
         return None
     return residual_map(roles.derivative, residuals[:, roles.index], x, columns[x], y,
-                        columns[y])
+                        y=columns[y])
 
 
 def _simulate_leaders(refitted: list[Candidate], data: DiagnosisData, measured: np.ndarray,
-                      horizon: Horizon, steps: int, base_divergences: list[Divergence],
+                      horizon: Horizon, steps: int, *, base_divergences: list[Divergence],
                       count: int = 3) -> None:
     """Simulate the leading plausible refits; a new divergence makes a candidate implausible."""
     leaders = sorted((c for c in refitted if c.plausible), key=lambda c: c.delta_bic)[:count]
@@ -607,9 +615,8 @@ def _eligible(ordered: list[Candidate], min_improvement: float, bic_threshold: f
 
 
 def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Horizon | None,
-            equations: list[int], steps: int, n_jobs: int | None = None,
-            cache: dict | None = None, *,
-            record: pd.DataFrame | None = None) -> Candidate | None:
+            equations: list[int], *, steps: int, n_jobs: int | None = None,
+            cache: dict | None = None, record: pd.DataFrame | None = None) -> Candidate | None:
     """The first eligible candidate that held-out data confirm, or None.
 
     ``cache`` keeps the model's own held-out errors by fold for later checks.
@@ -743,8 +750,8 @@ def _close_rival(leader: Candidate, eligible: list[Candidate]) -> Candidate | No
 
 
 def _decide_removal(removals: list[Candidate], model, data: DiagnosisData,
-                    horizon: Horizon | None, steps: int, held_out: bool,
-                    n_jobs: int | None = None, *, record: pd.DataFrame | None = None,
+                    horizon: Horizon | None, steps: int, *, held_out: bool,
+                    n_jobs: int | None = None, record: pd.DataFrame | None = None,
                     cache: dict | None = None) -> Candidate | None:
     """The first superfluous term: its removal lowers the BIC and no held-out error.
 
@@ -830,8 +837,8 @@ N_OPEN = 2
 
 
 def _decide_open(eligible: list[Candidate], model, data: DiagnosisData,
-                 horizon: Horizon | None, equations: list[int], steps: int, held_out: bool,
-                 n_jobs: int | None = None, cache: dict | None = None, *,
+                 horizon: Horizon | None, equations: list[int], *, steps: int, held_out: bool,
+                 n_jobs: int | None = None, cache: dict | None = None,
                  record: pd.DataFrame | None = None) -> Candidate | None:
     """The first free curve that lowers the held-out error clearly, or None.
 
@@ -859,7 +866,7 @@ def _decide_open(eligible: list[Candidate], model, data: DiagnosisData,
 
 
 def _formula(chosen: Candidate, skeleton: Skeleton, model, data: DiagnosisData,
-             residuals: np.ndarray, rss_before: np.ndarray, baseline: frozenset,
+             residuals: np.ndarray, *, rss_before: np.ndarray, baseline: frozenset,
              horizon: Horizon | None, equations: list[int], steps: int, held_out: bool,
              n_jobs: int | None, cache: dict | None = None) -> Candidate | None:
     """The symbolic engine's formula for the chosen free curve, refitted and judged.
@@ -874,7 +881,7 @@ def _formula(chosen: Candidate, skeleton: Skeleton, model, data: DiagnosisData,
         except (SkeletonError, ValueError):
             continue
         formulas.append(formula)
-    _refit_all(formulas, model, data, residuals, rss_before, baseline, n_jobs)
+    _refit_all(formulas, model, data, residuals, rss_before, baseline=baseline, n_jobs=n_jobs)
     fitted = [f for f in formulas if f.refit is not None and math.isfinite(f.delta_bic)]
     if not fitted:
         return None

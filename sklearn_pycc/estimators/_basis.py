@@ -18,7 +18,7 @@ from scipy.special import comb
 
 from ..skeleton.curves import Curve
 
-__all__ = ["BASES", "PolyBasis", "PolyCurve", "ZeroCurve"]
+__all__ = ["BASES", "PolyBasis", "PolyCurve"]
 
 #: name -> (vandermonde(u, degree), to_power_series(coefficients))
 BASES = {
@@ -277,31 +277,3 @@ class _StackedPolyCurve(Curve):
             acc = np.where(x < lo, f_lo + s_lo * (x - lo),
                            np.where(x > hi, f_hi + s_hi * (x - hi), acc))
         return acc
-
-
-class ZeroCurve(Curve):
-    """The zero function (a curve pinned to zero by the gauge)."""
-
-    domain = (0.0, 0.0)
-
-    def __call__(self, x):
-        if isinstance(x, np.ndarray):
-            return np.zeros(x.shape)
-        return 0.0
-
-    def scalar(self, x: float) -> float:
-        """``0.0``."""
-        return 0.0
-
-    def to_sympy(self, variable):
-        """``0``."""
-        import sympy
-
-        return sympy.Integer(0)
-
-    def text(self, variable: str, precision: int = 6) -> str:
-        """``"0"``."""
-        return "0"
-
-    def __repr__(self) -> str:
-        return "ZeroCurve()"

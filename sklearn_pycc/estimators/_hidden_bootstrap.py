@@ -115,7 +115,7 @@ class NoiseResampler:
 
 
 def _refit(resampler: NoiseResampler, picks: np.ndarray, params: dict, first: np.ndarray,
-           substeps: int, iterations: int, functions: dict) -> Member | str:
+           substeps: int, *, iterations: int, functions: dict) -> Member | str:
     """One refit from the fit; the reason in words when it fails."""
     with warnings.catch_warnings():  # the full fit has said what there is to say
         warnings.simplefilter("ignore")
@@ -130,7 +130,8 @@ def _refit(resampler: NoiseResampler, picks: np.ndarray, params: dict, first: np
 
 
 def hidden_members(problem: Problem, params: dict, functions: dict, attributes: dict, n: int,
-                   seed: int, n_jobs, iterations: int, *, verbose: bool = False
+                   *,
+                   seed: int, n_jobs, iterations: int, verbose: bool = False
                    ) -> tuple[list[Member], list[str], str]:
     """``n`` refits of an output-error fit with unmeasured states on redrawn noise.
 
@@ -157,6 +158,7 @@ def hidden_members(problem: Problem, params: dict, functions: dict, attributes: 
     rng = np.random.default_rng(seed)
     draws = [resampler.draw(rng) for _ in range(n)]
     members, failures = run_refits(
-        [delayed(_refit)(resampler, picks, params, first, substeps, iterations, functions)
+        [delayed(_refit)(resampler, picks, params, first, substeps, iterations=iterations,
+                         functions=functions)
          for picks in draws], n_jobs, "processes", verbose=verbose)
     return members, failures, resampler.describe()

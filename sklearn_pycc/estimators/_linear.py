@@ -151,7 +151,7 @@ def split_parameters(residuals: list[tuple[int, str, Node]], params: list[str],
 
 
 def linearize(node: Node, data: Mapping[str, np.ndarray], n: int, values: Mapping[str, float],
-              bases: Mapping, linear: set[str], zeroed: set[str]) -> Affine:
+              bases: Mapping, *, linear: set[str], zeroed: set[str]) -> Affine:
     """Evaluate ``node`` as an :class:`Affine` form.
 
     Parameters
@@ -214,7 +214,7 @@ def curve_arguments(node: Node, data: Mapping[str, np.ndarray], n: int,
     out: dict[str, list[np.ndarray]] = {}
     for sub in walk(node):
         if isinstance(sub, Unknown):
-            form = linearize(sub.arg, data, n, values, {}, set(), set())
+            form = linearize(sub.arg, data, n, values, {}, linear=set(), zeroed=set())
             out.setdefault(sub.name, []).append(
                 np.broadcast_to(np.asarray(form.const, dtype=float), (n,)))
     return out

@@ -52,6 +52,7 @@ class LstsqResult:
 
 def constrained_lstsq(A: np.ndarray, b: np.ndarray, C: np.ndarray | None = None,
                       d: np.ndarray | None = None, alpha: float = 0.0,
+                      *,
                       rtol: float | None = None, overwrite_a: bool = False) -> LstsqResult:
     """Solve ``min ||A x + b||^2 + alpha ||x||^2`` subject to ``C x = d`` exactly.
 
@@ -210,7 +211,7 @@ _RIDGE = 1e-12
 
 
 def bounded_lstsq(A: np.ndarray, b: np.ndarray, C: np.ndarray | None, d: np.ndarray | None,
-                  G: np.ndarray, h: np.ndarray, alpha: float = 0.0,
+                  G: np.ndarray, *, h: np.ndarray, alpha: float = 0.0,
                   overwrite_a: bool = False) -> LstsqResult:
     """Solve ``min ||A x + b||^2 + alpha ||x||^2`` subject to ``C x = d`` and ``G x >= h``.
 

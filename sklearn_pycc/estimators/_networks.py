@@ -153,7 +153,7 @@ class CurveNet(nn.Module):
     """
 
     def __init__(self, name: str, hidden: Sequence[int], activation: str, center: float,
-                 scale: float, parity: str | None, points: Sequence[tuple[float, float]],
+                 scale: float, *, parity: str | None, points: Sequence[tuple[float, float]],
                  exact: bool, generator: torch.Generator, dtype: torch.dtype,
                  monotone: str | None = None) -> None:
         super().__init__()
@@ -289,7 +289,8 @@ class CurveNet(nn.Module):
         coefficients = np.zeros(0)
         if self.exact and at.size:
             bare = NumpyCurve(self.name, layers, self.activation, self.center, self.scale,
-                              parity, [], [], domain, extrapolation)
+                              parity=parity, exponents=[], coefficients=[], domain=domain,
+                              extrapolation=extrapolation)
             coefficients = inverse @ (values - bare.inside_value(at))
         else:
             exponents = np.zeros(0)
@@ -297,7 +298,8 @@ class CurveNet(nn.Module):
             reach = max(abs(domain[0]), abs(domain[1]))
             domain = (-reach, reach)
         return NumpyCurve(self.name, layers, self.activation, self.center, self.scale,
-                          parity, exponents, coefficients, domain, extrapolation)
+                          parity=parity, exponents=exponents, coefficients=coefficients,
+                          domain=domain, extrapolation=extrapolation)
 
 
 def _check_monotone(name: str, activation: str, parity: str | None, points) -> None:
@@ -348,6 +350,7 @@ class SkeletonModule(nn.Module):
 
     def __init__(self, residuals, weights, slots: Mapping[str, int],
                  curves: Mapping[str, dict], params: Mapping[str, float],
+                 *,
                  fixed: Mapping[str, float], hidden_layer_sizes: Sequence[int],
                  activation: str, exact: bool, seed: int, dtype: torch.dtype,
                  bounds: Mapping[str, tuple[float, float]] | None = None) -> None:
@@ -355,8 +358,9 @@ class SkeletonModule(nn.Module):
         generator = torch.Generator().manual_seed(int(seed))
         self.curves = nn.ModuleDict({
             name: CurveNet(name, hidden_layer_sizes, activation, spec["center"],
-                           spec["scale"], spec["parity"], spec["points"], exact, generator,
-                           dtype, spec.get("monotone"))
+                           spec["scale"], parity=spec["parity"], points=spec["points"],
+                           exact=exact, generator=generator,
+                           dtype=dtype, monotone=spec.get("monotone"))
             for name, spec in curves.items()})
         bounds = dict(bounds or {})
         self.raw_params = nn.ParameterDict(

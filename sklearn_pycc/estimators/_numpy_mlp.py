@@ -63,7 +63,7 @@ class NumpyCurve(Curve):
         hold the edge value, or raise :class:`OutsideTrainingRange`.
     """
 
-    def __init__(self, name, layers, activation, center, scale, parity, exponents,
+    def __init__(self, name, layers, activation, center, scale, *, parity, exponents,
                  coefficients, domain, extrapolation="linear") -> None:
         if extrapolation not in EXTRAPOLATIONS:
             raise ValueError(

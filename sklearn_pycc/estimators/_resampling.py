@@ -146,7 +146,7 @@ def resampled_problem(problem: Problem, blocks: list[np.ndarray]) -> Problem:
 
 
 def _fit_one(backend: Backend, problem: Problem, blocks: list[np.ndarray], seed: int,
-             window: int, iterations: int) -> Member | str:
+             window: int, *, iterations: int) -> Member | str:
     """Refit on one resample; the reason in words when it fails."""
     member = backend.reseeded(seed)
     sample = resampled_problem(problem, blocks)
@@ -161,7 +161,8 @@ def _fit_one(backend: Backend, problem: Problem, blocks: list[np.ndarray], seed:
 
 
 def fit_members(backend: Backend, problem: Problem, resampler: Resampler, n: int, seed: int,
-                n_jobs, window: int, iterations: int, *, verbose: bool = False
+                *,
+                n_jobs, window: int, iterations: int, verbose: bool = False
                 ) -> tuple[list[Member], list[str]]:
     """``n`` refits by ``backend`` on resamples, in parallel; and the failures' reasons.
 
@@ -171,7 +172,7 @@ def fit_members(backend: Backend, problem: Problem, resampler: Resampler, n: int
     rng = np.random.default_rng(seed)
     draws = [(resampler.draw(rng), int(rng.integers(0, 2**31 - 1))) for _ in range(n)]
     return run_refits([delayed(_fit_one)(backend, problem, blocks, member_seed, window,
-                                         iterations) for blocks, member_seed in draws],
+                                         iterations=iterations) for blocks, member_seed in draws],
                       n_jobs, backend.resample_in, verbose=verbose)
 
 

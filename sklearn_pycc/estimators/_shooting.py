@@ -77,7 +77,7 @@ class ShootingPlan(Windows):
         signals = {name: problem.signals[name] for name in inputs}
         super().__init__(states, inputs, TIME in skeleton.variables,
                          [(e.rows, e.t) for e in problem.experiments], starts,
-                         signals, int(window), hold=problem.input_hold)
+                         signals=signals, window=int(window), hold=problem.input_hold)
         self._starts, self._inputs = starts, signals
         self._times = np.zeros(len(next(iter(starts.values()))))
         for e in problem.experiments:
@@ -202,6 +202,7 @@ def _side_by_side(plan: ShootingPlan, systems: list, starts: list) -> list | Non
 def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], CompiledSystem],
                  theta0: np.ndarray, max_iterations: int,
                  bounds: tuple[np.ndarray, np.ndarray] | None = None,
+                 *,
                  limit_starts: bool = True) -> tuple[np.ndarray, dict]:
     """Minimise the output error over the parameters and the segments' initial states.
 

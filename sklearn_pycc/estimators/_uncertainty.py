@@ -66,7 +66,7 @@ def long_run_covariance(scores: np.ndarray, groups: np.ndarray | None = None,
     if lag is None:
         e0, e1 = np.diag(innovation(0)), np.diag(innovation(1))
         pairs = sum(s.stop - s.start - 1 for s in runs)
-        lag = plug_in_lag(e0, e1, e0, pairs, n, max(s.stop - s.start for s in runs))
+        lag = plug_in_lag(e0, e1, e0, pairs, n, longest=max(s.stop - s.start for s in runs))
     if lag > _DIRECT_LAGS:  # many lags: the innovations themselves, convolved
         innovations = np.empty_like(scores)
         for s in runs:
@@ -166,7 +166,7 @@ class Sandwich:
     """
 
     def __init__(self, J: np.ndarray | None, r: np.ndarray | None, n_samples: int,
-                 bread: np.ndarray, N: np.ndarray | None, groups: np.ndarray | None) -> None:
+                 bread: np.ndarray, N: np.ndarray | None, *, groups: np.ndarray | None) -> None:
         self.J, self.r, self.n_samples = J, r, n_samples
         self.bread, self.N, self.groups = bread, N, groups
 
@@ -199,7 +199,7 @@ class Sandwich:
 
 
 def sandwich(J: np.ndarray, r: np.ndarray, n_samples: int, groups: np.ndarray | None = None,
-             constraints: np.ndarray | None = None, gram: np.ndarray | None = None) -> Sandwich:
+             constraints: np.ndarray | None = None, *, gram: np.ndarray | None = None) -> Sandwich:
     """The parts of the covariance of the least-squares estimate behind ``J`` and ``r``.
 
     Parameters
@@ -226,13 +226,13 @@ def sandwich(J: np.ndarray, r: np.ndarray, n_samples: int, groups: np.ndarray | 
     unconstrained = constraints is None or not len(constraints)
     N = None if unconstrained else null_space(constraints)
     if N is not None and N.shape[1] == 0:
-        return Sandwich(None, None, n_samples, np.zeros((p, p)), None, groups)
+        return Sandwich(None, None, n_samples, np.zeros((p, p)), None, groups=groups)
     if gram is None:
         gram = J.T @ J
     if N is not None:
         gram = N.T @ gram @ N
     bread = np.linalg.pinv(gram, rcond=1e-12, hermitian=True)
-    return Sandwich(J, r, n_samples, bread, N, groups)
+    return Sandwich(J, r, n_samples, bread, N, groups=groups)
 
 
 def sandwich_covariance(J: np.ndarray, r: np.ndarray, n_samples: int,

@@ -14,8 +14,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..skeleton.curves import ZeroCurve
 from ..windows import Windows
-from ._basis import ZeroCurve
 from ._setup import Problem
 
 __all__ = ["ESCAPED", "WholeRecord", "check_initial_stretch", "equilibrium", "sensor_readings",
@@ -90,8 +90,9 @@ class WholeRecord:
         self.windows = Windows(self.states, self.inputs, "t" in skeleton.variables,
                                [(e.rows, e.t) for e in problem.experiments],
                                {s: np.zeros(n) for s in self.states},
-                               {name: problem.signals[name] for name in self.inputs},
-                               max(e.n_samples for e in problem.experiments), merge_tail=False,
+                               signals={name: problem.signals[name] for name in self.inputs},
+                               window=max(e.n_samples for e in problem.experiments),
+                               merge_tail=False,
                                hold=problem.input_hold)
         read = [problem.measured[s] for s in measured] + [problem.observed[o]
                                                          for o in self.outputs]

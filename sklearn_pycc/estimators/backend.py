@@ -267,7 +267,7 @@ class Backend(ABC):
         the record best (:func:`~._hidden.scaled_start`); the curves pinned
         to zero by the gauge.
         """
-        from ._basis import ZeroCurve
+        from ..skeleton.curves import ZeroCurve
         from ._hidden import scaled_start, starting_params
 
         init = getattr(self, "param_init", None)

@@ -486,15 +486,17 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
                 return {}
             members, failures, method = hidden_members(
                 problem, dict(result.params), dict(result.functions), result.attributes, n,
-                seed, getattr(self, "n_jobs", None), self.shooting_iterations, verbose=verbose)
+                seed=seed, n_jobs=getattr(self, "n_jobs", None),
+                iterations=self.shooting_iterations, verbose=verbose)
             return self._bootstrap_facts(result, members, failures, n, method)
         residuals = np.nan_to_num(problem.residual_values(result.params, result.functions))
         simulation = problem.fit_mode == "simulation"
         resampler = Resampler(problem, residuals,
                               min_block=2 * self.shooting_window if simulation else 2)
         members, failures = fit_members(backend, problem, resampler, n, seed,
-                                        getattr(self, "n_jobs", None), self.shooting_window,
-                                        self.shooting_iterations, verbose=verbose)
+                                        n_jobs=getattr(self, "n_jobs", None),
+                                        window=self.shooting_window,
+                                        iterations=self.shooting_iterations, verbose=verbose)
         return self._bootstrap_facts(result, members, failures, n, resampler.describe())
 
     @staticmethod
@@ -1425,7 +1427,7 @@ def make_problem(estimator: CCRegressor, X, y=None) -> Problem:
 
 
 def adopt(target: CCRegressor, source: CCRegressor, functions: Mapping, params: Mapping,
-          n_parameters: int, attributes: Mapping | None = None) -> CCRegressor:
+          n_parameters: int, *, attributes: Mapping | None = None) -> CCRegressor:
     """Make ``target`` fitted with ``functions`` and ``params`` on ``source``'s data.
 
     The way a conversion or a meta-estimator makes an estimator fitted from

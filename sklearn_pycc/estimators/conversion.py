@@ -16,7 +16,7 @@ from sklearn.utils.validation import check_is_fitted
 from .._utils.randomness import seeds
 from ..exceptions import GaugeWarning
 from ..skeleton import Skeleton
-from ._basis import ZeroCurve
+from ..skeleton.curves import ZeroCurve
 from ._readable import Readability
 from ._setup import build_skeleton, gauge_skeleton, parity_of, points_of
 from ._symbolic_curves import FittedCurve, SymbolicCurve, Template
@@ -208,8 +208,8 @@ def to_symbolic(
                 return None
             return loss, columns, trial_params
 
-        chosen = choose_candidate(found, template, domain, monotone, score, model_selection,
-                                  Readability(max_nesting=max_nesting))
+        chosen = choose_candidate(found, template, domain, monotone, score, rule=model_selection,
+                                  readability=Readability(max_nesting=max_nesting))
         if chosen is None:
             raise ValueError(f"the search found no finite expression for {name}"
                              + (f" that is {monotone}" if monotone else "")
@@ -238,7 +238,7 @@ def to_symbolic(
     conversion = pd.DataFrame(summary).set_index("curve") if summary else pd.DataFrame(
         columns=["expression", "complexity", "error", "relative_error"])
     adopt(target, model, out, params, n_parameters,
-          {"pareto_": pareto, "n_iterations_": 0, "conversion_": conversion})
+          attributes={"pareto_": pareto, "n_iterations_": 0, "conversion_": conversion})
     return set_fitted(target, {"loss_history_": [
         residuals.loss(target.functions_, target.params_)] if residuals is not None else []})
 
@@ -302,7 +302,7 @@ def to_interpolated(model: CCRegressor, curves: Mapping | None = None, *,
             out[name] = InterpolatedCurve(*_table(name, curves[name]), method, name)
         else:
             lo, hi = model.curve_ranges_[name]
-            out[name] = tabulate(model.functions_[name], lo, hi, n_points, method, name)
+            out[name] = tabulate(model.functions_[name], lo, hi, n_points, method, name=name)
     n_parameters = _n_free_params(model, _gauged(model)[1]) + sum(c.x.size for c in out.values()
                                        if isinstance(c, InterpolatedCurve))
     return adopt(target, model, out, model.params_, n_parameters)

@@ -21,8 +21,7 @@ from sklearn.base import _fit_context, clone
 from sklearn.utils._param_validation import Interval, StrOptions
 
 from ..exceptions import GaugeWarning
-from ..skeleton.curves import Curve
-from ._basis import ZeroCurve
+from ..skeleton.curves import Curve, ZeroCurve
 from ._setup import gauge_skeleton
 from .backend import Backend, FitResult, Problem
 from .base import OUTPUT_ERROR_SETTINGS, CCRegressor, backend_of
@@ -159,6 +158,7 @@ def sample_curve(curve, lo: float, hi: float, n_points: int) -> tuple[np.ndarray
 
 
 def tabulate(curve, lo: float, hi: float, n_points: int, method: str,
+             *,
              name: str = "curve"):
     """``curve`` sampled on ``n_points`` over ``[lo, hi]`` and interpolated.
 

@@ -18,7 +18,8 @@ import numpy as np
 from scipy.optimize import least_squares
 from sklearn.utils._param_validation import Interval
 
-from ._basis import PolyCurve, ZeroCurve
+from ..skeleton.curves import ZeroCurve
+from ._basis import PolyCurve
 from .backend import Backend, FitResult, Problem
 from .base import OUTPUT_ERROR_SETTINGS, CCRegressor
 
@@ -114,7 +115,7 @@ class _Series:
     """One curve's power series: which powers are free, and its exact point value."""
 
     def __init__(self, name: str, center: float, half: float, domain: tuple[float, float],
-                 powers: list[int], point: tuple[float, float] | None) -> None:
+                 powers: list[int], *, point: tuple[float, float] | None) -> None:
         self.name, self.center, self.half, self.domain = name, center, half, domain
         self.powers, self.point = powers, point
 
@@ -139,7 +140,7 @@ class _Series:
             center, half = (lo + hi) / 2, (hi - lo) / 2
         half = half if np.isfinite(half) and half > 0 else 1.0
         return cls(name, center, half, (lo, hi), _powers(parity, bool(points), degree),
-                   points[0] if points else None)
+                   point=points[0] if points else None)
 
     def fitted(self, coefficients: np.ndarray) -> PolyCurve:
         series = np.zeros(max(self.powers, default=0) + 1)

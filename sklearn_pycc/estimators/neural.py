@@ -10,8 +10,8 @@ from sklearn.utils._param_validation import Interval, StrOptions
 
 from .._utils.randomness import seeds
 from .._utils.threads import torch_threads
+from ..skeleton.curves import ZeroCurve
 from ._activations import ACTIVATIONS
-from ._basis import ZeroCurve
 from ._numpy_mlp import EXTRAPOLATIONS, NumpyCurve
 from ._setup import FitResult, Problem, active_residuals
 from .backend import Backend

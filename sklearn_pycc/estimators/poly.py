@@ -14,7 +14,8 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from .._utils.randomness import seeds
 from .._utils.threads import blas_threads
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
-from ._basis import BASES, PolyBasis, PolyCurve, ZeroCurve
+from ..skeleton.curves import ZeroCurve
+from ._basis import BASES, PolyBasis, PolyCurve
 from ._linear import curve_arguments, linearize, split_parameters
 from ._lstsq import LstsqResult, bounded_lstsq, constrained_lstsq
 from ._setup import FitResult, Problem, residual_scale, thinned
@@ -87,7 +88,8 @@ class _Design:
         A = np.zeros((n * len(self.active), p), order="F")
         b = np.empty(n * len(self.active))
         for row, i in enumerate(self.active):
-            form = linearize(self.residuals[i], self.data, n, values, bases, linear, zeroed)
+            form = linearize(self.residuals[i], self.data, n, values, bases, linear=linear,
+                             zeroed=zeroed)
             const = np.broadcast_to(np.asarray(form.const, dtype=float), (n,))
             if i not in self.weights:
                 scale = float(np.sqrt(np.mean(const * const)))
@@ -236,7 +238,7 @@ class PolyBackend(Backend):
                 if G is None:
                     result = constrained_lstsq(A, b, C, d, self.alpha, overwrite_a=overwrite)
                 else:
-                    result = bounded_lstsq(A, b, C, d, G, h, self.alpha,
+                    result = bounded_lstsq(A, b, C, d, G, h=h, alpha=self.alpha,
                                            overwrite_a=overwrite)
                 return result, layout, bases, values
             return solve
@@ -252,8 +254,8 @@ class PolyBackend(Backend):
             system: list = []
             result, layout, bases, values = solve(theta, keep=system)
             self._report_rank(result, layout)
-            covariance = (_covariance(problem, design, nonlinear, theta, fixed, result,
-                                      layout, bases, system)
+            covariance = (_covariance(problem, design, nonlinear, theta, fixed, result=result,
+                                      layout=layout, bases=bases, system=system)
                           if problem.covariance else None)
         params = {a: v for a, v in values.items() if a in nonlinear}
         functions, coefficients = {}, {}
@@ -645,7 +647,7 @@ class PolyCCRegressor(CCRegressor):
         return PolyBackend(**self._backend_settings(PolyBackend))
 
 def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: np.ndarray,
-                fixed: Mapping[str, float], result: LstsqResult, layout, bases,
+                fixed: Mapping[str, float], *, result: LstsqResult, layout, bases,
                 system: list) -> DeferredCovariance:
     """Covariance of the free parameters and of each curve's power-series coefficients.
 

@@ -14,7 +14,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 
 from .._utils.randomness import seeds
 from ..exceptions import SkeletonError
-from ._basis import ZeroCurve
+from ..skeleton.curves import ZeroCurve
 from ._readable import Readability, nesting, tidy
 from ._setup import FitResult, Problem
 from ._symbolic_curves import VARIABLE, FittedCurve, SymbolicCurve, Template
@@ -131,7 +131,7 @@ def _binned(x: np.ndarray, y: np.ndarray, w: np.ndarray, n_bins: int):
 
 
 def choose_candidate(found, template: Template, domain: tuple[float, float],
-                     monotone: str | None, score, rule: str,
+                     monotone: str | None, score, *, rule: str,
                      readability: Readability | None = None):
     """Turn a search's candidates into curves, score them, and choose one.
 
@@ -238,7 +238,7 @@ class SymbolicBackend(Backend):
             for name in free:
                 seed = next(rng)
                 chosen = self._search_curve(engine, problem, residuals, name, functions,
-                                            params, seed, pareto)
+                                            params=params, seed=seed, pareto=pareto)
                 if chosen is None:
                     continue
                 trial = {**functions, name: chosen.function()}
@@ -264,7 +264,7 @@ class SymbolicBackend(Backend):
         return FitResult(out, params, {"pareto_": pareto, "n_iterations_": n_rounds,
                                        "loss_history_": history})
 
-    def _search_curve(self, engine, problem, residuals, name, functions, params, seed,
+    def _search_curve(self, engine, problem, residuals, name, functions, *, params, seed,
                       pareto: dict):
         x, target, weight = residuals.isolated(name, functions, params)
         if x.size == 0:
@@ -280,7 +280,8 @@ class SymbolicBackend(Backend):
             return (loss, {"loss": loss}, None) if np.isfinite(loss) else None
 
         chosen = choose_candidate(found, template, domain, problem.monotone(name), score,
-                                  self.model_selection, Readability(max_nesting=self.max_nesting))
+                                  rule=self.model_selection,
+                                  readability=Readability(max_nesting=self.max_nesting))
         if chosen is None:
             return None
         curve, _, pareto[name] = chosen
@@ -325,7 +326,7 @@ def refit_params(residuals: CurveResiduals, problem: Problem, functions, params)
     return dict(zip(names, (float(v) for v in np.clip(result.x, low, high))))
 
 def polish(residuals: CurveResiduals, problem: Problem, curves: dict, functions,
-            params, effort: int = 200) -> dict:
+            params, *, effort: int = 200) -> dict:
     """Refine every number of every expression and every parameter jointly.
 
     At most ``effort`` residual evaluations per number are spent.

@@ -301,7 +301,7 @@ def _white_score(density: np.ndarray) -> float:
 
 
 def _whittle_ar(frequencies: np.ndarray, density: np.ndarray, step: float, order: int,
-            white_start: float, ceiling: tuple[np.ndarray, np.ndarray] | None = None,
+            white_start: float, *, ceiling: tuple[np.ndarray, np.ndarray] | None = None,
             weight: float = 1.0) -> tuple[np.ndarray, float, float, float]:
     """An AR(order)-plus-white model fitted by Whittle: ``(ar, innovation², white², criterion)``.
 
@@ -420,12 +420,13 @@ def _read(x: np.ndarray, step: float, quantum) -> SignalNoise:
             break
         ceiling = inner & (frequencies < band_low)
         ar, innovation, extra, _ = _whittle_ar(frequencies[fit], raw[fit], step, 1, white / 2,
-                                           (frequencies[ceiling], smooth[ceiling]), segments)
+                                           ceiling=(frequencies[ceiling], smooth[ceiling]),
+                                           weight=segments)
         if abs(ar[0]) < COLOUR_GATE and _flat(frequencies, raw, fit):
             flat = True
             break
         density = _coloured_density(frequencies, step, ar, innovation, max(extra, rounding))
-        new_low = _band_edge(frequencies, raw, density, segments, inner, lowest)
+        new_low = _band_edge(frequencies, raw, density, segments, inner, lowest=lowest)
         if new_low >= band_low * 0.95:
             break
         band_low = new_low
@@ -441,7 +442,7 @@ def _read(x: np.ndarray, step: float, quantum) -> SignalNoise:
         best = None
         for order in AR_ORDERS:
             ar, innovation, extra, score = _whittle_ar(f_band, p_band, step, order, white / 2,
-                                                   ceiling, segments)
+                                                   ceiling=ceiling, weight=segments)
             penalised = segments * score + (order + 1) * np.log(n_eff)
             if best is None or penalised < best[0]:
                 best = (penalised, ar, innovation, extra)
@@ -455,7 +456,8 @@ def _read(x: np.ndarray, step: float, quantum) -> SignalNoise:
         level = float(np.sqrt(white / (2 * step)))
         if level**2 <= QUIET_RATIO * spread**2:
             return SignalNoise(level=0.0, band=nyquist, signal_std=spread, **common)
-        band = _band_edge(frequencies, raw, np.full_like(raw, white), segments, inner, lowest)
+        band = _band_edge(frequencies, raw, np.full_like(raw, white), segments, inner,
+                          lowest=lowest)
         return SignalNoise(level=level, white=level, band=band,
                            signal_std=float(np.sqrt(max(spread**2 - level**2, 0.0))), **common)
     ar, innovation, extra = chosen
@@ -466,7 +468,7 @@ def _read(x: np.ndarray, step: float, quantum) -> SignalNoise:
     density = _coloured_density(frequencies, step, ar, innovation, extra)
     return SignalNoise(level=level, ar=tuple(float(a) for a in ar),
                        innovation=float(np.sqrt(innovation)), white=float(np.sqrt(extra)),
-                       band=_band_edge(frequencies, raw, density, segments, inner, lowest),
+                       band=_band_edge(frequencies, raw, density, segments, inner, lowest=lowest),
                        signal_std=float(np.sqrt(max(spread**2 - variance, 0.0))), **common)
 
 
@@ -493,7 +495,7 @@ def _white_floor(frequencies, density, segments, band_low, inner) -> float:
     return float(np.median(smoothed[top])) if top.any() else float(smoothed[-1])
 
 
-def _band_edge(frequencies, density, model, segments, inner, lowest) -> float:
+def _band_edge(frequencies, density, model, segments, inner, *, lowest) -> float:
     """Where the noise band begins: just above the last frequency the signal stands out.
 
     A bin counts as signal where the spectrum, averaged over a few

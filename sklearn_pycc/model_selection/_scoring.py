@@ -30,6 +30,7 @@ class SimulationScorer:
 
     def __init__(self, states: Sequence[str] | None = None, differentiation=None,
                  rtol: float = 1e-6, atol: float = 1e-8, max_steps: int = 200_000,
+                 *,
                  horizon="auto") -> None:
         self.states = None if states is None else list(states)
         self.differentiation = differentiation
@@ -141,7 +142,8 @@ class SimulationScorer:
             horizon = choose_horizon(system, skeleton.states, columns,
                                      [(rows, t) for _, rows, t in experiments], self.horizon)
         simulated, stops, _ = simulate_rows(estimator, columns, record.signals, experiments,
-                                            horizon, record.n_samples, max_steps=self.max_steps,
+                                            horizon, n_samples=record.n_samples,
+                                            max_steps=self.max_steps,
                                             rtol=self.rtol, atol=self.atol,
                                             capture_warnings=False)
         return None if stops else simulated
@@ -222,7 +224,7 @@ def make_simulation_scorer(states: Sequence[str] | None = None, *, differentiati
     >>> bool((scores > -0.1).all())
     True
     """
-    return SimulationScorer(states, differentiation, rtol, atol, max_steps, horizon)
+    return SimulationScorer(states, differentiation, rtol, atol, max_steps, horizon=horizon)
 
 
 def pooled_nrmse(pairs, compared, spreads=None) -> float:

@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["Curve", "FunctionCurve", "StackedCurve", "as_curve", "stack_curves"]
+__all__ = ["Curve", "FunctionCurve", "StackedCurve", "ZeroCurve", "as_curve", "stack_curves"]
 
 
 class Curve:
@@ -119,3 +119,32 @@ def stack_curves(curves: Sequence[Callable], rows: int) -> Callable:
         if stacked is not None:
             return stacked
     return StackedCurve(curves, rows)
+
+
+class ZeroCurve(Curve):
+    """The zero function (a curve pinned to zero by the gauge)."""
+
+    domain = (0.0, 0.0)
+
+    def __call__(self, x):
+        """Zeros shaped like ``x`` (``0.0`` for a number)."""
+        if isinstance(x, np.ndarray):
+            return np.zeros(x.shape)
+        return 0.0
+
+    def scalar(self, x: float) -> float:
+        """``0.0``."""
+        return 0.0
+
+    def to_sympy(self, variable):
+        """``0``."""
+        import sympy
+
+        return sympy.Integer(0)
+
+    def text(self, variable: str, precision: int = 6) -> str:
+        """``"0"``."""
+        return "0"
+
+    def __repr__(self) -> str:
+        return "ZeroCurve()"

@@ -82,6 +82,7 @@ class CompiledSystem:
         inputs: list[str],
         params: Mapping[str, float],
         functions: Mapping[str, Callable],
+        *,
         static: list[Equation] = (),
         limits: Mapping[str, tuple[float, float]] | None = None,
     ) -> None:
