@@ -17,9 +17,14 @@ import pytest
 from joblib import delayed
 
 from sklearn_pycc import CCRegressor, PolyCCRegressor, Skeleton, datasets
-from sklearn_pycc.estimators import _hidden_bootstrap, _resampling
 from sklearn_pycc.estimators.backend import RESERVED_ATTRIBUTES, Backend, FitResult
 from sklearn_pycc.estimators.least_squares import MAX_NUMBERS, LeastSquaresCCRegressor
+from sklearn_pycc.fitting.uncertainty import (
+    hidden_bootstrap as _hidden_bootstrap,
+)
+from sklearn_pycc.fitting.uncertainty import (
+    resampling as _resampling,
+)
 from sklearn_pycc.skeleton import identifiability
 
 SKELETON = ["x1_dot = f1(x1) + a1*u"]

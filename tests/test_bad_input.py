@@ -236,7 +236,7 @@ def test_fuzzed_skeletons_constraints_and_values_fail_only_with_a_named_error():
 
 
 def test_a_skeleton_of_very_many_curves_is_warned_about(monkeypatch):
-    import sklearn_pycc.estimators._setup as setup
+    from sklearn_pycc.fitting import problem as setup
 
     monkeypatch.setattr(setup, "MANY_CURVES", 50)  # 200 in use: fewer curves test as well
     rng = np.random.default_rng(0)

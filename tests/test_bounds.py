@@ -138,7 +138,7 @@ def test_impossible_constraints_are_named(record):
     with pytest.raises(SkeletonError, match="an increasing curve cannot take"):
         PolyCCRegressor(equations=SEMI, constraints=[
             "f1 increasing", "f1(0)=0", "f1(1)=-1"]).fit(X, y)
-    from sklearn_pycc.estimators._lstsq import InfeasibleError, bounded_lstsq
+    from sklearn_pycc.fitting.lstsq import InfeasibleError, bounded_lstsq
 
     A, b = np.eye(3), np.ones(3)
     with pytest.raises(InfeasibleError, match="no coefficients satisfy"):

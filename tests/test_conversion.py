@@ -283,7 +283,7 @@ def test_scalar_paths_agree_with_the_array_paths():
     for method in ("pchip", "akima", "cubic", "linear"):
         curve = InterpolatedCurve(x, np.tanh(3 * x), method)
         assert [curve.scalar(float(v)) for v in probe] == pytest.approx(curve(probe), abs=1e-14)
-    from sklearn_pycc.estimators._symbolic_curves import VARIABLE, SymbolicCurve
+    from sklearn_pycc.backends.symbolic.curves import VARIABLE, SymbolicCurve
 
     v = VARIABLE
     for expression in (0.1 * v + 0.5 * sympy.tanh(500 * v), sympy.sign(v) * v**2,

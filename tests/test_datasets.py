@@ -494,7 +494,7 @@ def _check_imports(module):
             if module is datasets:  # the package gathers its modules' generators
                 allowed = ("_oscillators", "_lab_records", "_process_records", "_sensor_noise")
             if module.__name__.endswith("_oscillators"):
-                allowed += ("skeleton", "diagnostics.effects")
+                allowed += ("skeleton", "effects")
             if module.__name__.endswith("_process_records"):  # the signals of the lab's
                 allowed += ("_lab_records",)
             assert node.module in allowed, (module.__name__, node.module)

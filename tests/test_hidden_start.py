@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from sklearn_pycc import PolyCCRegressor, datasets
-from sklearn_pycc.estimators import _hidden
-from sklearn_pycc.estimators._projected_start import projected_start
-from sklearn_pycc.estimators._swapped_speeds import speed_parameters, swapped_starts
-from sklearn_pycc.estimators._whole_record import WholeRecord
+from sklearn_pycc.fitting.output_error import hidden as _hidden
+from sklearn_pycc.fitting.output_error.projected_start import projected_start
+from sklearn_pycc.fitting.output_error.swapped_speeds import speed_parameters, swapped_starts
+from sklearn_pycc.fitting.output_error.whole_record import WholeRecord
 
 #: the issue's cascade: x1 unmeasured, the lower tank's parameters a3 and a4 its own
 ISSUE = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]

@@ -18,9 +18,9 @@ from sklearn_pycc import (
     datasets,
     diagnose,
 )
-from sklearn_pycc.estimators._hidden_bootstrap import NoiseResampler
 from sklearn_pycc.estimators.least_squares import LeastSquaresCCRegressor
 from sklearn_pycc.exceptions import RankDeficiencyWarning
+from sklearn_pycc.fitting.uncertainty.hidden_bootstrap import NoiseResampler
 
 #: the cascade with the lower tank's cross-section 0.8 times the upper one's (known): the
 #: upper tank's outflow, a2 sqrt(x1), raises the lower level 1.25 times as fast

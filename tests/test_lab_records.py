@@ -280,9 +280,9 @@ def test_stiff_friction_with_sampled_inputs_is_finished_implicitly(monkeypatch):
     implicit = []
     original = simulation._stiff_interval
 
-    def counted(*args):
+    def counted(*args, **kwargs):
         implicit.append(args[1])
-        return original(*args)
+        return original(*args, **kwargs)
 
     monkeypatch.setattr(simulation, "_stiff_interval", counted)
 

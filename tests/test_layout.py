@@ -190,3 +190,45 @@ def test_no_function_is_longer_than_a_reader_can_follow():
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
             and _body_lines(node) > MAX_BODY_LINES]
     assert not long, "\n".join(long)
+
+
+#: the package's layers, lowest first: a module imports only from its own layer and those
+#: below it (the root's ``__init__`` gathers every layer's public names)
+LAYERS = [
+    ("_utils",),
+    ("exceptions",),
+    ("simulation",),
+    ("windows", "skeleton"),
+    ("plotting", "effects"),
+    ("measurements",),
+    ("fitting",),
+    ("backends",),
+    ("estimators",),
+    ("model_selection",),
+    ("diagnostics",),
+    ("datasets", "pycc"),
+]
+
+
+def _layer(module: str) -> int | None:
+    parts = module.split(".")
+    top = parts[1] if len(parts) > 1 else None
+    return next((i for i, names in enumerate(LAYERS) if top in names), None)
+
+
+def test_each_layer_imports_only_the_layers_below_it():
+    upward = []
+    for module, targets in _graph().items():
+        here = _layer(module)
+        if here is None:  # the package's root gathers the public names
+            continue
+        upward += [f"{module} imports {target}" for target in targets
+                   if _layer(target) is not None and _layer(target) > here]
+    assert not upward, "\n".join(upward)
+
+
+def test_every_part_of_the_package_has_its_layer():
+    tops = {path.relative_to(PACKAGE).parts[0].removesuffix(".py")
+            for path in PACKAGE.iterdir() if path.suffix == ".py" or path.is_dir()}
+    tops -= {"__init__", "__pycache__"}
+    assert tops == {name for names in LAYERS for name in names}

@@ -3,7 +3,7 @@
 import pytest
 import torch
 
-from sklearn_pycc.estimators._lbfgs import CompactLBFGS, _Memory
+from sklearn_pycc.backends.neural.lbfgs import CompactLBFGS, _Memory
 
 
 def two_loop(pairs, g):

@@ -10,8 +10,8 @@ import pytest
 from scipy.linalg import lstsq as lapack_lstsq
 from scipy.linalg import null_space
 
-from sklearn_pycc.estimators import _lstsq
-from sklearn_pycc.estimators._lstsq import constrained_lstsq
+from sklearn_pycc.fitting import lstsq as _lstsq
+from sklearn_pycc.fitting.lstsq import constrained_lstsq
 
 
 def reference(A, b, C=None, d=None, alpha=0.0):

@@ -22,8 +22,8 @@ from sklearn_pycc import (
     SkeletonError,
     datasets,
 )
-from sklearn_pycc.estimators._networks import CurveNet
-from sklearn_pycc.estimators._numpy_mlp import NumpyCurve, OutsideTrainingRange
+from sklearn_pycc.backends.neural.networks import CurveNet
+from sklearn_pycc.backends.neural.numpy_mlp import NumpyCurve, OutsideTrainingRange
 
 X_COLUMNS = ["x1", "x2", "F_ext"]
 Y_COLUMNS = ["x1_dot", "x2_dot"]
@@ -65,7 +65,7 @@ def test_stick_slip_functional_recovers_both_curves(stick_slip, stick_slip_model
 
 def test_a_long_record_starts_on_evenly_spread_rows(stick_slip, monkeypatch):
     import sklearn_pycc.estimators.neural as neural
-    from sklearn_pycc.estimators._skorch_net import SkeletonNet
+    from sklearn_pycc.backends.neural.skorch_net import SkeletonNet
 
     frame, truth = stick_slip
     seen = []

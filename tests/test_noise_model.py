@@ -6,7 +6,7 @@ from scipy import signal
 from sklearn.utils._param_validation import InvalidParameterError
 
 from sklearn_pycc import PolyCCRegressor, datasets
-from sklearn_pycc.estimators._noise_model import fit_noise_model, whitening_matrix
+from sklearn_pycc.fitting.output_error.noise_model import fit_noise_model, whitening_matrix
 
 CUBIC = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 - a3 x1^3"]
 TRUTH = {"a1": 0.1, "a2": 1.0, "a3": 1.0}

@@ -9,9 +9,9 @@ import sympy
 from scipy.integrate import solve_ivp
 
 from sklearn_pycc import HypothesisLoop, PolyCCRegressor, diagnose
+from sklearn_pycc.backends.poly.basis import PolyBasis, PolyCurve
 from sklearn_pycc.diagnostics._open_curves import formula_text, open_candidates
 from sklearn_pycc.diagnostics._roles import equation_roles
-from sklearn_pycc.estimators._basis import PolyBasis, PolyCurve
 from sklearn_pycc.skeleton import Skeleton
 
 BASE = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]

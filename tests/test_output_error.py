@@ -34,7 +34,7 @@ def test_duffing_position_only_output_error_beats_the_floor(snr, bound):
 def test_the_jacobians_bumps_side_by_side_fit_as_one_at_a_time(monkeypatch):
     # the Jacobian's bumped simulations run in one pass of stacked systems; the fit is
     # the one a simulation per bump gives (curves and a scalar, few and many windows)
-    from sklearn_pycc.estimators import _shooting
+    from sklearn_pycc.fitting.output_error import shooting as _shooting
 
     frame = datasets.make_duffing(n_samples=600, noise=40, noise_columns=["x1"], random_state=1)
     X = frame[["t", "x1", "F_ext"]]
@@ -203,7 +203,7 @@ def test_a_fit_knows_the_record_and_settings_it_saw():
     # a refit on the same record with the same settings would repeat the estimate: the
     # diagnosis then reads the model's own output error instead of fitting it again
     from sklearn_pycc.diagnostics.diagnose import _whole_record
-    from sklearn_pycc.estimators._fingerprint import fitted_on
+    from sklearn_pycc.fitting.fingerprint import fitted_on
     from sklearn_pycc.measurements import Measurement
 
     frame = datasets.make_duffing(n_samples=400, noise=40, noise_columns=["x1"], random_state=0)

@@ -421,7 +421,7 @@ def test_time_symbol_in_a_skeleton(duffing):
 def test_basis_matches_numpy_vandermonde_and_curve(kind, parity, degree):
     from numpy.polynomial import chebyshev, legendre, polynomial
 
-    from sklearn_pycc.estimators._basis import PolyBasis
+    from sklearn_pycc.backends.poly.basis import PolyBasis
 
     vander = {"legendre": legendre.legvander, "chebyshev": chebyshev.chebvander,
               "power": polynomial.polyvander}[kind]
@@ -439,7 +439,8 @@ def test_basis_matches_numpy_vandermonde_and_curve(kind, parity, degree):
 def test_a_long_records_multi_start_ranks_on_a_thinned_record_and_lands_alike(monkeypatch):
     # every k-th row ranks the starting values of a long record's nonlinear parameter;
     # the winner is then refined on every row, to the optimum the full search finds
-    from sklearn_pycc.estimators import _setup, poly
+    from sklearn_pycc.estimators import poly
+    from sklearn_pycc.fitting import problem as _setup
 
     rng = np.random.default_rng(3)
     x = np.sort(rng.uniform(-3.0, 3.0, 12000))

@@ -8,11 +8,9 @@ import pytest
 import sympy
 
 from sklearn_pycc import PolyCCRegressor, SymbolicCCRegressor, diagnose, from_tables
-from sklearn_pycc.diagnostics import _open_curves
-from sklearn_pycc.diagnostics._candidates import extend
-from sklearn_pycc.diagnostics._open_curves import formula_candidates, formula_text
-from sklearn_pycc.diagnostics._roles import equation_roles
-from sklearn_pycc.estimators._readable import (
+from sklearn_pycc.backends.symbolic.curves import VARIABLE, SymbolicCurve, Template
+from sklearn_pycc.backends.symbolic.engines import Candidate
+from sklearn_pycc.backends.symbolic.readable import (
     Readability,
     catalogue_like,
     complexity,
@@ -22,9 +20,11 @@ from sklearn_pycc.estimators._readable import (
     tidy,
     without_negligible,
 )
-from sklearn_pycc.estimators._symbolic_curves import VARIABLE, SymbolicCurve, Template
-from sklearn_pycc.estimators._symbolic_engines import Candidate
-from sklearn_pycc.estimators._sympy_skeleton import to_sympy
+from sklearn_pycc.backends.symbolic.sympy_skeleton import to_sympy
+from sklearn_pycc.diagnostics import _open_curves
+from sklearn_pycc.diagnostics._candidates import extend
+from sklearn_pycc.diagnostics._open_curves import formula_candidates, formula_text
+from sklearn_pycc.diagnostics._roles import equation_roles
 from sklearn_pycc.estimators.symbolic import choose_candidate, select
 from sklearn_pycc.skeleton import Skeleton
 from sklearn_pycc.skeleton.parser import parse_expression

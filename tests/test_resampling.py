@@ -24,9 +24,9 @@ from sklearn_pycc import (
     SymbolicCCRegressor,
     datasets,
 )
-from sklearn_pycc.estimators._resampling import Resampler
 from sklearn_pycc.estimators.base import CCRegressor, make_problem
 from sklearn_pycc.estimators.poly import PolyBackend
+from sklearn_pycc.fitting.uncertainty.resampling import Resampler
 
 TRUE = ["x1_dot = x2", "x2_dot = F - a1 x2 - a2 x1 - a3 x1^3"]
 HYBRID = ["x1_dot = x2", "x2_dot = F - a1 x2 - f1(x1)"]
@@ -132,7 +132,7 @@ def test_a_network_has_parameter_errors_for_free_and_bands_from_its_ensemble():
         ensemble.append(NeuralCCRegressor(**settings, n_bootstrap=4, n_jobs=2).fit(X, y))
     pd.testing.assert_frame_equal(ensemble[0].bootstrap_params_, ensemble[1].bootstrap_params_)
     member = ensemble[0].bootstrap_[0].functions["f1"]
-    assert type(member).__module__.endswith("_numpy_mlp")  # kept as numpy
+    assert type(member).__module__.endswith("numpy_mlp")  # kept as numpy
     curve = ensemble[0].cc_curves(n=31, level=0.95)["f1"]
     truth = -curve.x + curve.x**3
     assert np.mean((curve.lower <= truth) & (truth <= curve.upper)) > 0.6

@@ -9,8 +9,8 @@ import pytest
 import sympy
 
 from sklearn_pycc import SymbolicCCRegressor, datasets
-from sklearn_pycc.estimators._symbolic_curves import VARIABLE, SymbolicCurve, Template
-from sklearn_pycc.estimators._symbolic_engines import Candidate
+from sklearn_pycc.backends.symbolic.curves import VARIABLE, SymbolicCurve, Template
+from sklearn_pycc.backends.symbolic.engines import Candidate
 from sklearn_pycc.estimators.symbolic import select
 
 pytest.importorskip("pyoperon")

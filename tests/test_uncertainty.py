@@ -15,7 +15,7 @@ from scipy.signal import lfilter
 
 from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, Skeleton, datasets
 from sklearn_pycc._utils.blocks import bandwidth
-from sklearn_pycc.estimators._uncertainty import long_run_covariance
+from sklearn_pycc.fitting.uncertainty.covariance import long_run_covariance
 
 PARAMETRIC = ["x1_dot = x2", "x2_dot = F - a1 x2 - a2 x1 - a3 x1^3"]
 FUNCTIONAL = ["x1_dot = x2", "x2_dot = F - f1(x2) - f2(x1)"]
@@ -221,7 +221,7 @@ def test_a_network_ensemble_s_curve_bands_hold_the_true_curve(oscillator):
 
 # -- the long-run part is worked out when first read ---------------------------------------
 def test_the_bartlett_sum_by_moving_sums_equals_the_direct_sum():
-    from sklearn_pycc.estimators._uncertainty import _triangle_sum
+    from sklearn_pycc.fitting.uncertainty.covariance import _triangle_sum
 
     rng = np.random.default_rng(3)
     for m, lag in [(400, 37), (50, 20), (7, 30), (5, 5), (100, 1)]:
@@ -237,7 +237,7 @@ def test_the_bartlett_sum_by_moving_sums_equals_the_direct_sum():
 def test_a_saved_model_carries_its_covariance_table_not_what_makes_it():
     import pickle
 
-    from sklearn_pycc.estimators._uncertainty import DeferredCovariance
+    from sklearn_pycc.fitting.uncertainty.covariance import DeferredCovariance
 
     frame = datasets.make_duffing(n_samples=600)
     X, y = frame[["x1", "x2", "F_ext"]], frame[["x1_dot", "x2_dot"]]

@@ -46,7 +46,7 @@ def test_few_windows_in_floats_match_the_side_by_side_integration(monkeypatch, h
 def test_stacked_variants_integrate_as_each_does_alone():
     # variants of one limited skeleton that differ in a parameter, a polynomial curve
     # (linear beyond its domain) and a plain callable: one pass gives each one's numbers
-    from sklearn_pycc.estimators._basis import PolyBasis
+    from sklearn_pycc.backends.poly.basis import PolyBasis
     from sklearn_pycc.skeleton.system import stack_systems
 
     skeleton = Skeleton(["x1_dot = a1 u - f1(x1) + 0.001 t", "x2_dot = f2(x1) - a2 sqrt(x2)"],

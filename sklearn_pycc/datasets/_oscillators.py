@@ -743,7 +743,7 @@ def make_oscillator(
     'x2_dot = F_ext - a1 x2 - a2 x1 - a3*x1^3'
 
     """
-    from ..diagnostics.effects import get as get_effect
+    from ..effects import get as get_effect
 
     damping, stiffness = check_real("damping", damping), check_real("stiffness", stiffness)
     amplitude, omega = check_real("amplitude", amplitude), check_real("omega", omega)

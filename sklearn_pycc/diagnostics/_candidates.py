@@ -9,8 +9,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from sklearn.base import clone
 
+from .. import effects as catalogue
 from ..exceptions import RankDeficiencyWarning, SkeletonError
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
@@ -30,9 +30,9 @@ from ..skeleton.nodes import (
 )
 from ..skeleton.parser import parse_expression
 from ..skeleton.printer import to_text
-from . import effects as catalogue
 from ._data import TIME, DiagnosisData, thin
 from ._physics import implausible_terms
+from ._refit import prepared
 from ._roles import EquationRoles
 
 __all__ = ["MOVES", "Candidate", "enumerate_candidates", "enumerate_moves", "refit_candidate",
@@ -538,7 +538,7 @@ def refit_candidate(model, candidate: Candidate, data: DiagnosisData, residuals:
     judged only on what it changes.
     """
     params = model.get_params(deep=False)
-    new = {"equations": candidate.extended, "constraints": None}
+    init = None
     if "param_init" in params:
         screen_names = list(candidate.screen_params)
         init = {a: v for a, v in model.params_.items() if a in candidate.extended.params}
@@ -547,14 +547,14 @@ def refit_candidate(model, candidate: Candidate, data: DiagnosisData, residuals:
         user = params.get("param_init") or {}
         init.update({a: v for a, v in user.items() if a in candidate.extended.params})
         bounds = candidate.extended.bounds
-        new["param_init"] = {a: float(np.clip(v, *bounds.get(a, (-np.inf, np.inf))))
-                             for a, v in init.items()}
+        init = {a: float(np.clip(v, *bounds.get(a, (-np.inf, np.inf))))
+                for a, v in init.items()}
+    other = {}
     if candidate.move == "open" and params.get("extrapolation") == "polynomial":
         # a free curve judged by simulations that may stray beyond its data
-        new["extrapolation"] = "linear"
-    if params.get("n_bootstrap"):  # judged by its residuals: no refits on resamples
-        new["n_bootstrap"] = 0
-    estimator = clone(model).set_params(**new)
+        other["extrapolation"] = "linear"
+    # judged by its residuals: no refits on resamples
+    estimator = prepared(model, equations=candidate.extended, param_init=init, **other)
     rows = np.arange(data.n_samples)
     if params.get("fit_mode") != "simulation":  # an output-error fit needs every sample
         rows = thin(rows)

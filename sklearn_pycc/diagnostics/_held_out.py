@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from joblib import Parallel, delayed
-from sklearn.base import clone
 
 from ._data import DiagnosisData, thin
+from ._refit import prepared
 from ._trajectories import Horizon, simulate_against
 
 __all__ = ["HeldOut", "held_out_check", "make_folds"]
@@ -165,16 +165,13 @@ def _fit(estimator, data: DiagnosisData, train: np.ndarray, labels: np.ndarray,
     X = data.X.iloc[train].reset_index(drop=True)
     if data.has_time:
         X = X.assign(**{_TRAJECTORY: labels[train]})
-    estimator = clone(estimator)
-    mode = "simulation" if output_error else "equation"
-    settings = {"fit_mode": mode} if "fit_mode" in estimator.get_params() else {}
-    if estimator.get_params().get("n_bootstrap"):  # judged by its errors alone
-        settings["n_bootstrap"] = 0
+    # judged by its errors alone: no refits on resamples
+    estimator = prepared(estimator, fit_mode="simulation" if output_error else "equation")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         # the derivatives the record gave (measured, or estimated once on the whole record)
         # start an output-error fit too: the fold is not differentiated again
-        return estimator.set_params(**settings).fit(X, data.derivatives[train])
+        return estimator.fit(X, data.derivatives[train])
 
 
 def _errors(model, test: DiagnosisData, spreads, horizon: Horizon | None,

@@ -20,7 +20,8 @@ import numpy as np
 import pandas as pd
 import sympy
 
-from ..estimators._readable import Readability
+from ..backends.symbolic.readable import Readability
+from ..effects import Effect
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import Node, Number, Param, Symbol, Unknown, product_factors, walk
@@ -28,7 +29,6 @@ from ..skeleton.parser import parse_expression
 from ..skeleton.printer import to_text
 from ._candidates import Candidate, absorbed, fitted_terms, symbols_in
 from ._roles import EquationRoles
-from .effects import Effect
 
 __all__ = ["OPEN_EFFECTS", "OpenCurve", "formula_candidates", "formula_values",
            "open_candidates", "open_curve_frame", "probes"]

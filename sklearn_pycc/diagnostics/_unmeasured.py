@@ -23,7 +23,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from sklearn.base import clone
 
 from ..exceptions import SimulationError
 from ..measurements.experiments import TIME, TRAJECTORY, split_experiments
@@ -31,6 +30,7 @@ from ..measurements.reconstruct import unmeasured_states
 from ..model_selection._scoring import pooled_nrmse
 from ._held_out import HeldOut
 from ._metrics import error_table_row
+from ._refit import prepared
 from .report import Diagnosis, Suggestion
 
 __all__ = ["UnmeasuredDiagnosis", "diagnose_unmeasured"]
@@ -194,16 +194,10 @@ def _refit(model, X: pd.DataFrame, skeleton, init: dict):
     with it, and a limit's search from there stays on that course. The
     refit is judged by its errors alone, so it makes no refits on resamples.
     """
-    settings = {"equations": skeleton, "constraints": None}
-    if model.get_params().get("n_bootstrap"):
-        settings["n_bootstrap"] = 0
-    if model.get_params().get("input_hold") == "auto":
-        settings["input_hold"] = model.input_hold_
-    if "param_init" in model.get_params():
-        settings["param_init"] = {a: v for a, v in init.items() if a in skeleton.params}
+    estimator = prepared(model, equations=skeleton, param_init=init, hold_as_fitted=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return clone(model).set_params(**settings).fit(X)
+        return estimator.fit(X)
 
 
 def _halves(X: pd.DataFrame) -> list[tuple[pd.DataFrame, pd.DataFrame, str]]:
@@ -422,12 +416,9 @@ def _as_asked(model, refit, X: pd.DataFrame):
     wanted = model.get_params().get("n_bootstrap")
     if not wanted or refit.get_params().get("n_bootstrap"):
         return refit
-    settings = {"n_bootstrap": wanted}
-    if "param_init" in refit.get_params():
-        settings["param_init"] = dict(refit.params_)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        again = clone(refit).set_params(**settings).fit(X)
+        again = prepared(refit, param_init=refit.params_, n_bootstrap=wanted).fit(X)
     if refit in _FOLD_ERRORS:
         _FOLD_ERRORS[again] = _FOLD_ERRORS[refit]
     return again

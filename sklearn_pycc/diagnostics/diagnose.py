@@ -9,13 +9,12 @@ from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
-from sklearn.base import clone
 from sklearn.utils._param_validation import Interval, validate_params
 from sklearn.utils.validation import check_is_fitted
 
 from .._utils.randomness import check_seed_source
-from ..estimators._fingerprint import fitted_on
 from ..exceptions import SkeletonError
+from ..fitting.fingerprint import fitted_on
 from ..measurements.measurement import unwrap
 from ..measurements.reconstruct import unmeasured_states
 from ..simulation import judged_step_limit
@@ -41,6 +40,7 @@ from ._held_out import held_out_check
 from ._metrics import error_table_row, rmse
 from ._open_curves import OpenCurve, formula_candidates, open_candidates, probes
 from ._physics import implausible_terms
+from ._refit import prepared
 from ._roles import EquationRoles, equation_roles
 from ._stability import Stability, selection_stability
 from ._trajectories import Divergence, Horizon, horizon_of, simulate_against
@@ -813,13 +813,10 @@ def _whole_record(model, record: pd.DataFrame, cache: dict | None = None) -> flo
         if cache is not None:
             cache["whole_record"] = error
         return error
-    settings = {"fit_mode": "simulation"}
-    if model.get_params().get("n_bootstrap"):
-        settings["n_bootstrap"] = 0
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            fitted = clone(model).set_params(**settings).fit(record)
+            fitted = prepared(model, fit_mode="simulation").fit(record)
     except Exception:  # a skeleton the record cannot fit this way is no answer
         error = math.inf
     else:

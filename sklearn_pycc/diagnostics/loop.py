@@ -16,6 +16,7 @@ from ..simulation import judged_step_limit
 from ..skeleton import Skeleton
 from ..skeleton.nodes import Param, product_factors, rename, signed_terms, walk
 from ..skeleton.printer import to_text
+from ._refit import KEEP, prepared
 from .diagnose import diagnose
 from .report import Diagnosis, Suggestion
 
@@ -221,14 +222,11 @@ class HypothesisLoop:
         added = self.rounds[-1].added
         previous = self.rounds[-1].model
         # fitted as the diagnosis judged it (a free curve continues beyond its data linearly)
-        settings = {**added.settings, "equations": added.equations, "constraints": None}
-        if "param_init" in previous.get_params():
-            init = dict(previous.get_params()["param_init"] or {})
-            init.update(added.param_init)
-            # a replaced or removed term takes its parameters with it
-            settings["param_init"] = {a: v for a, v in init.items()
-                                      if a in added.equations.params}
-        return clone(previous).set_params(**settings)
+        # a replaced or removed term takes its parameters with it (prepared leaves out
+        # those the new skeleton lacks); the user's refits on resamples are kept
+        init = {**(previous.get_params().get("param_init") or {}), **added.param_init}
+        return prepared(previous, equations=added.equations, param_init=init,
+                        n_bootstrap=KEEP, **added.settings)
 
     def _options(self) -> dict:
         options = dict(self.diagnose_options)
@@ -341,10 +339,8 @@ class HypothesisLoop:
             self.refinement = None
             return None
         data = last.diagnosis.record
-        settings = {"fit_mode": "simulation"}
-        if "param_init" in model.get_params():
-            settings["param_init"] = dict(model.params_)
-        refined = clone(model).set_params(**settings).fit(self.measurement)
+        refined = prepared(model, fit_mode="simulation", param_init=model.params_,
+                           n_bootstrap=KEEP).fit(self.measurement)
         horizon = self.rounds[0].diagnosis.horizon
         equations = [k for k, d in enumerate(model.skeleton_.derivatives)
                      if d in last.diagnosis.maps] or list(range(len(model.skeleton_.states)))

@@ -33,9 +33,9 @@ from typing import ClassVar
 import numpy as np
 
 from ..exceptions import RankDeficiencyWarning
+from ..fitting.problem import FitResult, Problem
 from ..simulation import INPUT_HOLDS
 from ..skeleton.curves import as_curve
-from ._setup import FitResult, Problem
 
 __all__ = ["RESERVED_ATTRIBUTES", "Backend", "FitResult", "Problem", "check_fit_result"]
 
@@ -136,7 +136,7 @@ class Backend(ABC):
         """
         if problem.fit_mode != "simulation":
             return check_fit_result(self, problem, self.fit(problem))
-        from ._shooting import ShootingPlan, check_iterations
+        from ..fitting.output_error.shooting import ShootingPlan, check_iterations
 
         iterations = check_iterations(shooting_iterations)
         if problem.hidden:
@@ -158,7 +158,8 @@ class Backend(ABC):
         them and once not), then every experiment simulated whole from each
         estimate and from each one's best common rescaling, and from a
         second start whose ratios between the parameters were found too
-        (:func:`~._hidden.ratio_start`); the best whole-record fit wins. A
+        (:func:`~sklearn_pycc.fitting.output_error.hidden.ratio_start`); the best whole-record fit
+        wins. A
         start that ``param_init`` gives in full (a refit from a fitted model)
         gets one multiple-shooting pass and is simulated whole itself, with
         no rescaling and no second start. A limit to fit on an unmeasured
@@ -171,15 +172,17 @@ class Backend(ABC):
         set the level the state runs at; else with the first's. From a
         guessed start, the fit is then polished once more with an unmeasured
         stage's speed and another's swapped
-        (:func:`~._swapped_speeds.swapped_starts`: a cascade's second
+        (:func:`~sklearn_pycc.fitting.output_error.swapped_speeds.swapped_starts`: a cascade's
+        second
         minimum) and moved along an unmeasured state's scale toward its
-        known limit (:func:`~._hidden.along_hidden_scale`); the best
+        known limit (:func:`~sklearn_pycc.fitting.output_error.hidden.along_hidden_scale`); the
+        best
         whole-record fit wins. Where the problem's hold is to be chosen
         (``input_hold="auto"``), the fit is last polished under each other
         input hold, and the hold of the best whole-record fit is kept
         (``input_hold_``).
         """
-        from ._hidden import (
+        from ..fitting.output_error.hidden import (
             along_hidden_scale,
             initial_table,
             limit_start,
@@ -189,7 +192,7 @@ class Backend(ABC):
             starting_params,
             whole_record_covariance,
         )
-        from ._swapped_speeds import swapped_starts
+        from ..fitting.output_error.swapped_speeds import swapped_starts
 
         result = check_fit_result(self, problem, self.hidden_start(problem), "hidden_start")
         limits = problem.skeleton.limit_params
@@ -264,11 +267,12 @@ class Backend(ABC):
 
         The free parameters at the backend's ``param_init``; those it does
         not give start at 1 times the common factor whose simulation follows
-        the record best (:func:`~._hidden.scaled_start`); the curves pinned
+        the record best (:func:`~sklearn_pycc.fitting.output_error.hidden.scaled_start`); the
+        curves pinned
         to zero by the gauge.
         """
+        from ..fitting.output_error.hidden import scaled_start, starting_params
         from ..skeleton.curves import ZeroCurve
-        from ._hidden import scaled_start, starting_params
 
         init = getattr(self, "param_init", None)
         params = scaled_start(problem, starting_params(problem, init), list(init or {}))
@@ -465,9 +469,9 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
     stage's summary (with ``unseen``, the directions the measurements do
     not see).
     """
-    from ._hidden import hidden_trajectories, rescaled, single_shooting
-    from ._shooting import ShootingPlan, fit_shooting
-    from ._whole_record import WholeRecord
+    from ..fitting.output_error.hidden import hidden_trajectories, rescaled, single_shooting
+    from ..fitting.output_error.shooting import ShootingPlan, fit_shooting
+    from ..fitting.output_error.whole_record import WholeRecord
 
     names = list(problem.free_params)
 

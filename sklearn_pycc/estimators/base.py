@@ -19,6 +19,18 @@ from sklearn.utils.validation import check_is_fitted
 
 from .._utils.randomness import seeds
 from ..exceptions import DomainWarning, ExtrapolationWarning, SimulationError
+from ..fitting.fingerprint import fit_fingerprint
+from ..fitting.output_error.hidden import check_visible
+from ..fitting.output_error.noise_model import NOISE_MODELS, fit_noise_model
+from ..fitting.problem import (
+    GAUGES,
+    FitResult,
+    Problem,
+    build_skeleton,
+    gauge_skeleton,
+    measured_part,
+)
+from ..fitting.uncertainty.intervals import N_DRAWS, IntervalsMixin, check_level
 from ..measurements import read_record
 from ..measurements.columns import read_X, read_y
 from ..measurements.differentiation import (
@@ -37,11 +49,6 @@ from ..skeleton.nodes import Symbol, sum_terms
 from ..skeleton.printer import to_text
 from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
-from ._fingerprint import fit_fingerprint
-from ._hidden import check_visible
-from ._intervals import N_DRAWS, IntervalsMixin, check_level
-from ._noise_model import NOISE_MODELS, fit_noise_model
-from ._setup import GAUGES, FitResult, Problem, build_skeleton, gauge_skeleton, measured_part
 from .backend import Backend
 
 __all__ = ["FIT_MODES", "OUTPUT_ERROR_SETTINGS", "RANDOM_STATES", "RESAMPLING", "CCRegressor",
@@ -448,7 +455,7 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         skeleton is then polished on the whole record's whitened errors,
         which give its ``covariance_``.
         """
-        from ._noise_model import output_errors, whitened_polish
+        from ..fitting.output_error.noise_model import output_errors, whitened_polish
 
         noise = fit_noise_model(output_errors(problem, result), self.noise_model)
         if not noise.white:
@@ -471,12 +478,12 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
     def _bootstrap(self, problem: Problem, result: FitResult, n: int,
                    backend: Backend) -> dict:
         """Refits on ``n`` resamples that respect time: the ``bootstrap_`` attributes."""
-        from ._resampling import Resampler, fit_members
+        from ..fitting.uncertainty.resampling import Resampler, fit_members
 
         seed = next(seeds(getattr(self, "random_state", None)))
         verbose = bool(getattr(self, "verbose", 0))  # a progress bar over the refits
         if problem.hidden:  # a block cannot fix its own hidden states: the noise is redrawn
-            from ._hidden_bootstrap import hidden_members
+            from ..fitting.uncertainty.hidden_bootstrap import hidden_members
 
             if result.attributes["shooting_"].get("unseen"):
                 warnings.warn("no refits on resamples: the measurements leave a direction of "
@@ -714,7 +721,11 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             When the model cannot be simulated over the stretch from any
             guess (the estimate is then unchecked).
         """
-        from ._whole_record import check_initial_stretch, equilibrium, sensor_readings
+        from ..fitting.output_error.whole_record import (
+            check_initial_stretch,
+            equilibrium,
+            sensor_readings,
+        )
 
         check_is_fitted(self, "functions_")
         skeleton = self.skeleton_
@@ -1090,8 +1101,8 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         """
         import sympy
 
-        from ._symbolic_curves import VARIABLE
-        from ._sympy_skeleton import to_sympy
+        from ..backends.symbolic.curves import VARIABLE
+        from ..backends.symbolic.sympy_skeleton import to_sympy
 
         check_is_fitted(self, "functions_")
         written = {name: curve.to_sympy(VARIABLE) for name, curve in self.functions_.items()}
@@ -1213,7 +1224,7 @@ def _measured_limits(skeleton, record) -> dict[str, float]:
     limit a state's rate is held, not what they compute). The extreme of
     the smoothed state is read (the raw samples' overshoots it by the
     noise). With unmeasured states every limit is fitted by output error,
-    a measured state's from there (:func:`~._hidden.limit_start`).
+    a measured state's from there (:func:`~sklearn_pycc.fitting.output_error.hidden.limit_start`).
     """
     out = {}
     for name, (state, side) in skeleton.limit_params.items():

@@ -14,14 +14,14 @@ from sklearn.utils._param_validation import Interval, StrOptions, validate_param
 from sklearn.utils.validation import check_is_fitted
 
 from .._utils.randomness import seeds
+from ..backends.symbolic.curves import FittedCurve, SymbolicCurve, Template
+from ..backends.symbolic.engines import make_engine
+from ..backends.symbolic.readable import Readability
+from ..backends.symbolic.residuals import CurveResiduals
 from ..exceptions import GaugeWarning
+from ..fitting.problem import build_skeleton, gauge_skeleton, parity_of, points_of
 from ..skeleton import Skeleton
 from ..skeleton.curves import ZeroCurve
-from ._readable import Readability
-from ._setup import build_skeleton, gauge_skeleton, parity_of, points_of
-from ._symbolic_curves import FittedCurve, SymbolicCurve, Template
-from ._symbolic_engines import make_engine
-from ._symbolic_residuals import CurveResiduals
 from .base import CCRegressor, adopt, backend_of, make_problem, set_fitted
 from .interpolated import (
     InterpolatedCCRegressor,

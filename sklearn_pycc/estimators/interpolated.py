@@ -21,8 +21,8 @@ from sklearn.base import _fit_context, clone
 from sklearn.utils._param_validation import Interval, StrOptions
 
 from ..exceptions import GaugeWarning
+from ..fitting.problem import gauge_skeleton
 from ..skeleton.curves import Curve, ZeroCurve
-from ._setup import gauge_skeleton
 from .backend import Backend, FitResult, Problem
 from .base import OUTPUT_ERROR_SETTINGS, CCRegressor, backend_of
 from .poly import PolyCCRegressor
@@ -199,7 +199,7 @@ class TableBackend(Backend):
 
     def tabulated(self, functions: Mapping, ranges: Mapping[str, tuple[float, float]]) -> dict:
         """``functions`` with each curve that has a range tabulated over it."""
-        return {name: (tabulate(curve, *ranges[name], self.n_points, self.method, name)
+        return {name: (tabulate(curve, *ranges[name], self.n_points, self.method, name=name)
                        if name in ranges else curve)
                 for name, curve in functions.items()}
 

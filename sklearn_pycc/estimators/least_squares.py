@@ -18,8 +18,8 @@ import numpy as np
 from scipy.optimize import least_squares
 from sklearn.utils._param_validation import Interval
 
+from ..backends.poly.basis import PolyCurve
 from ..skeleton.curves import ZeroCurve
-from ._basis import PolyCurve
 from .backend import Backend, FitResult, Problem
 from .base import OUTPUT_ERROR_SETTINGS, CCRegressor
 

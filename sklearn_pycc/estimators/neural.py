@@ -10,10 +10,10 @@ from sklearn.utils._param_validation import Interval, StrOptions
 
 from .._utils.randomness import seeds
 from .._utils.threads import torch_threads
+from ..backends.neural.activations import ACTIVATIONS
+from ..backends.neural.numpy_mlp import EXTRAPOLATIONS, NumpyCurve
+from ..fitting.problem import FitResult, Problem, active_residuals
 from ..skeleton.curves import ZeroCurve
-from ._activations import ACTIVATIONS
-from ._numpy_mlp import EXTRAPOLATIONS, NumpyCurve
-from ._setup import FitResult, Problem, active_residuals
 from .backend import Backend
 from .base import RANDOM_STATES, RESAMPLING, CCRegressor
 
@@ -102,7 +102,7 @@ class NeuralBackend(Backend):
     def _optimizer(self):
         import torch
 
-        from ._lbfgs import CompactLBFGS
+        from ..backends.neural.lbfgs import CompactLBFGS
 
         if isinstance(self.optimizer, str):
             if self.optimizer not in OPTIMIZERS:
@@ -152,7 +152,7 @@ class NeuralBackend(Backend):
             result = self._train(problem, residuals, weights, params0, checked)
         result.functions.update(functions)
         if problem.covariance and problem.fit_mode == "equation":
-            from ._linearized import linearized_covariance
+            from ..fitting.uncertainty.linearized import linearized_covariance
 
             features = {f: result.functions[f].features for f in problem.free_functions}
             result.attributes["covariance_"] = linearized_covariance(
@@ -162,8 +162,8 @@ class NeuralBackend(Backend):
     def _train(self, problem, residuals, weights, params0, checked):
         import torch
 
-        from ._networks import SkeletonModule
-        from ._skorch_net import CurvesSettled, EpochProgress, SkeletonNet
+        from ..backends.neural.networks import SkeletonModule
+        from ..backends.neural.skorch_net import CurvesSettled, EpochProgress, SkeletonNet
 
         dtype = getattr(torch, self.dtype)
         device = checked["device"]
@@ -257,7 +257,7 @@ class NeuralBackend(Backend):
     # -- output error ----------------------------------------------------------
     def refine(self, problem: Problem, result: FitResult, plan) -> FitResult:
         """Refine the trained networks by multiple shooting through a torch RK4."""
-        from ._torch_shooting import shoot_module
+        from ..backends.neural.torch_shooting import shoot_module
 
         if result.stage is None:  # nothing was trained: no free curve or parameter
             return FitResult(result.functions, result.params,

@@ -13,14 +13,14 @@ from sklearn.utils._param_validation import Interval, StrOptions
 
 from .._utils.randomness import seeds
 from .._utils.threads import blas_threads
+from ..backends.poly.basis import BASES, PolyBasis, PolyCurve
+from ..backends.poly.linear import curve_arguments, linearize, split_parameters
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
+from ..fitting.lstsq import LstsqResult, bounded_lstsq, constrained_lstsq
+from ..fitting.output_error.shooting import ShootingPlan, fit_shooting
+from ..fitting.problem import FitResult, Problem, residual_scale, thinned
+from ..fitting.uncertainty.covariance import DeferredCovariance, sandwich
 from ..skeleton.curves import ZeroCurve
-from ._basis import BASES, PolyBasis, PolyCurve
-from ._linear import curve_arguments, linearize, split_parameters
-from ._lstsq import LstsqResult, bounded_lstsq, constrained_lstsq
-from ._setup import FitResult, Problem, residual_scale, thinned
-from ._shooting import ShootingPlan, fit_shooting
-from ._uncertainty import DeferredCovariance, sandwich
 from .backend import Backend
 from .base import RANDOM_STATES, RESAMPLING, CCRegressor
 
@@ -654,7 +654,8 @@ def _covariance(problem: Problem, design: _Design, nonlinear: list[str], theta: 
     Returned deferred: the Newey-West part is worked out when the table is
     first read (``covariance_``).
 
-    The sandwich with Newey-West scores (:func:`~._uncertainty.sandwich`) of the
+    The sandwich with Newey-West scores
+    (:func:`~sklearn_pycc.fitting.uncertainty.covariance.sandwich`) of the
     weighted equation residuals: the linear unknowns' columns are the
     design's, the nonlinear parameters' are central differences. Point
     values, active inequality rows and nonlinear parameters at a bound hold

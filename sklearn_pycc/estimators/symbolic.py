@@ -13,19 +13,19 @@ from scipy.optimize import least_squares
 from sklearn.utils._param_validation import Interval, StrOptions
 
 from .._utils.randomness import seeds
-from ..exceptions import SkeletonError
-from ..skeleton.curves import ZeroCurve
-from ._readable import Readability, nesting, tidy
-from ._setup import FitResult, Problem
-from ._symbolic_curves import VARIABLE, FittedCurve, SymbolicCurve, Template
-from ._symbolic_engines import (
+from ..backends.symbolic.curves import VARIABLE, FittedCurve, SymbolicCurve, Template
+from ..backends.symbolic.engines import (
     BINARY_OPERATORS,
     ENGINES,
     UNARY_OPERATORS,
     Candidate,
     make_engine,
 )
-from ._symbolic_residuals import CurveResiduals
+from ..backends.symbolic.readable import Readability, nesting, tidy
+from ..backends.symbolic.residuals import CurveResiduals
+from ..exceptions import SkeletonError
+from ..fitting.problem import FitResult, Problem
+from ..skeleton.curves import ZeroCurve
 from .backend import Backend
 from .base import OUTPUT_ERROR_SETTINGS, RANDOM_STATES, RESAMPLING, CCRegressor, backend_of
 
@@ -49,7 +49,7 @@ def select(candidates: list[tuple[Candidate, float]], rule: str,
     log) per unit of added complexity, of those within 1.5 times the lowest.
     Last, a candidate whose loss ties with the chosen one's (within
     ``readability.tolerance``) and reads simpler wins: catalogue-like shapes
-    first, then fewer nodes (see ``sklearn_pycc.estimators._readable``).
+    first, then fewer nodes (see ``sklearn_pycc.backends.symbolic.readable``).
     """
     readability = Readability() if readability is None else readability
     expressions = [candidate.expression for candidate, _ in candidates]
@@ -136,7 +136,7 @@ def choose_candidate(found, template: Template, domain: tuple[float, float],
     """Turn a search's candidates into curves, score them, and choose one.
 
     Each candidate, its numbers that do nothing over ``domain`` dropped and
-    the rest tidied (:func:`._readable.tidy`), becomes a curve under
+    the rest tidied (:func:`sklearn_pycc.backends.symbolic.readable.tidy`), becomes a curve under
     ``template`` (parity and point values) over ``domain``; a curve that
     breaks the ``monotone`` shape asked for is dropped. ``score(curve)``
     returns ``(loss, columns, payload)``, or None to drop the candidate: the

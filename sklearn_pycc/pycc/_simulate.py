@@ -8,7 +8,7 @@ import numpy as np
 from scipy.interpolate import UnivariateSpline
 from scipy.optimize import OptimizeResult
 
-from ..estimators._symbolic_curves import VARIABLE
+from ..backends.symbolic.curves import VARIABLE
 from ..estimators.base import set_fitted
 from ..estimators.conversion import from_tables
 from ..estimators.interpolated import INTERPOLATIONS, InterpolatedCurve

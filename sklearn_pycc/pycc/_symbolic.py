@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 import sympy
 
-from ..estimators._symbolic_curves import VARIABLE
+from ..backends.symbolic.curves import VARIABLE
 from ..skeleton.curves import Curve
 
 __all__ = ["ExpressionFunction", "ParetoModel", "SymbolicEntry", "symbolic_entries"]

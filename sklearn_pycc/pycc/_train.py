@@ -6,8 +6,8 @@ from collections.abc import Mapping, Sequence
 
 import pandas as pd
 
+from ..backends.neural.activations import ACTIVATIONS
 from ..estimators import NeuralCCRegressor, PolyCCRegressor, SymbolicCCRegressor
-from ..estimators._activations import ACTIVATIONS
 from ..estimators.base import check_equation_weights
 from ..skeleton import Skeleton
 from ._fine_tuning import post_fine_tuning

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import sparse
 
-from ._whole_record import WholeRecord
+from .whole_record import WholeRecord
 
 __all__ = ["NOISE_MODELS", "NoiseModel", "SignalNoiseModel", "fit_noise_model",
            "whitening_matrix"]
@@ -317,7 +317,7 @@ def whitened_polish(problem, result, noise: NoiseModel, steps: int = 4):
     """
     import pandas as pd
 
-    from ._uncertainty import long_run_covariance
+    from ..uncertainty.covariance import long_run_covariance
 
     if problem.free_functions or not problem.free_params:
         return None

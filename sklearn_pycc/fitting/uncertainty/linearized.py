@@ -5,7 +5,7 @@ layer: the curve is linear in the last layer's weights, with the last hidden
 layer's outputs as a basis. Read that way, a fit of the skeleton is a least
 squares problem in the scalars ``a_i`` and the last layers, and its
 covariance is the sandwich with Newey-West scores
-(:func:`~._uncertainty.sandwich_covariance`), the same estimate the
+(:func:`~sklearn_pycc.fitting.uncertainty.covariance.sandwich_covariance`), the same estimate the
 polynomial backend gives: the curves are nuisances with many degrees of
 freedom, and the scalars' standard errors account for what the curves
 could absorb. Columns of the Jacobian are central differences of the
@@ -20,8 +20,8 @@ from collections.abc import Callable, Mapping
 import numpy as np
 import pandas as pd
 
-from ._setup import Problem, active_residuals
-from ._uncertainty import sandwich_covariance
+from ..problem import Problem, active_residuals
+from .covariance import sandwich_covariance
 
 __all__ = ["linearized_covariance"]
 

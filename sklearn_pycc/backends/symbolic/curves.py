@@ -16,8 +16,8 @@ import math
 import numpy as np
 import sympy
 
-from ..skeleton.curves import Curve
-from ._readable import rounded, tidy, without_negligible
+from ...skeleton.curves import Curve
+from .readable import rounded, tidy, without_negligible
 
 __all__ = ["VARIABLE", "FittedCurve", "SymbolicCurve", "Template", "constants_of",
            "with_constants"]
@@ -147,6 +147,7 @@ class SymbolicCurve(Curve):
         return self._function
 
     def __call__(self, x):
+        """The curve at ``x``."""
         x = np.asarray(x, dtype=float)
         with np.errstate(all="ignore"):
             out = self._compiled()(x)
@@ -208,6 +209,7 @@ class FittedCurve:
         self.set_g(g)
 
     def set_g(self, g: sympy.Expr) -> None:
+        """Take ``g`` as the free part, its numbers as the values to fit."""
         self.g = g
         self.shape, self.symbols, self.values = with_constants(g)
         raw = sympy.lambdify([VARIABLE, *self.symbols], self.shape, modules="numpy")
@@ -234,6 +236,7 @@ class FittedCurve:
                 for s, v in zip(self.symbols, kept)})))
 
     def function(self, values: np.ndarray | None = None):
+        """The curve ``T(g)`` as a function of x, with ``values`` (default: its own) in ``g``."""
         c = self.values if values is None else values
         return self.template.numeric(lambda x: self._g_of(np.asarray(x, dtype=float), c))
 

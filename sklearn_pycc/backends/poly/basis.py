@@ -16,7 +16,7 @@ from numpy.polynomial import chebyshev, legendre
 from numpy.polynomial import polynomial as power
 from scipy.special import comb
 
-from ..skeleton.curves import Curve
+from ...skeleton.curves import Curve
 
 __all__ = ["BASES", "PolyBasis", "PolyCurve"]
 
@@ -193,6 +193,7 @@ class PolyCurve(Curve):
         return acc
 
     def __call__(self, x):
+        """The curve at ``x``, continued beyond its domain as ``extrapolation`` says."""
         acc = self._horner(x)
         if self.extrapolation == "linear":
             (lo, f_lo, s_lo), (hi, f_hi, s_hi) = self._edges

@@ -2,7 +2,7 @@
 
 Every engine answers :meth:`Engine.search` with the candidates of its
 Pareto front (accuracy against size), each a SymPy expression of
-:data:`~._symbolic_curves.VARIABLE`. ``"operon"`` (pyoperon, C++, offline)
+:data:`~sklearn_pycc.backends.symbolic.curves.VARIABLE`. ``"operon"`` (pyoperon, C++, offline)
 is the default; ``"pysr"`` needs Julia and is imported only when chosen.
 """
 
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy
 
-from ._symbolic_curves import VARIABLE
+from .curves import VARIABLE
 
 __all__ = ["BINARY_OPERATORS", "ENGINES", "UNARY_OPERATORS", "Candidate", "make_engine"]
 

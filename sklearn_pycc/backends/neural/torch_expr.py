@@ -13,8 +13,8 @@ from collections.abc import Callable, Mapping
 
 import torch
 
-from ..skeleton.functions import ELEMENTARY
-from ..skeleton.nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
+from ...skeleton.functions import ELEMENTARY
+from ...skeleton.nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
 
 __all__ = ["TORCH_FUNCTIONS", "compile_torch"]
 

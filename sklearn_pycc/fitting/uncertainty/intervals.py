@@ -22,9 +22,9 @@ from scipy.stats import norm
 from scipy.stats import t as student
 from sklearn.utils.validation import check_is_fitted
 
-from .._utils.randomness import seeds
-from ..exceptions import SimulationError
-from ._uncertainty import DeferredCovariance
+from ..._utils.randomness import seeds
+from ...exceptions import SimulationError
+from .covariance import DeferredCovariance
 
 __all__ = ["IntervalsMixin", "check_level"]
 

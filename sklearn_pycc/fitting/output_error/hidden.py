@@ -16,11 +16,11 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
-from ..skeleton.nodes import Symbol, walk
-from ._projected_start import projected_start
-from ._setup import Problem
-from ._uncertainty import sandwich_covariance
-from ._whole_record import ESCAPED, WholeRecord, state_bounds, within_limits, zero_curves
+from ...skeleton.nodes import Symbol, walk
+from ..problem import Problem
+from ..uncertainty.covariance import sandwich_covariance
+from .projected_start import projected_start
+from .whole_record import ESCAPED, WholeRecord, state_bounds, within_limits, zero_curves
 
 __all__ = ["START_FACTORS", "along_hidden_scale", "check_visible", "hidden_trajectories",
            "initial_table", "limit_start", "opened_limits", "rates_on", "ratio_start",
@@ -189,7 +189,8 @@ def ratio_start(problem: Problem, params: Mapping[str, float],
                 given: Sequence[str]) -> dict[str, float] | None:
     """A second start, for the ratios :func:`scaled_start` leaves at their defaults.
 
-    :func:`~._projected_start.projected_start` from ``params`` (the default
+    :func:`~sklearn_pycc.fitting.output_error.projected_start.projected_start` from ``params``
+    (the default
     start, with the limits to fit where :func:`scaled_start` put them),
     each point judged as :func:`scaled_start` judges its factors; None
     where the skeleton has no linear parameters to project out.

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 from scipy.linalg import null_space
 
-from .._utils.blocks import bandwidth, plug_in_lag, segments
+from ..._utils.blocks import bandwidth, plug_in_lag, segments
 
 __all__ = ["DeferredCovariance", "Sandwich", "long_run_covariance", "sandwich",
            "sandwich_covariance"]

@@ -14,9 +14,9 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..skeleton.curves import ZeroCurve
-from ..windows import Windows
-from ._setup import Problem
+from ...skeleton.curves import ZeroCurve
+from ...windows import Windows
+from ..problem import Problem
 
 __all__ = ["ESCAPED", "WholeRecord", "check_initial_stretch", "equilibrium", "sensor_readings",
            "state_bounds", "within_limits", "zero_curves"]

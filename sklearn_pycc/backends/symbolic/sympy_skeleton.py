@@ -6,9 +6,9 @@ from collections.abc import Callable, Mapping
 
 import sympy
 
-from ..skeleton.functions import ELEMENTARY
-from ..skeleton.nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
-from ._symbolic_curves import VARIABLE
+from ...skeleton.functions import ELEMENTARY
+from ...skeleton.nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
+from .curves import VARIABLE
 
 __all__ = ["to_sympy"]
 
@@ -29,7 +29,7 @@ def to_sympy(node: Node, params: Mapping[str, float],
     """``node`` with parameters replaced by values and curves by their expressions.
 
     ``curves`` maps a curve's name to its expression in
-    :data:`~._symbolic_curves.VARIABLE`; a curve missing from it stays an
+    :data:`~sklearn_pycc.backends.symbolic.curves.VARIABLE`; a curve missing from it stays an
     undefined function ``f(argument)``.
     """
 

@@ -22,11 +22,11 @@ from dataclasses import replace
 import numpy as np
 from joblib import delayed
 
-from .._utils.blocks import block_length
-from ._hidden import single_shooting
-from ._resampling import REFIT_FAILURES, Member, run_refits
-from ._setup import Problem
-from ._whole_record import ESCAPED, WholeRecord
+from ..._utils.blocks import block_length
+from ..output_error.hidden import single_shooting
+from ..output_error.whole_record import ESCAPED, WholeRecord
+from ..problem import Problem
+from .resampling import REFIT_FAILURES, Member, run_refits
 
 __all__ = ["NoiseResampler", "hidden_members"]
 
@@ -139,7 +139,7 @@ def hidden_members(problem: Problem, params: dict, functions: dict, attributes: 
     Python's lock. Each is a whole-record fit (about half a second for two
     tanks of 500 samples): when they would take long, a warning says how
     long before they start, and ``verbose`` shows their progress
-    (:func:`~._resampling.run_refits`).
+    (:func:`~sklearn_pycc.fitting.uncertainty.resampling.run_refits`).
 
     Returns
     -------

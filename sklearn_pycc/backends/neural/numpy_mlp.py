@@ -21,8 +21,8 @@ from bisect import bisect_right
 
 import numpy as np
 
-from ..skeleton.curves import Curve
-from ._activations import is_smooth, numpy_activation, numpy_derivative
+from ...skeleton.curves import Curve
+from .activations import is_smooth, numpy_activation, numpy_derivative
 
 __all__ = ["EXTRAPOLATIONS", "NumpyCurve", "OutsideTrainingRange"]
 
@@ -202,7 +202,7 @@ class NumpyCurve(Curve):
         ``x`` held to the training domain. The curve is linear in these
         numbers, so they span its changes when only the last layer moves;
         a point value holds when the change is zero there (see
-        :mod:`._linearized`).
+        :mod:`sklearn_pycc.fitting.uncertainty.linearized`).
         """
         lo, hi = self.domain
         u = (np.clip(np.asarray(x, dtype=float).reshape(-1), lo, hi) - self.center) / self.scale

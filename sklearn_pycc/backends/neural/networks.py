@@ -17,10 +17,10 @@ import torch
 from torch import nn
 from torch.nn.utils import skip_init
 
-from ..exceptions import SkeletonError
-from ._activations import torch_activation
-from ._numpy_mlp import NumpyCurve
-from ._torch_expr import compile_torch
+from ...exceptions import SkeletonError
+from .activations import torch_activation
+from .numpy_mlp import NumpyCurve
+from .torch_expr import compile_torch
 
 __all__ = ["BoundedParameters", "CurveNet", "SkeletonModule", "correction_basis"]
 

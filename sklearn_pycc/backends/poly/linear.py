@@ -15,10 +15,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..exceptions import SkeletonError
-from ..skeleton.equations import unknown_names
-from ..skeleton.functions import ELEMENTARY
-from ..skeleton.nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown, walk
+from ...exceptions import SkeletonError
+from ...skeleton.equations import unknown_names
+from ...skeleton.functions import ELEMENTARY
+from ...skeleton.nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown, walk
 
 __all__ = ["Affine", "NotAffine", "linearize", "split_parameters"]
 
@@ -48,10 +48,12 @@ class Affine:
         self.blocks = blocks or {}
 
     def scaled(self, factor) -> Affine:
+        """The form times ``factor``."""
         blocks = {k: [(f * factor, a) for f, a in terms] for k, terms in self.blocks.items()}
         return Affine(self.const * factor, blocks)
 
     def plus(self, other: Affine, sign: float = 1.0) -> Affine:
+        """The form plus ``sign`` times ``other``."""
         blocks = dict(self.blocks)
         for k, terms in other.blocks.items():
             moved = terms if sign == 1.0 else [(sign * f, a) for f, a in terms]

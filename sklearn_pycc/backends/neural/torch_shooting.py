@@ -4,7 +4,7 @@ The neural backend's output-error fit: the trained curve networks and
 parameters, and every segment's initial state, are moved by L-BFGS so that
 the states integrated over each shooting segment match the measured ones,
 with continuity between consecutive segments as a penalty. The segments
-and their inputs come from :class:`~._shooting.ShootingPlan`.
+and their inputs come from :class:`~sklearn_pycc.fitting.output_error.shooting.ShootingPlan`.
 """
 
 from __future__ import annotations
@@ -15,10 +15,10 @@ import math
 import numpy as np
 import torch
 
-from ..skeleton.equations import TIME
-from ._lbfgs import CompactLBFGS
-from ._shooting import CONTINUITY_WEIGHT, ShootingPlan
-from ._torch_expr import compile_torch
+from ...fitting.output_error.shooting import CONTINUITY_WEIGHT, ShootingPlan
+from ...skeleton.equations import TIME
+from .lbfgs import CompactLBFGS
+from .torch_expr import compile_torch
 
 __all__ = ["shoot_module"]
 
@@ -86,7 +86,8 @@ def shoot_module(plan: ShootingPlan, problem, module, iterations: int,
                  like: torch.Tensor) -> dict:
     """Refine ``module`` (curve networks and parameters) by output error, in place.
 
-    Returns the summary dict of :func:`~._shooting.fit_shooting`. When the
+    Returns the summary dict of :func:`~sklearn_pycc.fitting.output_error.shooting.fit_shooting`.
+    When the
     optimisation ends worse than it started (or not finite), the module is
     put back as it was.
     """

@@ -18,12 +18,12 @@ import numpy as np
 from scipy import sparse
 from scipy.optimize import least_squares
 
-from ..measurements.columns import TIME
-from ..skeleton.system import CompiledSystem, stack_systems
-from ..windows import Windows
-from ._noise_model import whitening_matrix
-from ._setup import Problem
-from ._whole_record import state_bounds
+from ...measurements.columns import TIME
+from ...skeleton.system import CompiledSystem, stack_systems
+from ...windows import Windows
+from ..problem import Problem
+from .noise_model import whitening_matrix
+from .whole_record import state_bounds
 
 __all__ = ["ShootingPlan", "check_iterations", "fit_shooting"]
 

@@ -6,10 +6,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..exceptions import SkeletonError
-from ..skeleton.compiler import compile_expression
-from ..skeleton.nodes import Unknown, walk
-from ._setup import Problem, active_residuals
+from ...exceptions import SkeletonError
+from ...fitting.problem import Problem, active_residuals
+from ...skeleton.compiler import compile_expression
+from ...skeleton.nodes import Unknown, walk
 
 __all__ = ["CurveResiduals"]
 
@@ -45,6 +45,7 @@ class CurveResiduals:
         return self._compiled
 
     def equation(self, k: int, functions: Mapping, params: Mapping) -> np.ndarray:
+        """The weighted residual of active equation ``k`` on every sample."""
         closure = self._closures(params)[k]
         self._functions = functions
         with np.errstate(all="ignore"):
@@ -52,15 +53,18 @@ class CurveResiduals:
         return self.weights[k] * np.broadcast_to(np.asarray(out, dtype=float), (self.n,))
 
     def __call__(self, functions: Mapping, params: Mapping) -> np.ndarray:
+        """Every active equation's weighted residual, one after the other."""
         return np.concatenate([self.equation(k, functions, params)
                                for k in range(len(self.nodes))])
 
     def loss(self, functions: Mapping, params: Mapping) -> float:
+        """The mean squared residual (inf where it is not finite)."""
         r = self(functions, params)
         value = float(np.mean(r * r))
         return value if np.isfinite(value) else np.inf
 
     def argument(self, node, params: Mapping, functions: Mapping) -> np.ndarray:
+        """The expression ``node`` (a curve's argument) on every sample."""
         values = {**self.problem.fixed_params, **params}
         with np.errstate(all="ignore"):
             out = compile_expression(node, self.slots, values, functions)(self.env)

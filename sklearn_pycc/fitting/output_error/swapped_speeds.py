@@ -23,10 +23,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..skeleton.equations import unknown_names
-from ._hidden import rates_on, settled_error
-from ._setup import Problem
-from ._whole_record import WholeRecord, zero_curves
+from ...skeleton.equations import unknown_names
+from ..problem import Problem
+from .hidden import rates_on, settled_error
+from .whole_record import WholeRecord, zero_curves
 
 __all__ = ["speed_parameters", "swapped_starts"]
 

@@ -118,15 +118,18 @@ class EpochProgress(Callback):
         self.total = total
 
     def on_train_begin(self, net, X=None, y=None, **kwargs) -> None:
+        """Open the progress bar."""
         from tqdm.auto import tqdm
 
         self.bar_ = tqdm(total=self.total, desc="epochs", unit="epoch", leave=False)
 
     def on_epoch_end(self, net, **kwargs) -> None:
+        """Advance the bar by one epoch and show the loss."""
         self.bar_.update(1)
         self.bar_.set_postfix(loss=f"{net.history[-1, 'train_loss']:.3g}", refresh=False)
 
     def on_train_end(self, net, X=None, y=None, **kwargs) -> None:
+        """Close the progress bar."""
         self.bar_.close()
 
 
@@ -147,6 +150,7 @@ class CurvesSettled(Callback):
         self.patience = patience
 
     def on_train_begin(self, net, X=None, y=None, **kwargs) -> None:
+        """Forget any earlier run."""
         self.previous_ = None
         self.calm_ = 0
         self.stopped_at_ = None
@@ -173,6 +177,7 @@ class CurvesSettled(Callback):
         return worst
 
     def on_epoch_end(self, net, **kwargs) -> None:
+        """Compare the curves with the last epoch's; stop once they have settled."""
         current = self._snapshot(net.module_)
         if self.previous_ is not None:
             change = self._change(self.previous_, current)

@@ -23,17 +23,32 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass, replace
+from typing import Protocol
 
 import numpy as np
 from joblib import Parallel, delayed, effective_n_jobs
 
-from .._utils.blocks import MIN_EXPERIMENTS, block_length, draw_blocks, segments
-from ..measurements.columns import FitData
-from ..measurements.experiments import Experiment
-from .backend import Backend, FitResult, Problem
+from ..._utils.blocks import MIN_EXPERIMENTS, block_length, draw_blocks, segments
+from ...measurements.columns import FitData
+from ...measurements.experiments import Experiment
+from ..problem import FitResult, Problem
 
 __all__ = ["LONG_REFITS", "REFIT_FAILURES", "Member", "Resampler", "fit_members",
            "run_refits"]
+
+
+class Refitted(Protocol):
+    """What a refit on a resample needs of a backend (an ``estimators.backend.Backend``)."""
+
+    resample_in: str
+
+    def reseeded(self, seed: int) -> Refitted:
+        """The backend with its randomness seeded by ``seed``."""
+
+    def estimate(self, problem: Problem, *, shooting_window: int,
+                 shooting_iterations: int) -> FitResult:
+        """The backend's fit of ``problem``, output error included where asked."""
+
 
 #: what a refit on a resample may meet: a failure to count, not to raise
 REFIT_FAILURES = (ValueError, ArithmeticError, np.linalg.LinAlgError, RuntimeError)
@@ -145,7 +160,7 @@ def resampled_problem(problem: Problem, blocks: list[np.ndarray]) -> Problem:
                    rows=None if kept.all() else np.flatnonzero(kept), covariance=False)
 
 
-def _fit_one(backend: Backend, problem: Problem, blocks: list[np.ndarray], seed: int,
+def _fit_one(backend: Refitted, problem: Problem, blocks: list[np.ndarray], seed: int,
              window: int, *, iterations: int) -> Member | str:
     """Refit on one resample; the reason in words when it fails."""
     member = backend.reseeded(seed)
@@ -160,7 +175,7 @@ def _fit_one(backend: Backend, problem: Problem, blocks: list[np.ndarray], seed:
     return Member(dict(result.functions), {k: float(v) for k, v in result.params.items()})
 
 
-def fit_members(backend: Backend, problem: Problem, resampler: Resampler, n: int, seed: int,
+def fit_members(backend: Refitted, problem: Problem, resampler: Resampler, n: int, seed: int,
                 *,
                 n_jobs, window: int, iterations: int, verbose: bool = False
                 ) -> tuple[list[Member], list[str]]:

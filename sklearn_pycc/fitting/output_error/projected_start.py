@@ -1,6 +1,7 @@
 """Where to start an output-error fit with unmeasured states: the measured equations projected.
 
-A common factor on every parameter (:func:`~._hidden.scaled_start`) finds
+A common factor on every parameter
+(:func:`~sklearn_pycc.fitting.output_error.hidden.scaled_start`) finds
 the record's time scale but keeps the default ratios between the
 parameters, and with an unmeasured state those set the levels it runs at:
 every rate 1 puts both tanks of a cascade at one level, far above the
@@ -26,12 +27,12 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..exceptions import SimulationError
-from ..skeleton import Skeleton
-from ..skeleton.equations import unknown_names
-from ..skeleton.skeleton import simulate_system
-from ._setup import Problem
-from ._whole_record import equilibrium
+from ...exceptions import SimulationError
+from ...skeleton import Skeleton
+from ...skeleton.equations import unknown_names
+from ...skeleton.skeleton import simulate_system
+from ..problem import Problem
+from .whole_record import equilibrium
 
 __all__ = ["projected_start"]
 

@@ -1,0 +1,1 @@
+"""Network curves: activations, the torch and numpy networks, skorch, L-BFGS, torch shooting."""

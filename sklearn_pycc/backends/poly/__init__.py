@@ -1,0 +1,1 @@
+"""Polynomial curves: the bases, and the skeleton's residual written as an affine form."""

@@ -1,0 +1,1 @@
+"""Formula curves: engines that search them, templates, residuals and readable forms."""
