@@ -18,14 +18,15 @@ from __future__ import annotations
 import math
 import re
 import warnings
-import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 
 from ..exceptions import SimulationError
+from ..fitting.fingerprint import fit_fingerprint
 from ..measurements.experiments import TIME, TRAJECTORY, split_experiments
+from ..measurements.measurement import Measurement
 from ..measurements.reconstruct import unmeasured_states
 from ..model_selection._scoring import pooled_nrmse
 from ._held_out import HeldOut
@@ -214,24 +215,18 @@ def _halves(X: pd.DataFrame) -> list[tuple[pd.DataFrame, pd.DataFrame, str]]:
     return [(first, second, "second half"), (second, first, "first half")]
 
 
-def _record_key(X: pd.DataFrame) -> int:
-    """A fingerprint of a record's values, index and columns."""
-    return int(pd.util.hash_pandas_object(X, index=True).sum()) ^ hash(tuple(X.columns))
-
-
-#: refit -> (record key, its error on each held-out fold), for the refits a diagnosis
-#: suggests: the loop's next model, whose own held-out fits were the limit's check
-_FOLD_ERRORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def _fold_errors(model, X: pd.DataFrame) -> dict:
-    """The held-out errors of ``model`` on ``X``'s folds, where a diagnosis left them.
+def _fold_errors(model, X: pd.DataFrame, measurement: Measurement | None) -> dict:
+    """The held-out errors of ``model`` on ``X``'s folds, kept with the record.
 
     A limit found is the loop's next model; the fits of that model to each
-    fold were the limit's held-out check, so the next round reuses them.
+    fold were the limit's held-out check, so the next round, diagnosing the
+    same ``measurement``, reuses them. They are kept by what the model was
+    fitted on and with (:func:`~sklearn_pycc.fitting.fingerprint.fit_fingerprint`);
+    a record given as a frame keeps nothing.
     """
-    key, errors = _FOLD_ERRORS.get(model, (None, {}))
-    return dict(errors) if key == _record_key(X) else {}
+    if measurement is None:
+        return {}
+    return measurement.estimated(("held-out fold errors", fit_fingerprint(model, X)), dict)
 
 
 def _held_out_error(model, X: pd.DataFrame, spreads: dict[str, float]) -> float:
@@ -290,7 +285,8 @@ def _held_out(model, trial_skeleton, X: pd.DataFrame, init: dict, cache: dict
 
 def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
                         bic_threshold: float, held_out: bool, units: dict,
-                        notes: list[str]) -> UnmeasuredDiagnosis:
+                        notes: list[str],
+                        measurement: Measurement | None = None) -> UnmeasuredDiagnosis:
     """Diagnose a model whose skeleton has states ``X`` does not measure (see module)."""
     skeleton = model.skeleton_
     hidden = unmeasured_states(skeleton, {c: X[c] for c in X.columns if X[c].notna().any()})
@@ -348,7 +344,7 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
                  if comparable and error > 0 else math.nan)
         trials.append(LimitTrial(state, term, refit, error, delta, removed))
     trials.sort(key=lambda t: (not math.isfinite(t.delta_bic), t.delta_bic))
-    best, cache = None, _fold_errors(model, X)
+    best, cache = None, dict(_fold_errors(model, X, measurement))
     for trial in trials:
         # the error includes the noise, which no limit removes: a small share of it may be
         # all a real limit can take; data the fit did not see decide then
@@ -360,8 +356,9 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
                                                dict(trial.refit.params_), cache)
             if not trial.held_out.confirmed:
                 continue
-            _FOLD_ERRORS[trial.refit] = (_record_key(X), errors)
+            _fold_errors(trial.refit, X, measurement).update(errors)
         trial.refit = _as_asked(model, trial.refit, X)
+        _fold_errors(trial.refit, X, measurement).update(errors)
         best = _limit_suggestion(trial)
         break
     ranking = pd.DataFrame([{
@@ -419,8 +416,6 @@ def _as_asked(model, refit, X: pd.DataFrame):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         again = prepared(refit, param_init=refit.params_, n_bootstrap=wanted).fit(X)
-    if refit in _FOLD_ERRORS:
-        _FOLD_ERRORS[again] = _FOLD_ERRORS[refit]
     return again
 
 
