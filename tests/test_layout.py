@@ -232,3 +232,21 @@ def test_every_part_of_the_package_has_its_layer():
             for path in PACKAGE.iterdir() if path.suffix == ".py" or path.is_dir()}
     tops -= {"__init__", "__pycache__"}
     assert tops == {name for names in LAYERS for name in names}
+
+
+#: the most parameters a function takes by position (``self`` aside); the rest by keyword
+MAX_POSITIONAL = 5
+
+
+def _positional(function: ast.FunctionDef) -> int:
+    names = [a.arg for a in function.args.posonlyargs + function.args.args]
+    return len(names) - (1 if names and names[0] in ("self", "cls") else 0)
+
+
+def test_a_long_parameter_list_is_passed_by_keyword():
+    long = [f"{path.relative_to(PACKAGE)}:{node.lineno} {node.name} ({_positional(node)})"
+            for path in sorted(PACKAGE.rglob("*.py"))
+            for node in ast.walk(ast.parse(path.read_text()))
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
+            and _positional(node) > MAX_POSITIONAL]
+    assert not long, "\n".join(long)
