@@ -86,8 +86,8 @@ def shoot_module(plan: ShootingPlan, problem, module, iterations: int,
                  like: torch.Tensor) -> dict:
     """Refine ``module`` (curve networks and parameters) by output error, in place.
 
-    Returns the summary dict of :func:`~sklearn_pycc.fitting.output_error.shooting.fit_shooting`.
-    When the
+    Returns the summary dict of
+    :func:`~sklearn_pycc.fitting.output_error.shooting.fit_shooting`. When the
     optimisation ends worse than it started (or not finite), the module is
     put back as it was.
     """

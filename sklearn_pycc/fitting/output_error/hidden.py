@@ -189,9 +189,8 @@ def ratio_start(problem: Problem, params: Mapping[str, float],
                 given: Sequence[str]) -> dict[str, float] | None:
     """A second start, for the ratios :func:`scaled_start` leaves at their defaults.
 
-    :func:`~sklearn_pycc.fitting.output_error.projected_start.projected_start` from ``params``
-    (the default
-    start, with the limits to fit where :func:`scaled_start` put them),
+    :func:`~sklearn_pycc.fitting.output_error.projected_start.projected_start` from
+    ``params`` (the default start, with the limits to fit where :func:`scaled_start` put them),
     each point judged as :func:`scaled_start` judges its factors; None
     where the skeleton has no linear parameters to project out.
     """

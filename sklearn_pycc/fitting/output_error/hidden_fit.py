@@ -1,0 +1,201 @@
+"""Fitting a skeleton with unmeasured states by output error, for every backend.
+
+A skeleton whose states are not all measured has parameters only: the
+backend gives a start (its ``hidden_start``), and :func:`fit_hidden` does the
+rest, the same for each.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from ...exceptions import RankDeficiencyWarning
+from ...simulation import INPUT_HOLDS
+from ..problem import FitResult, Problem
+from .hidden import (
+    along_hidden_scale,
+    hidden_trajectories,
+    initial_table,
+    limit_start,
+    opened_limits,
+    ratio_start,
+    rescaled,
+    single_shooting,
+    starting_params,
+    whole_record_covariance,
+)
+from .shooting import ShootingPlan, fit_shooting
+from .swapped_speeds import swapped_starts
+from .whole_record import WholeRecord
+
+__all__ = ["fit_hidden"]
+
+
+def fit_hidden(problem: Problem, result: FitResult, *,
+               param_init: Mapping[str, float] | None, window: int,
+               iterations: int) -> FitResult:
+    """Output error from ``result`` (a backend's ``hidden_start``), unmeasured states simulated.
+
+    The same for every backend: a skeleton with unmeasured states has parameters only. Multiple
+    shooting over the parameters and every window's start (with state limits, once holding the
+    starts within them and once not), then every experiment simulated whole from each estimate
+    and from each one's best common rescaling, and from a second start whose ratios between the
+    parameters were found too (:func:`~sklearn_pycc.fitting.output_error.hidden.ratio_start`);
+    the best whole-record fit wins. A start that ``param_init`` gives in full (a refit from a
+    fitted model) gets one multiple-shooting pass and is simulated whole itself, with no
+    rescaling and no second start. A limit to fit on an unmeasured state is held at its start
+    through all that (where the state's scale is free, as a tank's of unknown cross-section,
+    any level does as well and the scale is then fixed; where it is not, the level is found
+    next), and a last whole-record pass frees it. That start is chosen on the state's course
+    with the second start's parameters where there is one (the second start is searched with
+    the limit open), as the ratios set the level the state runs at; else with the first's. From
+    a guessed start, the fit is then polished once more with an unmeasured stage's speed and
+    another's swapped
+    (:func:`~sklearn_pycc.fitting.output_error.swapped_speeds.swapped_starts`: a cascade's
+    second minimum) and moved along an unmeasured state's scale toward its known limit
+    (:func:`~sklearn_pycc.fitting.output_error.hidden.along_hidden_scale`); the best
+    whole-record fit wins. Where the problem's hold is to be chosen (``input_hold="auto"``),
+    the fit is last polished under each other input hold, and the hold of the best whole-record
+    fit is kept (``input_hold_``).
+    """
+    limits = problem.skeleton.limit_params
+    hidden_limits = [a for a in problem.free_params
+                     if a in limits and limits[a][0] in problem.hidden]
+    # a start that gives every rate (a refit from a fitted model) has its time scale
+    # and its ratios; a guessed one gets a second start, its ratios found too
+    init = param_init
+    given = list(init or {})
+    guessed = any(a not in (init or {}) and a not in limits for a in problem.free_params)
+    other = None
+    if guessed:
+        defaults = {**starting_params(problem, init),
+                    **{a: result.params[a] for a in limits if a in result.params}}
+        # the ratios set the level an unmeasured state runs at: its limit is placed
+        # on the course of the start found with them, the limit open meanwhile
+        defaults.update(opened_limits(problem, [a for a in hidden_limits
+                                                if a not in given]))
+        other = ratio_start(problem, defaults, given)
+        if other is not None:
+            other = limit_start(problem, other, given)
+    pinned = {a: float((result.params if other is None else other)[a])
+              for a in hidden_limits}
+    inner = problem if not pinned else replace(
+        problem, fixed_params={**problem.fixed_params, **pinned})
+    start = {a: v for a, v in result.params.items() if a not in pinned}
+    others = [] if other is None else [{a: v for a, v in other.items() if a not in pinned}]
+    params, first, info = _multistart(inner, result.functions, start, window, iterations,
+                                      guessed=guessed, others=others)
+    unseen = info.pop("unseen")
+    if pinned:
+        params, first, nrmse, unseen = single_shooting(
+            problem, {**params, **pinned}, first, info["substeps"], iterations)
+        info["nrmse_whole"] = nrmse
+    if guessed:  # a cascade's stages may have settled in each other's speed
+        for swapped, initial in swapped_starts(problem, params, first, info["substeps"]):
+            found = single_shooting(problem, swapped, initial, info["substeps"], iterations)
+            if found[2] < info["nrmse_whole"]:
+                params, first, info["nrmse_whole"], unseen = found
+        # a state below a known limit its scale should have reached
+        moved = along_hidden_scale(problem, params, first, info["substeps"], iterations)
+        if moved is not None:
+            params, first, info["nrmse_whole"], unseen = moved
+    hold = problem.input_hold
+    if problem.hold_chosen:  # a held pump or a smooth one: the record tells
+        for other_hold in INPUT_HOLDS:
+            if other_hold == hold:
+                continue
+            trial_problem = replace(problem, input_hold=other_hold)
+            found = single_shooting(trial_problem, params, first, info["substeps"],
+                                    iterations)
+            if found[2] < info["nrmse_whole"]:
+                params, first, info["nrmse_whole"], unseen = found
+                problem, hold = trial_problem, other_hold
+    info.update(initial_states=first, unseen=unseen)
+    for words in unseen:
+        warnings.warn(
+            f"{', '.join(problem.hidden)} not measured, and the measurements cannot fix "
+            f"every parameter: {words}, so only combinations of those are determined (the "
+            "values found are one of many). Write a known value or ratio into the "
+            "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=6)
+    table = initial_table(problem, first, problem.skeleton.states)
+    attributes = {"shooting_": info, "initial_states_": table, "input_hold_": hold}
+    covariance = None if unseen else whole_record_covariance(problem, params, first,
+                                                              info["substeps"])
+    if covariance is not None:
+        attributes["covariance_"] = covariance
+    return FitResult(result.functions, params, attributes)
+
+
+def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float], window: int,
+                iterations: int, *, guessed: bool = True,
+                others: Sequence[Mapping[str, float]] = ()) -> tuple[dict, np.ndarray, dict]:
+    """The best whole-record fit of ``problem`` from ``start`` and its estimates.
+
+    Multiple shooting, then every experiment simulated whole from ``start``,
+    from each estimate and from each of ``others`` (more starts, simulated
+    whole only). Where ``start`` was ``guessed`` (not a fitted model's
+    parameters), multiple shooting runs twice with state limits (once
+    holding the windows' starts within them, once not), the start's own
+    whole-record pass is left to its estimates, and each estimate's best
+    common rescaling is tried too.
+    Returns the parameters, each experiment's initial state and the
+    stage's summary (with ``unseen``, the directions the measurements do
+    not see).
+    """
+    names = list(problem.free_params)
+
+    def system_for(theta: np.ndarray):
+        values = {**problem.fixed_params, **dict(zip(names, theta))}
+        return problem.skeleton.compile(functions, values)
+
+    theta0 = np.array([start[a] for a in names], dtype=float)
+    bounds = problem.bounds
+    low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in names])
+    high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in names])
+    theta0 = np.clip(theta0, low, high)
+    first_system = system_for(theta0)
+    whole = WholeRecord(problem)
+    first = whole.first_states(first_system)
+    whole.choose_substeps(first_system, first)
+    estimates = [(theta0, first)]  # the start itself, simulated whole
+    info = {"substeps": whole.windows.substeps}
+    if any(s in problem.measured for s in problem.skeleton.states):
+        plan = ShootingPlan(problem, window, hidden=hidden_trajectories(problem, first_system))
+        plan.choose_substeps(first_system, plan.columns())
+        # the windows' starts held within the states' limits, and left free (where a
+        # state sits on its limit much of the time, either may stall); a fitted model's
+        # start is refined whole as well, which stands for the second pass
+        both = problem.skeleton.limits and guessed
+        for limit_starts in (True, False) if both else (True,):
+            theta, info = fit_shooting(plan, system_for, theta0, iterations,
+                                       bounds=(low, high), limit_starts=limit_starts)
+            estimates.append((theta, info["initial_states"]))
+        if guessed:  # its multiple-shooting estimates stand for it
+            estimates = estimates[1:]
+    substeps = info["substeps"]
+    # the windows' joins are soft: a last pass simulates every experiment whole, from
+    # each estimate and from its best common rescaling (multiple shooting may settle
+    # on the wrong time scale); the best whole-record fit is kept
+    starts, seen = [], []
+    for theta, initial in estimates:
+        theta = np.asarray(theta, dtype=float)
+        if any(np.allclose(theta, other, rtol=1e-9, atol=0.0) for other in seen):
+            continue  # both multiple-shooting passes may end at the same point
+        seen.append(theta)
+        params = dict(zip(names, theta.tolist()))
+        starts.append((params, initial))
+        other = rescaled(problem, params, initial) if guessed else None
+        if other is not None:
+            starts.append(other)
+    for other in others:  # their time scale was searched with their ratios
+        theta = np.clip(np.array([other[a] for a in names], dtype=float), low, high)
+        starts.append((dict(zip(names, theta.tolist())), whole.first_states(system_for(theta))))
+    params, first, nrmse, unseen = min(
+        (single_shooting(problem, p, f, substeps, iterations) for p, f in starts),
+        key=lambda found: found[2])
+    info.update(nrmse_whole=nrmse, unseen=unseen, whole_record_starts=len(starts))
+    return params, first, info
