@@ -212,7 +212,7 @@ def test_a_known_rim_lets_the_cross_section_ratio_be_fitted_too(seed):
     assert 0 <= model.initial_states_.x1.iloc[0] <= 12
     reference = from_tables(TORRICELLI, {}, truth.params, constraints=limits)
 
-    def validation(m, hold=None):
+    def validation(m, hold="auto"):
         y0 = m.estimate_initial_state(new, input_hold=hold)
         simulated = m.simulate(new.t, y0, inputs={"u": new.u.to_numpy()}, input_hold=hold)
         return [float(np.sqrt(np.mean((simulated.x2 - level) ** 2)))

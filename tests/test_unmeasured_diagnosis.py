@@ -61,7 +61,7 @@ def test_the_loop_names_the_overflow_of_both_tanks(seed):
     truth = from_tables(TORRICELLI, {}, dict(fresh.params),
                         constraints=[f"{s} <= {v}" for s, v in fresh.rims.items()])
 
-    def validation(model, hold=None):
+    def validation(model, hold="auto"):
         y0 = model.estimate_initial_state(new, input_hold=hold)
         simulated = model.simulate(new.t, y0, inputs={"u": new.u.to_numpy()}, input_hold=hold)
         return np.array([np.sqrt(np.mean((simulated.x2 - level) ** 2))
