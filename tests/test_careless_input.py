@@ -7,15 +7,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from sklearn_pycc import (
-    PolyCCRegressor,
-    SimulationError,
-    Skeleton,
-    compare_skeletons,
-    datasets,
-    simulation,
-)
+from sklearn_pycc import PolyCCRegressor, SimulationError, Skeleton, compare_skeletons, datasets
 from sklearn_pycc.measurements import Measurement
+from sklearn_pycc.simulation import integration as simulation
 
 EQUATIONS = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
 #: text that breaks matplotlib's mathtext: an even number of dollars around bad TeX

@@ -253,7 +253,7 @@ def test_a_fit_with_every_state_measured_reads_inputs_as_given_or_band_limited()
 
 
 def test_held_inputs_are_integrated_as_steps_when_the_estimator_says_so():
-    from sklearn_pycc.windows import Windows
+    from sklearn_pycc.simulation.windows import Windows
 
     # x_dot = u with u held from sample to sample: x gains u_k h over step k, exactly
     t = np.arange(0.0, 10.0, 0.5)

@@ -247,7 +247,7 @@ def test_bandlimited_input_follows_a_fast_record():
 
 
 def test_sampled_inputs_agree_with_lsoda_and_take_few_steps():
-    from sklearn_pycc.simulation import InputSignals, integrate_sampled
+    from sklearn_pycc.simulation.integration import InputSignals, integrate_sampled
 
     frame, truth = datasets.make_resonator(n_samples=3000, noise=None, random_state=0,
                                            return_truth=True)
@@ -275,7 +275,8 @@ def test_sampled_inputs_agree_with_lsoda_and_take_few_steps():
 
 
 def test_stiff_friction_with_sampled_inputs_is_finished_implicitly(monkeypatch):
-    from sklearn_pycc import Skeleton, simulation
+    from sklearn_pycc import Skeleton
+    from sklearn_pycc.simulation import integration as simulation
 
     implicit = []
     original = simulation._stiff_interval

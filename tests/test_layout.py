@@ -198,7 +198,7 @@ LAYERS = [
     ("_utils",),
     ("exceptions",),
     ("simulation",),
-    ("windows", "skeleton"),
+    ("skeleton",),
     ("plotting", "effects"),
     ("measurements",),
     ("fitting",),

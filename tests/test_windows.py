@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from sklearn_pycc import Skeleton
-from sklearn_pycc import windows as windows_module
-from sklearn_pycc.windows import Windows
+from sklearn_pycc.simulation import windows as windows_module
+from sklearn_pycc.simulation.windows import Windows
 
 
 def _windows(hold: str, n_windows: int) -> Windows:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..windows import Divergence, Horizon, choose_horizon, simulate_rows
+from ..simulation.windows import Divergence, Horizon, choose_horizon, simulate_rows
 from ._data import TIME, DiagnosisData
 
 __all__ = ["Divergence", "Horizon", "horizon_of", "simulate_against"]

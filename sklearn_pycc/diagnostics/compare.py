@@ -15,7 +15,7 @@ from sklearn.model_selection import cross_val_score
 from sklearn.utils._param_validation import HasMethods, validate_params
 
 from ..measurements.measurement import Measurement, unwrap
-from ..simulation import judged_step_limit
+from ..simulation.integration import judged_step_limit
 from ..skeleton import Skeleton
 from ._candidates import rss_floor
 from ._data import check_units, read_measurements

@@ -17,7 +17,7 @@ from ..exceptions import SkeletonError
 from ..fitting.fingerprint import fitted_on
 from ..measurements.measurement import unwrap
 from ..measurements.reconstruct import unmeasured_states
-from ..simulation import judged_step_limit
+from ..simulation.integration import judged_step_limit
 from ..skeleton import Bound, Skeleton
 from ._candidates import (
     TIE,

@@ -12,7 +12,7 @@ from sklearn.base import clone
 
 from ..exceptions import SimulationError
 from ..measurements.measurement import Measurement
-from ..simulation import judged_step_limit
+from ..simulation.integration import judged_step_limit
 from ..skeleton import Skeleton
 from ..skeleton.nodes import Param, product_factors, rename, signed_terms, walk
 from ..skeleton.printer import to_text

@@ -41,7 +41,7 @@ from ..measurements.differentiation import (
 from ..measurements.measurement import Measurement, unwrap
 from ..measurements.reconstruct import kinematic_chains
 from ..measurements.record import targets_in_y
-from ..simulation import INPUT_HOLDS, given_hold, requested_hold
+from ..simulation.integration import INPUT_HOLDS, given_hold, requested_hold
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.curves import as_curve
@@ -1360,7 +1360,7 @@ def _warn_coarse_sampling(problem: Problem, system) -> None:
     sampling intervals (a process logged every few seconds), they are not
     to be trusted, and neither is an equation fit to them.
     """
-    from ..windows import jacobian_eigenvalues
+    from ..simulation.windows import jacobian_eigenvalues
 
     if not problem.experiments or not problem.skeleton.states:
         return  # nothing sampled in time, or nothing that moves

@@ -16,7 +16,7 @@ from ..measurements.differentiation import DIFFERENTIATION_METHODS, Differentiat
 from ..measurements.experiments import TIME, TRAJECTORY, split_experiments
 from ..measurements.measurement import unwrap
 from ..measurements.reconstruct import unmeasured_states
-from ..windows import Horizon, choose_horizon, simulate_rows
+from ..simulation.windows import Horizon, choose_horizon, simulate_rows
 
 __all__ = ["SimulationScorer", "make_simulation_scorer"]
 

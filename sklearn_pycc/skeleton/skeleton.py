@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from ..exceptions import SimulationError, SkeletonError
-from ..simulation import (
+from ..simulation.integration import (
     InputSignals,
     check_solver_options,
     check_time_grid,

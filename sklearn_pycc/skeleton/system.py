@@ -9,7 +9,7 @@ from operator import itemgetter
 import numpy as np
 
 from ..exceptions import SkeletonError
-from ..simulation import Diverged
+from ..simulation.integration import Diverged
 from .compiler import compile_expression
 from .curves import stack_curves
 from .equations import TIME, Equation, evaluation_order

@@ -14,7 +14,7 @@ from dataclasses import replace
 import numpy as np
 
 from ...exceptions import RankDeficiencyWarning
-from ...simulation import INPUT_HOLDS
+from ...simulation.integration import INPUT_HOLDS
 from ..problem import FitResult, Problem
 from .hidden import (
     along_hidden_scale,

@@ -19,8 +19,8 @@ from scipy import sparse
 from scipy.optimize import least_squares
 
 from ...measurements.columns import TIME
+from ...simulation.windows import Windows
 from ...skeleton.system import CompiledSystem, stack_systems
-from ...windows import Windows
 from ..problem import Problem
 from .noise_model import whitening_matrix
 from .whole_record import state_bounds

@@ -14,8 +14,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
+from ...simulation.windows import Windows
 from ...skeleton.curves import ZeroCurve
-from ...windows import Windows
 from ..problem import Problem
 
 __all__ = ["ESCAPED", "WholeRecord", "check_initial_stretch", "equilibrium", "sensor_readings",

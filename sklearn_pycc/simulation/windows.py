@@ -20,8 +20,8 @@ from numbers import Real
 
 import numpy as np
 
-from .exceptions import SimulationError
-from .simulation import Diverged, InputSignals, fitted_hold
+from ..exceptions import SimulationError
+from .integration import Diverged, InputSignals, fitted_hold
 
 __all__ = ["Divergence", "Horizon", "Windows", "choose_horizon", "jacobian_eigenvalues",
            "simulate_rows", "simulate_windows"]

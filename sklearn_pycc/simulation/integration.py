@@ -18,8 +18,8 @@ import numpy as np
 import pandas as pd
 from scipy import integrate
 
-from ._utils.bandlimited import bandlimited_slopes
-from .exceptions import SimulationError
+from .._utils.bandlimited import bandlimited_slopes
+from ..exceptions import SimulationError
 
 __all__ = ["DEFAULT_MAX_STEPS", "INPUT_HOLDS", "STEP_BUDGET", "Diverged", "InputSignals",
            "check_hold", "check_time_grid", "fitted_hold", "given_hold", "integrate_sampled",
