@@ -31,8 +31,9 @@ def prepared(model, *, equations=None, param_init: Mapping[str, float] | None = 
     equations : Skeleton or list of str, optional
         Another skeleton; its constraints are then its own (``constraints=None``).
     param_init : mapping, optional
-        Starting values, for an estimator that takes them; those of
-        parameters the skeleton does not have are left out.
+        Starting values, for an estimator that takes them; with a
+        :class:`~sklearn_pycc.Skeleton` as ``equations``, those of parameters
+        it does not have are left out.
     fit_mode : str, optional
         Another fit mode, for an estimator that has one.
     n_bootstrap : int or None, default=0
@@ -48,7 +49,8 @@ def prepared(model, *, equations=None, param_init: Mapping[str, float] | None = 
     if equations is not None:
         new.update(equations=equations, constraints=None)
     if param_init is not None and "param_init" in params:
-        known = None if equations is None else set(getattr(equations, "params", ()))
+        # a skeleton says which parameters it has; text is read by the fit itself
+        known = set(equations.params) if hasattr(equations, "params") else None
         new["param_init"] = {a: v for a, v in param_init.items()
                              if known is None or a in known}
     if fit_mode is not None and "fit_mode" in params:
