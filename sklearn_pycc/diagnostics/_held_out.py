@@ -192,8 +192,7 @@ def _errors(model, test: DiagnosisData, spreads, horizon: Horizon | None,
     return out
 
 
-def _fold_errors(base, extended, data: DiagnosisData, held: np.ndarray, spreads,
-                 *,
+def _fold_errors(base, extended, data: DiagnosisData, held: np.ndarray, spreads, *,
                  horizon: Horizon | None, max_steps: int, equations, output_error: bool):
     """Held-out errors on one fold of ``base`` and ``extended``, each refitted without it.
 

@@ -51,8 +51,7 @@ def _named(skeletons) -> dict[str, object]:
     "n_jobs": [Integral, None],
     "units": [dict, None],
 }, prefer_skip_nested_validation=False)  # the estimator's fits validate its settings
-def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None,
-                      *,
+def compare_skeletons(skeletons, X, y=None, estimator=None, cv=None, *,
                       simulate: bool = True, horizon="auto",
                       held_out: bool = True, n_jobs: int | None = None,
                       units=None) -> pd.DataFrame:

@@ -157,8 +157,7 @@ def sample_curve(curve, lo: float, hi: float, n_points: int) -> tuple[np.ndarray
     return x, np.array(np.broadcast_to(np.asarray(curve(x), dtype=float), x.shape))
 
 
-def tabulate(curve, lo: float, hi: float, n_points: int, method: str,
-             *,
+def tabulate(curve, lo: float, hi: float, n_points: int, method: str, *,
              name: str = "curve"):
     """``curve`` sampled on ``n_points`` over ``[lo, hi]`` and interpolated.
 

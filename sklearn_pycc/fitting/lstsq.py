@@ -51,8 +51,7 @@ class LstsqResult:
 
 
 def constrained_lstsq(A: np.ndarray, b: np.ndarray, C: np.ndarray | None = None,
-                      d: np.ndarray | None = None, alpha: float = 0.0,
-                      *,
+                      d: np.ndarray | None = None, alpha: float = 0.0, *,
                       rtol: float | None = None, overwrite_a: bool = False) -> LstsqResult:
     """Solve ``min ||A x + b||^2 + alpha ||x||^2`` subject to ``C x = d`` exactly.
 

@@ -29,8 +29,7 @@ class SimulationScorer:
     """
 
     def __init__(self, states: Sequence[str] | None = None, differentiation=None,
-                 rtol: float = 1e-6, atol: float = 1e-8, max_steps: int = 200_000,
-                 *,
+                 rtol: float = 1e-6, atol: float = 1e-8, max_steps: int = 200_000, *,
                  horizon="auto") -> None:
         self.states = None if states is None else list(states)
         self.differentiation = differentiation

@@ -349,8 +349,7 @@ class SkeletonModule(nn.Module):
     """
 
     def __init__(self, residuals, weights, slots: Mapping[str, int],
-                 curves: Mapping[str, dict], params: Mapping[str, float],
-                 *,
+                 curves: Mapping[str, dict], params: Mapping[str, float], *,
                  fixed: Mapping[str, float], hidden_layer_sizes: Sequence[int],
                  activation: str, exact: bool, seed: int, dtype: torch.dtype,
                  bounds: Mapping[str, tuple[float, float]] | None = None) -> None:

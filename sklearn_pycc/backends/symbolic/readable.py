@@ -273,8 +273,7 @@ class Readability:
         return free, complexity(expression), nesting(expression)
 
     def settle(self, expressions: Sequence[sympy.Expr], losses: Sequence[float],
-               chosen: int, among: Sequence[int], variable: sympy.Symbol | None = None,
-               *,
+               chosen: int, among: Sequence[int], variable: sympy.Symbol | None = None, *,
                sizes: Sequence[int] | None = None) -> int:
         """The simplest of the candidates ``among`` whose loss ties with ``chosen``'s.
 

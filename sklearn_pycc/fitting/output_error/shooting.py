@@ -201,8 +201,7 @@ def _side_by_side(plan: ShootingPlan, systems: list, starts: list) -> list | Non
 
 def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], CompiledSystem],
                  theta0: np.ndarray, max_iterations: int,
-                 bounds: tuple[np.ndarray, np.ndarray] | None = None,
-                 *,
+                 bounds: tuple[np.ndarray, np.ndarray] | None = None, *,
                  limit_starts: bool = True) -> tuple[np.ndarray, dict]:
     """Minimise the output error over the parameters and the segments' initial states.
 

@@ -129,8 +129,7 @@ def _refit(resampler: NoiseResampler, picks: np.ndarray, params: dict, first: np
     return Member(dict(functions), {k: float(v) for k, v in found.items()})
 
 
-def hidden_members(problem: Problem, params: dict, functions: dict, attributes: dict, n: int,
-                   *,
+def hidden_members(problem: Problem, params: dict, functions: dict, attributes: dict, n: int, *,
                    seed: int, n_jobs, iterations: int, verbose: bool = False
                    ) -> tuple[list[Member], list[str], str]:
     """``n`` refits of an output-error fit with unmeasured states on redrawn noise.

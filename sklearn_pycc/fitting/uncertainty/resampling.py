@@ -175,8 +175,7 @@ def _fit_one(backend: Refitted, problem: Problem, blocks: list[np.ndarray], seed
     return Member(dict(result.functions), {k: float(v) for k, v in result.params.items()})
 
 
-def fit_members(backend: Refitted, problem: Problem, resampler: Resampler, n: int, seed: int,
-                *,
+def fit_members(backend: Refitted, problem: Problem, resampler: Resampler, n: int, seed: int, *,
                 n_jobs, window: int, iterations: int, verbose: bool = False
                 ) -> tuple[list[Member], list[str]]:
     """``n`` refits by ``backend`` on resamples, in parallel; and the failures' reasons.
