@@ -226,3 +226,16 @@ def test_the_leaky_cascade_fits_and_keeps_every_state_within_its_limits(random_s
     simulated = model.simulate(frame.t.to_numpy(), state, inputs={"u": frame.u.to_numpy()})
     for name, (low, high) in limits.items():
         assert simulated[name].between(low, high).all()
+
+
+def test_a_rate_that_becomes_infinite_is_named_with_where_the_states_were():
+    # a rate that overflows to infinity: the error says which rate, and where the states were
+    from sklearn_pycc.simulation import Diverged
+
+    system = Skeleton(["x1_dot = x2", "x2_dot = -a1 f1(x1)"]).compile(
+        {"f1": lambda x: np.where(np.asarray(x) < 0, x, 1e308)}, {"a1": 10.0})
+    rhs = system.make_rhs(None, list_states=True)
+    assert rhs(0.0, [-1.0, 2.0])[1] == pytest.approx(10.0)
+    with pytest.raises(Diverged, match=r"^the right-hand side of x2_dot is -inf at t=0\.5 "
+                                       r"\(x1=0, x2=2\)$"):
+        rhs(0.5, [0.0, 2.0])

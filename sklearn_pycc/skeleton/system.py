@@ -276,6 +276,7 @@ class CompiledSystem:
         tail = [0.0] * len(self.derivatives)
         isfinite = math.isfinite
         has_inputs = bool(self.inputs)
+        derivatives, states = self.derivatives, self.states
 
         def rhs(t, y):
             t = float(t)
@@ -291,9 +292,11 @@ class CompiledSystem:
             out = pick(env)
             # one C-level sum is finite whenever every term is (or it overflowed)
             if not isfinite(sum(out)):
-                for v in out:
-                    if not isfinite(v):
-                        raise Diverged(f"the right-hand side is {v} at t={t:.6g}")
+                for derivative, v in zip(derivatives, out):
+                    if not isfinite(v):  # say which rate, and where the states were
+                        where = ", ".join(f"{name}={x:.4g}" for name, x in zip(states, env))
+                        raise Diverged(f"the right-hand side of {derivative} is {v} at "
+                                       f"t={t:.6g} ({where})")
             if limited:
                 out = list(out)
                 for q, j, low, high in limited:
