@@ -183,12 +183,17 @@ def _body_lines(function: ast.FunctionDef) -> int:
     return lines
 
 
+def _functions():
+    """``(path, function)`` for every function and method of the package."""
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                yield path.relative_to(PACKAGE), node
+
+
 def test_no_function_is_longer_than_a_reader_can_follow():
-    long = [f"{path.relative_to(PACKAGE)}:{node.lineno} {node.name} ({_body_lines(node)} lines)"
-            for path in sorted(PACKAGE.rglob("*.py"))
-            for node in ast.walk(ast.parse(path.read_text()))
-            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
-            and _body_lines(node) > MAX_BODY_LINES]
+    long = [f"{path}:{node.lineno} {node.name} ({_body_lines(node)} lines)"
+            for path, node in _functions() if _body_lines(node) > MAX_BODY_LINES]
     assert not long, "\n".join(long)
 
 
@@ -244,9 +249,6 @@ def _positional(function: ast.FunctionDef) -> int:
 
 
 def test_a_long_parameter_list_is_passed_by_keyword():
-    long = [f"{path.relative_to(PACKAGE)}:{node.lineno} {node.name} ({_positional(node)})"
-            for path in sorted(PACKAGE.rglob("*.py"))
-            for node in ast.walk(ast.parse(path.read_text()))
-            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
-            and _positional(node) > MAX_POSITIONAL]
+    long = [f"{path}:{node.lineno} {node.name} ({_positional(node)})"
+            for path, node in _functions() if _positional(node) > MAX_POSITIONAL]
     assert not long, "\n".join(long)

@@ -67,9 +67,9 @@ def fit_hidden(problem: Problem, result: FitResult, *,
                      if a in limits and limits[a][0] in problem.hidden]
     # a start that gives every rate (a refit from a fitted model) has its time scale
     # and its ratios; a guessed one gets a second start, its ratios found too
-    init = param_init
-    given = list(init or {})
-    guessed = any(a not in (init or {}) and a not in limits for a in problem.free_params)
+    init = param_init or {}
+    given = list(init)
+    guessed = any(a not in init and a not in limits for a in problem.free_params)
     other = None
     if guessed:
         defaults = {**starting_params(problem, init),
