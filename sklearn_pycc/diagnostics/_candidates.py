@@ -12,6 +12,7 @@ import pandas as pd
 
 from .. import effects as catalogue
 from ..exceptions import RankDeficiencyWarning, SkeletonError
+from ..measurements.record import Record
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import (
@@ -30,9 +31,9 @@ from ..skeleton.nodes import (
 )
 from ..skeleton.parser import parse_expression
 from ..skeleton.printer import to_text
-from ._data import TIME, DiagnosisData, thin
+from ._data import TIME, thin
 from ._physics import implausible_terms
-from ._refit import prepared
+from ._refit import fit_rows, prepared
 from ._roles import EquationRoles
 
 __all__ = ["MOVES", "Candidate", "enumerate_candidates", "enumerate_moves", "refit_candidate",
@@ -376,7 +377,7 @@ def _prefix(states) -> str:
     return prefix
 
 
-def _term_values(model, data: DiagnosisData, equations) -> dict[int, list]:
+def _term_values(model, data: Record, equations) -> dict[int, list]:
     """Per equation, ``(term text, fitted values)`` of its terms with fitted numbers."""
     slots, env = _environment(data)
     out = {}
@@ -423,7 +424,7 @@ def extend(skeleton: Skeleton, candidate: Candidate) -> None:
     candidate.new_params = [a for a in extended.params if a not in skeleton.params]
 
 
-def removed_contribution(model, candidate: Candidate, data: DiagnosisData) -> np.ndarray:
+def removed_contribution(model, candidate: Candidate, data: Record) -> np.ndarray:
     """What the removed terms add to each equation's prediction, under ``model``'s fit."""
     out = np.zeros_like(data.derivatives)
     slots, env = _environment(data)
@@ -434,7 +435,7 @@ def removed_contribution(model, candidate: Candidate, data: DiagnosisData) -> np
     return out
 
 
-def screen_candidates(candidates: list[Candidate], data: DiagnosisData, residuals: np.ndarray,
+def screen_candidates(candidates: list[Candidate], data: Record, residuals: np.ndarray,
                       states: list[str], max_rows: int = 2000, *, model=None) -> None:
     """Fit each candidate's term(s) to the residual of its equation(s) alone.
 
@@ -524,12 +525,12 @@ TIE = (0.02, 10.0)
 
 
 # -- refit of the extended skeleton -------------------------------------------------
-def _environment(data: DiagnosisData) -> tuple[dict[str, int], list[np.ndarray]]:
+def _environment(data: Record) -> tuple[dict[str, int], list[np.ndarray]]:
     names = list(data.columns)
     return {name: i for i, name in enumerate(names)}, [data.columns[n] for n in names]
 
 
-def refit_candidate(model, candidate: Candidate, data: DiagnosisData, residuals: np.ndarray,
+def refit_candidate(model, candidate: Candidate, data: Record, residuals: np.ndarray,
                     rss_before: np.ndarray, *, baseline: frozenset = frozenset()) -> None:
     """Fit the extended skeleton with a clone of ``model``; judge the added term.
 
@@ -555,13 +556,13 @@ def refit_candidate(model, candidate: Candidate, data: DiagnosisData, residuals:
         other["extrapolation"] = "linear"
     # judged by its residuals: no refits on resamples
     estimator = prepared(model, equations=candidate.extended, param_init=init, **other)
-    rows = np.arange(data.n_samples)
+    rows = None
     if params.get("fit_mode") != "simulation":  # an output-error fit needs every sample
-        rows = thin(rows)
+        rows = thin(np.arange(data.n_samples))
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            estimator.fit(data.X.iloc[rows], data.derivatives[rows])
+            fit_rows(estimator, data, rows)
             predicted = data.predict(estimator)
     except Exception as exc:  # any failure of a backend is a finding, not a crash
         candidate.note = f"the extended skeleton could not be fitted: {exc}"
@@ -591,7 +592,7 @@ def refit_candidate(model, candidate: Candidate, data: DiagnosisData, residuals:
     _judge(candidate, estimator, data, baseline)
 
 
-def _judge(candidate: Candidate, estimator, data: DiagnosisData,
+def _judge(candidate: Candidate, estimator, data: Record,
            baseline: frozenset = frozenset()) -> None:
     """Plausibility of the fitted term: energy balance and size."""
     if candidate.redundant:
@@ -654,14 +655,15 @@ def _time_rates(node: Node, params: dict[str, float]) -> list[float]:
 
 
 def _unresolved_oscillation(node: Node, params: dict[str, float],
-                            data: DiagnosisData) -> str:
+                            data: Record) -> str:
     """Why a fitted oscillation in time cannot be told from the record ("" when it can)."""
     rates = _time_rates(node, params)
     if not rates or not data.has_time:
         return ""
     t = data.columns[TIME]
-    spans = [float(np.ptp(t[rows])) for _, rows in data.experiments if len(rows) > 1]
-    steps = [float(np.median(np.diff(t[rows]))) for _, rows in data.experiments if len(rows) > 1]
+    runs = [rows for _, rows in data.experiment_rows if len(rows) > 1]
+    spans = [float(np.ptp(t[rows])) for rows in runs]
+    steps = [float(np.median(np.diff(t[rows]))) for rows in runs]
     if not spans:
         return ""
     longest, step = max(spans), min(steps)

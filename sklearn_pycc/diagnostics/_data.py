@@ -1,9 +1,14 @@
-"""What a diagnosis compares a fitted model with, read from the record as ``fit`` reads it."""
+"""What a diagnosis compares a fitted model with, read from the record as ``fit`` reads it.
+
+The diagnosis holds one :class:`~sklearn_pycc.measurements.record.Record`
+from its entry to every refit: candidates and held-out folds fit on its rows
+(:func:`~._refit.fit_rows`), and folds are :meth:`Record.subset` of it.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -11,8 +16,9 @@ import pandas as pd
 from ..measurements import read_record
 from ..measurements.experiments import TIME
 from ..measurements.measurement import Measurement
+from ..measurements.record import Record
 
-__all__ = ["DiagnosisData", "check_units", "read_measurements", "thin"]
+__all__ = ["check_units", "read_measurements", "thin"]
 
 #: equation-error refits inside a diagnosis read at most this many rows, evenly spread:
 #: neighbouring samples of a long record carry nearly the same information
@@ -25,65 +31,6 @@ def thin(rows: np.ndarray, limit: int = REFIT_ROWS) -> np.ndarray:
     if len(rows) <= limit:
         return rows
     return rows[np.linspace(0, len(rows) - 1, limit).round().astype(int)]
-
-
-@dataclass
-class DiagnosisData:
-    """The data a diagnosis compares the model with.
-
-    Made by :func:`read_measurements` from the
-    :class:`~sklearn_pycc.measurements.record.Record` that ``fit`` reads too
-    (same columns, experiments and estimated derivatives), laid out for
-    the diagnosis: a frame to predict and refit on, and the rows of each
-    experiment even without a time column. Held-out folds are subsets of
-    it (:func:`~._held_out.subset`), where a fold's gaps split an
-    experiment in two.
-
-    Attributes
-    ----------
-    X : DataFrame
-        What the model is judged on: ``t``, ``trajectory``, the states
-        (smoothed or reconstructed when derivatives were estimated), the
-        inputs and the outputs of static equations (a new frame; the user's
-        is never modified).
-    columns : dict
-        Name -> float array: states, inputs, ``t`` and the measured
-        derivatives ``NAME_dot``.
-    derivatives : ndarray of shape (n_samples, n_states)
-        Measured (or estimated) derivatives, in equation order.
-    experiments : list of (label, ndarray of int)
-        Row positions of each experiment, in the order of the data.
-    has_time : bool
-        Whether a time column is present (needed to simulate).
-    estimated : str
-        How the derivatives were obtained when ``y`` was None, else "".
-    signals : dict
-        The inputs as measured, which drive simulations (``columns`` holds
-        them as the equations are judged on, filtered alike with the states
-        when the differentiation filters).
-    """
-
-    X: pd.DataFrame
-    columns: dict[str, np.ndarray]
-    derivatives: np.ndarray
-    experiments: list[tuple[object, np.ndarray]]
-    has_time: bool
-    estimated: str = ""
-    signals: dict[str, np.ndarray] = field(default_factory=dict)
-
-    @property
-    def n_samples(self) -> int:
-        """Number of rows."""
-        return self.derivatives.shape[0]
-
-    def predict(self, model) -> np.ndarray:
-        """A fitted model's derivatives on these rows, ``(n_samples, n_states)``.
-
-        The outputs of static equations, which ``predict`` returns after the
-        derivatives, are left out.
-        """
-        predicted = np.asarray(model.predict(self.X), dtype=float).reshape(self.n_samples, -1)
-        return predicted[:, :self.derivatives.shape[1]]
 
 
 def check_units(units, X, skeleton) -> dict[str, str]:
@@ -108,14 +55,15 @@ def check_units(units, X, skeleton) -> dict[str, str]:
 
 
 def read_measurements(skeleton, X, y, differentiation="auto",
-                      smooth: bool = True, *, who: str = "diagnose") -> DiagnosisData:
+                      smooth: bool = True, *, who: str = "diagnose") -> Record:
     """Check ``X`` and ``y`` against a skeleton and line them up.
 
     This is :func:`~sklearn_pycc.measurements.read_record`, the path ``fit``
     takes too: without ``y`` (and without ``NAME_dot`` columns in ``X``) the
     derivatives are estimated by ``differentiation`` per experiment, states
     missing from ``X`` but defined by kinematic equations are reconstructed,
-    and ``DiagnosisData.X`` is a frame of what the model is judged on.
+    and the record's :attr:`~Record.X` is a frame of what the model is judged
+    on. Experiments are split whenever there is a time column.
 
     Raises
     ------
@@ -133,15 +81,7 @@ def read_measurements(skeleton, X, y, differentiation="auto",
                          "judge a static model by its score")
     record = read_record(skeleton, X, y, differentiation=differentiation, smooth=smooth,
                          derivatives_from_X=True, split=True, who=who)
-    has_time = TIME in record.data
-    if skeleton.uses_time and not has_time:
+    if skeleton.uses_time and not record.has_time:
         raise ValueError("X lacks the time column 't', which the skeleton reads")
-    if record.experiments is None:
-        experiments = [(None, np.arange(record.n_samples))]
-    else:
-        experiments = [(e.label, e.rows) for e in record.experiments]
     names = [*skeleton.states, *(n for n in skeleton.inputs if n != TIME), *skeleton.outputs]
-    frame = record.frame(names)
-    estimated = record.source if record.estimated else ""
-    return DiagnosisData(frame, dict(record.columns), record.derivatives, experiments, has_time,
-                        estimated, record.signals)
+    return replace(record, names=tuple(names))

@@ -7,7 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from ._data import TIME, DiagnosisData
+from ..measurements.record import Record
+from ._data import TIME
 from ._roles import EquationRoles
 from ._trajectories import Divergence
 
@@ -46,7 +47,7 @@ def explained_fraction(residual: np.ndarray, z: np.ndarray, bins: int = 20) -> f
     return float(np.clip(adjusted, 0.0, 1.0))
 
 
-def candidate_variables(roles: EquationRoles, data: DiagnosisData, states: list[str],
+def candidate_variables(roles: EquationRoles, data: Record, states: list[str],
                         inputs: list[str]) -> dict[str, np.ndarray]:
     """Variables that may explain an equation's residual, by their skeleton text."""
     columns = data.columns
@@ -62,7 +63,7 @@ def candidate_variables(roles: EquationRoles, data: DiagnosisData, states: list[
 
 
 def explaining_variables(residuals: np.ndarray, roles: list[EquationRoles],
-                         data: DiagnosisData, states: list[str], inputs: list[str]
+                         data: Record, states: list[str], inputs: list[str]
                          ) -> tuple[pd.DataFrame, dict[str, dict[str, np.ndarray]]]:
     """For each equation, the share of its residual each variable explains (best first).
 
@@ -92,7 +93,7 @@ def _rolling_mean(values: np.ndarray, width: int) -> np.ndarray:
     return (sums[width:] - sums[:-width]) / width
 
 
-def worst_windows(data: DiagnosisData, simulation_error: np.ndarray | None,
+def worst_windows(data: Record, simulation_error: np.ndarray | None,
                   derivative_error: np.ndarray, divergences: list[Divergence],
                   n_windows: int = 3, *, fraction: float = 0.1) -> pd.DataFrame:
     """The time windows where the model is furthest from the measurements.
@@ -113,7 +114,7 @@ def worst_windows(data: DiagnosisData, simulation_error: np.ndarray | None,
         return pd.DataFrame(rows, columns=columns)
     t_all = data.columns[TIME]
     found = []
-    for label, idx in data.experiments:
+    for label, idx in data.experiment_rows:
         n = len(idx)
         width = max(3, round(fraction * n))
         if n < width:

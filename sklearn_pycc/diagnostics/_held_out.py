@@ -22,8 +22,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from joblib import Parallel, delayed
 
-from ._data import DiagnosisData, thin
-from ._refit import prepared
+from ..measurements.record import Record
+from ._data import thin
+from ._refit import fit_rows, prepared
 from ._trajectories import Horizon, simulate_against
 
 __all__ = ["HeldOut", "held_out_check", "make_folds"]
@@ -47,7 +48,6 @@ USELESS = 1.0
 #: already follows held-out data to a thousandth of their spread misses nothing that matters
 #: (on a clean record, a term can still fit the differentiation's own error)
 HELD_OUT_FLOOR = 1e-3
-_TRAJECTORY = "trajectory"
 
 
 @dataclass
@@ -104,7 +104,7 @@ class HeldOut:
                 f"{self.n_folds} folds: {verdict} by the {self.criterion} error")
 
 
-def make_folds(data: DiagnosisData) -> tuple[str, list[np.ndarray]]:
+def make_folds(data: Record) -> tuple[str, list[np.ndarray]]:
     """Row positions of each held-out fold, and the split in words.
 
     Several experiments are folds of their own (at most :data:`MAX_FOLDS`,
@@ -116,7 +116,7 @@ def make_folds(data: DiagnosisData) -> tuple[str, list[np.ndarray]]:
     judged by extrapolation, while its chunks stay far longer than the
     noise's correlation. Simulation windows end with their chunk.
     """
-    groups = [rows for _, rows in data.experiments if len(rows)]
+    groups = [rows for _, rows in data.experiment_rows if len(rows)]
     if len(groups) >= 2:
         bins = np.array_split(np.arange(len(groups)), min(len(groups), MAX_FOLDS))
         folds = [np.concatenate([groups[i] for i in part]) for part in bins]
@@ -130,10 +130,10 @@ def make_folds(data: DiagnosisData) -> tuple[str, list[np.ndarray]]:
     return f"{FOLDS} folds of {per_fold} interleaved blocks in time", folds
 
 
-def _labels(data: DiagnosisData, held: np.ndarray) -> np.ndarray:
+def _labels(data: Record, held: np.ndarray) -> np.ndarray:
     """Experiment labels that keep the training rows on either side of a held-out block apart."""
     base = np.empty(data.n_samples, dtype=object)
-    for label, rows in data.experiments:
+    for label, rows in data.experiment_rows:
         base[rows] = "" if label is None else str(label)
     gap = np.zeros(data.n_samples, dtype=int)
     gap[held] = 1
@@ -141,40 +141,18 @@ def _labels(data: DiagnosisData, held: np.ndarray) -> np.ndarray:
     return np.array([f"{b}#{p}" for b, p in zip(base, piece)], dtype=object)
 
 
-def subset(data: DiagnosisData, rows: np.ndarray) -> DiagnosisData:
-    """The measurements on ``rows`` (in order); each contiguous run is an experiment."""
-    position = np.full(data.n_samples, -1)
-    position[rows] = np.arange(len(rows))
-    experiments = []
-    for label, members in data.experiments:
-        inside = position[members]
-        inside = inside[inside >= 0]
-        if inside.size:
-            breaks = np.flatnonzero(np.diff(rows[inside]) != 1) + 1
-            experiments.extend((label, run) for run in np.split(inside, breaks))
-    X = data.X.iloc[rows].reset_index(drop=True)
-    return DiagnosisData(X, {k: v[rows] for k, v in data.columns.items()},
-                        data.derivatives[rows], experiments, data.has_time, data.estimated,
-                        {k: v[rows] for k, v in data.signals.items()})
-
-
-def _fit(estimator, data: DiagnosisData, train: np.ndarray, labels: np.ndarray,
+def _fit(estimator, data: Record, train: np.ndarray, labels: np.ndarray,
          output_error: bool):
     if not output_error:  # an equation fit needs no neighbours (an output-error one does)
         train = thin(train)
-    X = data.X.iloc[train].reset_index(drop=True)
-    if data.has_time:
-        X = X.assign(**{_TRAJECTORY: labels[train]})
     # judged by its errors alone: no refits on resamples
     estimator = prepared(estimator, fit_mode="simulation" if output_error else "equation")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        # the derivatives the record gave (measured, or estimated once on the whole record)
-        # start an output-error fit too: the fold is not differentiated again
-        return estimator.fit(X, data.derivatives[train])
+        return fit_rows(estimator, data, train, pieces=labels if data.has_time else None)
 
 
-def _errors(model, test: DiagnosisData, spreads, horizon: Horizon | None,
+def _errors(model, test: Record, spreads, horizon: Horizon | None,
             steps: int, *, equations) -> dict[str, float]:
     """Normalised mean squared errors of ``model`` on the held-out rows."""
     out = {}
@@ -192,7 +170,7 @@ def _errors(model, test: DiagnosisData, spreads, horizon: Horizon | None,
     return out
 
 
-def _fold_errors(base, extended, data: DiagnosisData, held: np.ndarray, spreads, *,
+def _fold_errors(base, extended, data: Record, held: np.ndarray, spreads, *,
                  horizon: Horizon | None, max_steps: int, equations, output_error: bool):
     """Held-out errors on one fold of ``base`` and ``extended``, each refitted without it.
 
@@ -200,7 +178,7 @@ def _fold_errors(base, extended, data: DiagnosisData, held: np.ndarray, spreads,
     """
     train = np.setdiff1d(np.arange(data.n_samples), held)
     labels = _labels(data, held)
-    test = subset(data, held)
+    test = data.subset(held)
     out = []
     for model in (base, extended):
         if model is None:
@@ -220,7 +198,7 @@ def _capped(errors: dict[str, float]) -> dict[str, float]:
             else min(error, USELESS) for name, error in errors.items()}
 
 
-def held_out_check(base, extended, data: DiagnosisData, horizon: Horizon | None,
+def held_out_check(base, extended, data: Record, horizon: Horizon | None,
                    equations: list[int], *, max_steps: int, output_error: bool = False,
                    cache: dict | None = None, rule: str = "gain",
                    n_jobs: int | None = None, gain: float = HELD_OUT_GAIN) -> HeldOut:
@@ -230,7 +208,7 @@ def held_out_check(base, extended, data: DiagnosisData, horizon: Horizon | None,
     ----------
     base, extended : CCRegressor
         Fitted models without and with the effect (cloned, never modified).
-    data : DiagnosisData
+    data : Record
     horizon : Horizon or None
         The diagnosis's horizon; None to judge by the derivatives alone.
     equations : list of int
@@ -317,7 +295,7 @@ def pooled_errors(model, data, equations: list[int], horizon, max_steps: int):
         train = np.setdiff1d(everything, held)
         try:
             fitted = _fit(model, data, train, _labels(data, held), output_error)
-            errors = _errors(fitted, subset(data, held), spreads, horizon, max_steps,
+            errors = _errors(fitted, data.subset(held), spreads, horizon, max_steps,
                              equations=equations)
         except Exception:  # a fold the skeleton cannot be fitted on counts as a failure
             errors = {"derivatives": math.inf}

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..measurements.record import Record
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import (
     Neg,
@@ -44,7 +45,7 @@ from ..skeleton.nodes import (
     walk,
 )
 from ..skeleton.printer import to_text
-from ._data import TIME, DiagnosisData
+from ._data import TIME
 from ._roles import EquationRoles, equation_roles
 
 __all__ = ["Implausibility", "implausible_terms"]
@@ -123,7 +124,7 @@ def _inertia(eq, params) -> tuple[float, float] | None:
     return fitted, written
 
 
-def implausible_terms(model, data: DiagnosisData,
+def implausible_terms(model, data: Record,
                       skip: Collection[tuple[int, Node]] = ()) -> list[Implausibility]:
     """Terms of a fitted model that contradict their physical role on ``data``.
 
@@ -131,7 +132,7 @@ def implausible_terms(model, data: DiagnosisData,
     ----------
     model : CCRegressor
         A fitted model.
-    data : DiagnosisData
+    data : Record
         The rows the terms are evaluated on.
     skip : collection of (int, Node)
         ``(equation index, term)`` pairs judged elsewhere (a candidate's
@@ -184,7 +185,7 @@ def implausible_terms(model, data: DiagnosisData,
 
 
 def _check_equation(roles: EquationRoles, derivative: str, terms: list[_Term], skipped,
-                    size: float, *, data: DiagnosisData, inputs: set[str], params,
+                    size: float, *, data: Record, inputs: set[str], params,
                     slots) -> list[Implausibility]:
     out = []
     significant = SIGNIFICANT * size
@@ -212,7 +213,7 @@ def _check_equation(roles: EquationRoles, derivative: str, terms: list[_Term], s
     return out
 
 
-def _gain(term: _Term, params, slots, data: DiagnosisData) -> str:
+def _gain(term: _Term, params, slots, data: Record) -> str:
     if any(isinstance(n, Unknown) for n in walk(term.node)):
         return ""
     ones = {name: 1.0 for name in params}

@@ -4,16 +4,21 @@ Every refit of the diagnosis (a candidate's extended skeleton, a held-out
 fold, a whole-record check, a hidden-state limit) and of the loop (the next
 round's model, the refinement by output error) goes through
 :func:`prepared`, so that which of the user's settings a refit keeps or
-drops is decided here once.
+drops is decided here once. A refit on some rows of the diagnosis's record
+is :func:`fit_rows`, the one place those rows become what ``fit`` reads.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 
+import numpy as np
 from sklearn.base import clone
 
-__all__ = ["prepared"]
+from ..measurements.experiments import TRAJECTORY
+from ..measurements.record import Record
+
+__all__ = ["fit_rows", "prepared"]
 
 #: ``n_bootstrap`` as the model has it (a refit otherwise makes no refits on resamples)
 KEEP = None
@@ -61,3 +66,36 @@ def prepared(model, *, equations=None, param_init: Mapping[str, float] | None = 
         new["input_hold"] = model.input_hold_
     new.update(settings)
     return clone(model).set_params(**new)
+
+
+def fit_rows(estimator, record: Record, rows: np.ndarray | None = None, *,
+             pieces: np.ndarray | None = None):
+    """Fit ``estimator`` on some rows of ``record``, with the record's derivatives.
+
+    The derivatives the record holds (measured, or estimated once on the
+    whole record) are the targets, and start an output-error fit too: the
+    rows are not differentiated again.
+
+    Parameters
+    ----------
+    estimator : CCRegressor
+        An unfitted estimator (see :func:`prepared`).
+    record : Record
+        The record the diagnosis read (:func:`~._data.read_measurements`).
+    rows : ndarray of int, optional
+        Row positions, in order (all by default).
+    pieces : ndarray, optional
+        An experiment label per row of ``record``, which then replaces its
+        ``trajectory`` (a held-out block splits an experiment in two).
+
+    Returns
+    -------
+    estimator
+        ``estimator``, fitted.
+    """
+    X, derivatives = record.X, record.derivatives
+    if rows is not None:
+        X, derivatives = X.iloc[rows].reset_index(drop=True), derivatives[rows]
+    if pieces is not None:
+        X = X.assign(**{TRAJECTORY: pieces if rows is None else pieces[rows]})
+    return estimator.fit(X, derivatives)

@@ -13,13 +13,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..measurements.record import Record
 from ..simulation.windows import Divergence, Horizon, choose_horizon, simulate_rows
-from ._data import TIME, DiagnosisData
+from ._data import TIME
 
 __all__ = ["Divergence", "Horizon", "horizon_of", "simulate_against"]
 
 
-def _columns(model, data: DiagnosisData) -> dict[str, np.ndarray]:
+def _columns(model, data: Record) -> dict[str, np.ndarray]:
     skeleton = model.skeleton_
     names = [*skeleton.states, *(n for n in skeleton.inputs if n != TIME)]
     out = {name: data.columns[name] for name in names}
@@ -27,11 +28,11 @@ def _columns(model, data: DiagnosisData) -> dict[str, np.ndarray]:
     return out
 
 
-def _experiments(data: DiagnosisData) -> list[tuple[np.ndarray, np.ndarray]]:
-    return [(rows, data.columns[TIME][rows]) for _, rows in data.experiments]
+def _experiments(data: Record) -> list[tuple[np.ndarray, np.ndarray]]:
+    return [(rows, data.columns[TIME][rows]) for _, rows in data.experiment_rows]
 
 
-def horizon_of(model, data: DiagnosisData, horizon="auto") -> Horizon:
+def horizon_of(model, data: Record, horizon="auto") -> Horizon:
     """The horizon of a comparison of ``model`` with ``data`` (see :func:`choose_horizon`)."""
     if horizon is None:
         return Horizon(None, None, "whole experiments")
@@ -40,7 +41,7 @@ def horizon_of(model, data: DiagnosisData, horizon="auto") -> Horizon:
                           _experiments(data), horizon)
 
 
-def simulate_against(model, data: DiagnosisData, horizon: Horizon, *, max_steps: int):
+def simulate_against(model, data: Record, horizon: Horizon, *, max_steps: int):
     """Simulated states on every row: whole experiments, or windows of ``horizon``.
 
     The loop the simulation scorer runs too (:func:`~sklearn_pycc.windows.simulate_rows`).
@@ -58,7 +59,7 @@ def simulate_against(model, data: DiagnosisData, horizon: Horizon, *, max_steps:
     inputs = [n for n in skeleton.inputs if n != TIME]
     columns = {**{s: data.columns[s] for s in skeleton.states},
                **{name: data.columns[name] for name in inputs}, TIME: data.columns[TIME]}
-    experiments = [(label, rows, data.columns[TIME][rows]) for label, rows in data.experiments]
+    experiments = [(label, rows, data.columns[TIME][rows]) for label, rows in data.experiment_rows]
     return simulate_rows(model, columns, data.signals, experiments, horizon,
                          n_samples=data.n_samples,
                          max_steps=max_steps)

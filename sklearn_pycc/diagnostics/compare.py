@@ -21,6 +21,7 @@ from ._candidates import rss_floor
 from ._data import check_units, read_measurements
 from ._held_out import pooled_errors
 from ._metrics import rmse
+from ._refit import fit_rows
 from ._roles import equation_roles
 from ._trajectories import Horizon, horizon_of, simulate_against
 
@@ -171,7 +172,7 @@ def _row(skeleton, base, *, X, y, record, cv, simulate: bool, horizon, held_out:
     if data.estimated:  # the model estimates them as read_measurements did (kept: reused)
         model.fit(source)
     else:
-        model.fit(data.X, target)
+        fit_rows(model, data)
     fit_time = time.perf_counter() - start
     residual = data.derivatives - data.predict(model)
     active = [r.index for r in equation_roles(model.skeleton_)] or list(

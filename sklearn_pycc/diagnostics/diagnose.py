@@ -17,6 +17,7 @@ from ..exceptions import SkeletonError
 from ..fitting.fingerprint import fitted_on
 from ..measurements.measurement import unwrap
 from ..measurements.reconstruct import unmeasured_states
+from ..measurements.record import Record
 from ..simulation.integration import judged_step_limit
 from ..skeleton import Bound, Skeleton
 from ._candidates import (
@@ -28,7 +29,7 @@ from ._candidates import (
     refit_candidate,
     screen_candidates,
 )
-from ._data import TIME, DiagnosisData, check_units, read_measurements
+from ._data import TIME, check_units, read_measurements
 from ._detection import detection_limits
 from ._failures import (
     ResidualMap,
@@ -273,7 +274,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     states, derivs = skeleton.states, skeleton.derivatives
     notes = []
     if data.estimated:
-        notes.append(f"y was not given: the derivatives were estimated ({data.estimated}).")
+        notes.append(f"y was not given: the derivatives were estimated ({data.source}).")
 
     predicted = data.predict(model)
     residuals = data.derivatives - predicted
@@ -403,7 +404,7 @@ def _check_settings(bic_threshold, n_bootstrap, random_state, n_jobs) -> None:
         raise ValueError(f"n_jobs must be None or a non-zero integer, got {n_jobs!r}")
 
 
-def _simulated_record(model, data: DiagnosisData, window: Horizon | None, steps: int,
+def _simulated_record(model, data: Record, window: Horizon | None, steps: int,
                       measured_states: np.ndarray, *, units: dict, notes: list[str]):
     """The model simulated against the record over ``window`` (None: not simulated).
 
@@ -431,13 +432,13 @@ def _simulated_record(model, data: DiagnosisData, window: Horizon | None, steps:
     return simulated, divergences, trajectory_table, pd.DataFrame(columns)
 
 
-def _refitted(model, candidate: Candidate, data: DiagnosisData, residuals: np.ndarray,
+def _refitted(model, candidate: Candidate, data: Record, residuals: np.ndarray,
               rss_before: np.ndarray, *, baseline: frozenset) -> Candidate:
     refit_candidate(model, candidate, data, residuals, rss_before, baseline=baseline)
     return candidate
 
 
-def _refit_all(candidates: list[Candidate], model, data: DiagnosisData, residuals: np.ndarray,
+def _refit_all(candidates: list[Candidate], model, data: Record, residuals: np.ndarray,
                rss_before: np.ndarray, *, baseline: frozenset, n_jobs: int | None) -> None:
     """Refit ``candidates`` in place, in parallel when ``n_jobs`` asks for it.
 
@@ -483,7 +484,7 @@ def _leaders(screened: list[Candidate], n_refit: int) -> list[Candidate]:
     return out
 
 
-def _stability(ordered: list[Candidate], residuals: np.ndarray, data: DiagnosisData,
+def _stability(ordered: list[Candidate], residuals: np.ndarray, data: Record,
                min_improvement: float, bic_threshold: float, *, simulation_rmse: float,
                n_resamples: int, random_state) -> Stability | None:
     """The choice made again on resamples of the record (None without resamples)."""
@@ -495,7 +496,7 @@ def _stability(ordered: list[Candidate], residuals: np.ndarray, data: DiagnosisD
                   and (c.move != "open" or c.held_out is not None)]
     better = {c.key for c in contenders if _simulates_better(c, simulation_rmse)}
     return selection_stability(contenders, residuals, data.derivatives,
-                               [rows for _, rows in data.experiments],
+                               [rows for _, rows in data.experiment_rows],
                                (bic_threshold, min_improvement), tie=TIE, simulates_better=better,
                                n_resamples=n_resamples,
                                random_state=random_state)
@@ -506,7 +507,7 @@ def _simulates_better(c: Candidate, simulation_rmse: float) -> bool:
             and c.simulation_rmse <= SIMULATION_GAIN * simulation_rmse)
 
 
-def _map_of(roles: EquationRoles, residuals, data: DiagnosisData, inputs) -> ResidualMap | None:
+def _map_of(roles: EquationRoles, residuals, data: Record, inputs) -> ResidualMap | None:
     columns = data.columns
     if roles.second_order:
         x, y = roles.position, roles.velocity
@@ -520,7 +521,7 @@ def _map_of(roles: EquationRoles, residuals, data: DiagnosisData, inputs) -> Res
                         y=columns[y])
 
 
-def _simulate_leaders(refitted: list[Candidate], data: DiagnosisData, measured: np.ndarray,
+def _simulate_leaders(refitted: list[Candidate], data: Record, measured: np.ndarray,
                       horizon: Horizon, steps: int, *, base_divergences: list[Divergence],
                       count: int = 3) -> None:
     """Simulate the leading plausible refits; a new divergence makes a candidate implausible."""
@@ -614,7 +615,7 @@ def _eligible(ordered: list[Candidate], min_improvement: float, bic_threshold: f
     return out
 
 
-def _decide(eligible: list[Candidate], model, data: DiagnosisData, horizon: Horizon | None,
+def _decide(eligible: list[Candidate], model, data: Record, horizon: Horizon | None,
             equations: list[int], *, steps: int, n_jobs: int | None = None,
             cache: dict | None = None, record: pd.DataFrame | None = None) -> Candidate | None:
     """The first eligible candidate that held-out data confirm, or None.
@@ -749,7 +750,7 @@ def _close_rival(leader: Candidate, eligible: list[Candidate]) -> Candidate | No
     return None
 
 
-def _decide_removal(removals: list[Candidate], model, data: DiagnosisData,
+def _decide_removal(removals: list[Candidate], model, data: Record,
                     horizon: Horizon | None, steps: int, *, held_out: bool,
                     n_jobs: int | None = None, record: pd.DataFrame | None = None,
                     cache: dict | None = None) -> Candidate | None:
@@ -833,7 +834,7 @@ OPEN_GAIN = 0.05
 N_OPEN = 2
 
 
-def _decide_open(eligible: list[Candidate], model, data: DiagnosisData,
+def _decide_open(eligible: list[Candidate], model, data: Record,
                  horizon: Horizon | None, equations: list[int], *, steps: int, held_out: bool,
                  n_jobs: int | None = None, cache: dict | None = None,
                  record: pd.DataFrame | None = None) -> Candidate | None:
@@ -862,7 +863,7 @@ def _decide_open(eligible: list[Candidate], model, data: DiagnosisData,
     return None
 
 
-def _formula(chosen: Candidate, skeleton: Skeleton, model, data: DiagnosisData,
+def _formula(chosen: Candidate, skeleton: Skeleton, model, data: Record,
              residuals: np.ndarray, *, rss_before: np.ndarray, baseline: frozenset,
              horizon: Horizon | None, equations: list[int], steps: int, held_out: bool,
              n_jobs: int | None, cache: dict | None = None) -> Candidate | None:

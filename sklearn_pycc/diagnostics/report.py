@@ -14,12 +14,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from ..measurements.record import Record
 from ..skeleton import Skeleton
 from ..skeleton.nodes import BinOp, Param, walk
 from ..skeleton.parser import parse_expression
 from ..skeleton.printer import to_text
 from ._candidates import TIE, Candidate
-from ._data import DiagnosisData
 from ._failures import ResidualMap
 from ._held_out import HeldOut
 from ._open_curves import OpenCurve
@@ -225,7 +225,7 @@ class Diagnosis:
     candidates : list of Candidate
         Every term or move tried, with its screens and refits (``ranking``
         is their table).
-    record : DiagnosisData
+    record : Record
         The record as the diagnosis read it: experiments, states (measured
         or reconstructed), inputs and derivatives, on the trusted samples.
     variable_values : dict
@@ -257,7 +257,7 @@ class Diagnosis:
     measured: list[str] = field(default_factory=list)
     open_curves: list[OpenCurve] = field(default_factory=list)
     candidates: list[Candidate] = field(default_factory=list, repr=False)
-    record: DiagnosisData | None = field(default=None, repr=False)
+    record: Record | None = field(default=None, repr=False)
     variable_values: dict = field(default_factory=dict, repr=False)
     _stability: Stability | None = field(default=None, repr=False)
     left_out: int = 0
@@ -285,7 +285,7 @@ class Diagnosis:
         lines = []
         model = self.model
         n = len(self.residuals)
-        experiments = 1 if self.record is None else len(self.record.experiments)
+        experiments = 1 if self.record is None else len(self.record.experiment_rows)
         ends = ""
         if self.left_out:
             ends = (f" ({self.left_out} more at the ends of the experiments left out: their "

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import pandas as pd
@@ -61,6 +62,9 @@ class Record:
         error. Read only when the caller allows it (``hidden_ok``).
     source : str
         ``"measured"``, or how the derivatives were obtained, in words.
+    names : tuple of str
+        The columns a model of the skeleton reads, in order (its states,
+        inputs and static outputs): those of :attr:`X`.
 
     When the derivatives were estimated by a filter, the rows within its
     settling time of an experiment's ends cannot be trusted (see
@@ -80,6 +84,7 @@ class Record:
     trusted: np.ndarray | None = None
     snr_db: float | None = None
     hidden: tuple[str, ...] = ()
+    names: tuple[str, ...] = ()
 
     @property
     def n_samples(self) -> int:
@@ -95,6 +100,36 @@ class Record:
     def estimated(self) -> bool:
         """Whether the derivatives were estimated from the states."""
         return self.source not in (MEASURED, STATIC)
+
+    @property
+    def has_time(self) -> bool:
+        """Whether the record has a time column (needed to simulate)."""
+        return TIME in self.data
+
+    @property
+    def experiment_rows(self) -> list[tuple[object, np.ndarray]]:
+        """``(label, rows)`` of each experiment, in data order (one without ``t``)."""
+        if self.experiments is None:
+            return [(None, np.arange(self.n_samples))]
+        return [(e.label, e.rows) for e in self.experiments]
+
+    @cached_property
+    def X(self) -> pd.DataFrame:
+        """What a model of the skeleton reads, as a frame: :attr:`names`, ``t``, ``trajectory``.
+
+        The states are those the model is judged on (smoothed or
+        reconstructed when the derivatives were estimated).
+        """
+        return self.frame(self.names)
+
+    def predict(self, model) -> np.ndarray:
+        """A fitted model's derivatives on these rows, ``(n_samples, n_states)``.
+
+        The outputs of static equations, which ``predict`` returns after the
+        derivatives, are left out.
+        """
+        predicted = np.asarray(model.predict(self.X), dtype=float).reshape(self.n_samples, -1)
+        return predicted[:, :self.derivatives.shape[1]]
 
     def frame(self, names) -> pd.DataFrame:
         """A DataFrame of some columns (with ``t`` and ``trajectory`` when known)."""
@@ -132,7 +167,39 @@ class Record:
 
         return Record(data, self.derivatives[rows], self.y_ndim, experiments,
                       cut(self.measured), cut(self.smoothed), cut(self.signals), self.source,
-                      None, self.snr_db, self.hidden)
+                      None, self.snr_db, self.hidden, self.names)
+
+    def subset(self, rows: np.ndarray) -> Record:
+        """The record on some row positions, in their order.
+
+        Each contiguous run of ``rows`` within an experiment is an
+        experiment of its own (a held-out block splits one in two); a
+        record without ``t`` counts as one experiment.
+        """
+        rows = np.asarray(rows, dtype=int)
+        position = np.full(self.n_samples, -1)
+        position[rows] = np.arange(len(rows))
+        experiments = []
+        for e in self.experiments or [Experiment(None, np.arange(self.n_samples))]:
+            inside = position[e.rows]
+            inside = inside[inside >= 0]
+            if not inside.size:
+                continue
+            breaks = np.flatnonzero(np.diff(rows[inside]) != 1) + 1
+            for run in np.split(inside, breaks):
+                t = None if e.t is None else self.data[TIME][rows[run]]
+                experiments.append(Experiment(e.label, run, t, e.part))
+        data = FitData({name: values[rows] for name, values in self.data.columns.items()},
+                       len(rows),
+                       None if self.data.trajectory is None else self.data.trajectory[rows])
+
+        def cut(values: dict) -> dict:
+            return {name: v[rows] for name, v in values.items()}
+
+        trusted = None if self.trusted is None else self.trusted[rows]
+        return Record(data, self.derivatives[rows], self.y_ndim, experiments,
+                      cut(self.measured), cut(self.smoothed), cut(self.signals), self.source,
+                      trusted, self.snr_db, self.hidden, self.names)
 
 
 def read_record(skeleton, X, y=None, *, differentiation="auto", smooth: bool = True,
