@@ -11,14 +11,13 @@ from numbers import Integral
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import least_squares
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.metrics import r2_score
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
 from .._utils.randomness import seeds
-from ..exceptions import DomainWarning, ExtrapolationWarning, SimulationError
+from ..exceptions import DomainWarning
 from ..fitting.fingerprint import fit_fingerprint
 from ..fitting.output_error.hidden import check_visible
 from ..fitting.output_error.noise_model import NOISE_MODELS, fit_noise_model
@@ -30,7 +29,7 @@ from ..fitting.problem import (
     gauge_skeleton,
     measured_part,
 )
-from ..fitting.uncertainty.intervals import N_DRAWS, IntervalsMixin, check_level
+from ..fitting.uncertainty.intervals import IntervalsMixin
 from ..measurements import read_record
 from ..measurements.columns import read_X, read_y
 from ..measurements.differentiation import (
@@ -41,14 +40,15 @@ from ..measurements.differentiation import (
 from ..measurements.measurement import Measurement, unwrap
 from ..measurements.reconstruct import kinematic_chains
 from ..measurements.record import targets_in_y
-from ..simulation.integration import INPUT_HOLDS, given_hold, requested_hold
+from ..simulation.integration import INPUT_HOLDS, given_hold
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.curves import as_curve
-from ..skeleton.nodes import Symbol, sum_terms
+from ..skeleton.nodes import sum_terms
 from ..skeleton.printer import to_text
-from ..skeleton.skeleton import simulate_system
 from ..skeleton.system import CompiledSystem
+from ._reading import ReadingMixin
+from ._simulating import SimulationMixin
 from .backend import Backend
 
 __all__ = ["FIT_MODES", "OUTPUT_ERROR_SETTINGS", "RANDOM_STATES", "RESAMPLING", "CCRegressor",
@@ -63,9 +63,6 @@ OUTPUT_ERROR_SETTINGS = ("fit_mode", "shooting_window", "shooting_iterations", "
 AUTO_SIMULATION_SNR_DB = 45.0
 _NEEDS_TIME = "fit_mode='simulation' needs the time column 't' in X"
 
-#: estimate_initial_state runs least squares from this many of its guesses, those whose
-#: simulation follows the record best as they stand
-INITIAL_STATE_STARTS = 2
 #: private fitted state, cleared with the public fitted attributes when fit starts again
 _PRIVATE_STATE = ("_compiled", "_y_1d", "_covariance", "_fingerprint")
 #: what ``random_state`` may be: a Generator is honoured like a RandomState
@@ -117,7 +114,8 @@ class _EquationsParameter:
         obj.__dict__["equations"] = value
 
 
-class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMeta):
+class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin, BaseEstimator,
+                  metaclass=ABCMeta):
     """Abstract base class of the characteristic-curve estimators.
 
     It cannot be fitted itself: use :class:`PolyCCRegressor`,
@@ -679,315 +677,6 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
         scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
         return float(r2_score(truth / scale, pred / scale, sample_weight=sample_weight))
 
-    def estimate_initial_state(self, X, *, n_samples: int = 200,
-                               input_hold: str = "auto") -> dict[str, float]:
-        """The full state at the first time of a record: measured states read, others fitted.
-
-        A state that ``X`` holds is read at its first row; a state it does
-        not hold (unmeasured, such as a tank's level no sensor reads) is
-        chosen so that the model, simulated over the first ``n_samples`` rows
-        with ``X``'s inputs, follows the measured states best (least
-        squares, from the two best of several guesses: rest with the first
-        sample, the training experiments' fitted initial states, the state's
-        limits). The result is ready for :meth:`simulate`'s ``y0``.
-
-        Parameters
-        ----------
-        X : DataFrame
-            A record with ``t``, the model's inputs and some of its states.
-        n_samples : int, default=200
-            Rows simulated to fit the unmeasured states (all of them when
-            ``X`` has fewer).
-        input_hold : {"auto", "bandlimited", "foh", "zoh"}, default="auto"
-            How the inputs are read between samples, as in :meth:`simulate`;
-            ``"auto"`` is the hold the model was fitted with (``input_hold_``).
-
-        Returns
-        -------
-        dict
-            State -> value at ``X``'s first time, within the states' limits
-            (a reading beyond one, noise at a rim, is taken at the limit).
-
-        Raises
-        ------
-        ValueError
-            If ``X`` has no time column, lacks an input, holds no state, or
-            its times run backwards; and, where a state must be fitted, if
-            ``X`` has a single row or a NaN time or input in the stretch.
-
-        Warns
-        -----
-        UserWarning
-            When the model cannot be simulated over the stretch from any
-            guess (the estimate is then unchecked).
-        """
-        from ..fitting.output_error.whole_record import (
-            check_initial_stretch,
-            equilibrium,
-            sensor_readings,
-        )
-
-        check_is_fitted(self, "functions_")
-        skeleton = self.skeleton_
-        input_hold = requested_hold(self, input_hold)
-        if isinstance(X, Measurement):
-            X = X.X
-        if not isinstance(X, pd.DataFrame) or "t" not in X.columns:
-            raise ValueError("estimate_initial_state reads a DataFrame with a time column 't'")
-        if isinstance(n_samples, bool) or not isinstance(n_samples, Integral) or n_samples < 2:
-            raise ValueError(f"n_samples must be an integer of at least 2, got {n_samples!r}")
-        inputs = [name for name in skeleton.inputs if name != "t"]
-        missing = [name for name in inputs if name not in X.columns]
-        if missing:
-            raise ValueError(f"X has no column {missing[0]!r}, an input of the model")
-        stretch = X.iloc[:min(len(X), int(n_samples))]
-        t = stretch["t"].to_numpy(dtype=float)
-        read = [s for s in skeleton.states
-                if s in X.columns and np.isfinite(X[s].to_numpy(dtype=float)[0])]
-        sensed = [o for o in skeleton.outputs if o in X.columns]
-        if not read and not sensed:
-            raise ValueError(f"X holds none of the states {skeleton.states}"
-                             + (f" nor the outputs {skeleton.outputs}" if skeleton.outputs
-                                else "") + ": there is nothing to fit an initial state to")
-        limits = skeleton.limits_at(self.params_)
-        # a level read beyond its limit (noise at a rim) starts at the limit
-        state = {s: float(np.clip(X[s].iloc[0], *limits.get(s, (-np.inf, np.inf))))
-                 for s in read}
-        unknown = [s for s in skeleton.states if s not in read]
-        drive = {name: stretch[name].to_numpy(dtype=float) for name in inputs}
-        check_initial_stretch(t, drive, unknown)
-        if not unknown:
-            return state
-        system = self._system()
-        point = {**state, **{name: values[0] for name, values in drive.items()}, "t": t[0]}
-        start = np.array([equilibrium(system, unknown, point)[s] for s in unknown])
-        targets = stretch[read + sensed].to_numpy(dtype=float)
-        scale = np.sqrt(np.nanmean(targets ** 2, axis=0))
-        scale[~(scale > 0)] = 1.0
-
-        def compared(frame: pd.DataFrame) -> np.ndarray:
-            if not sensed:
-                return frame[read].to_numpy(dtype=float)
-            data = {s: frame[s].to_numpy(dtype=float) for s in skeleton.states}
-            readings = sensor_readings(system, {**data, **drive, "t": t}, sensed)
-            return np.column_stack([frame[read].to_numpy(dtype=float), readings])
-
-        def residuals(z: np.ndarray) -> np.ndarray:
-            y0 = [state[s] if s in state else z[unknown.index(s)] for s in skeleton.states]
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    frame = simulate_system(system, t, y0, drive, input_hold=input_hold)
-                simulated = compared(frame)
-            except (SimulationError, ValueError, ArithmeticError):
-                return np.full(targets.size, 1e3)
-            error = (simulated - targets) / scale
-            return np.where(np.isfinite(error), error, 1e3).ravel()
-
-        # every guess simulated once, within the states' limits; least squares from the best
-        low = np.array([limits.get(s, (-np.inf, np.inf))[0] for s in unknown])
-        high = np.array([limits.get(s, (-np.inf, np.inf))[1] for s in unknown])
-        high = np.where(high > low, high, np.nextafter(low, np.inf))
-        guesses = sorted(((0.5 * float(np.sum(residuals(g) ** 2)), k, g) for k, g in enumerate(
-            np.clip(g, low, high) for g in self._initial_guesses(start, unknown))),
-                         key=lambda item: item[:2])
-        best_cost, _, best = guesses[0]
-        for _, _, guess in guesses[:INITIAL_STATE_STARTS]:
-            solution = least_squares(residuals, guess, x_scale="jac", bounds=(low, high),
-                                     max_nfev=50 * (len(start) + 1), ftol=1e-6, xtol=1e-6)
-            if solution.cost < best_cost:
-                best, best_cost = solution.x, solution.cost
-        z = np.clip(best, low, high)
-        if np.all(residuals(z) == 1e3):
-            warnings.warn(f"the model cannot be simulated over X's first {len(t)} rows from "
-                          f"any guess of {', '.join(unknown)}: the estimate "
-                          f"({', '.join(f'{s}={v:.6g}' for s, v in zip(unknown, z))}) is a "
-                          "guess the record could not check", UserWarning, stacklevel=2)
-        return {s: (state[s] if s in state else float(z[unknown.index(s)]))
-                for s in skeleton.states}
-
-    def _initial_guesses(self, start: np.ndarray, unknown: list[str]) -> list[np.ndarray]:
-        """Where :meth:`estimate_initial_state` starts: rest, and what the fit saw.
-
-        From the equilibrium with the first sample; from each training
-        experiment's fitted initial state (``initial_states_``); and from
-        each state's limits and their midpoint, where it has finite ones (a
-        slow unmeasured state far from rest can make a short stretch's
-        least squares settle elsewhere).
-        """
-        guesses = [np.asarray(start, dtype=float)]
-        table = getattr(self, "initial_states_", None)
-        if table is not None and all(s in table.columns for s in unknown):
-            guesses.extend(table[unknown].to_numpy(dtype=float))
-        limits = self.skeleton_.limits_at(self.params_)
-        ends = []
-        for s in unknown:
-            low, high = limits.get(s, (-np.inf, np.inf))
-            finite = [v for v in (low, high) if np.isfinite(v)]
-            ends.append(finite + ([0.5 * (low + high)] if len(finite) == 2 else
-                                  [0.5 * finite[0]] if finite else []))
-        for k, values in enumerate(ends):
-            for value in values:
-                guess = guesses[0].copy()
-                guess[k] = value
-                guesses.append(guess)
-        out = []
-        for guess in guesses:
-            if np.all(np.isfinite(guess)) and not any(np.array_equal(guess, g) for g in out):
-                out.append(guess)
-        return out
-
-    def simulate(
-        self,
-        t,
-        y0,
-        inputs: Mapping | None = None,
-        *,
-        method: str | None = None,
-        rtol: float = 1e-6,
-        atol: float = 1e-8,
-        return_derivatives: bool = False,
-        input_hold: str = "auto",
-        verbose: bool = False,
-        level: float | None = None,
-        n_draws: int = N_DRAWS,
-        random_state=None,
-        **solver_options,
-    ) -> pd.DataFrame:
-        """Simulate the fitted model.
-
-        Parameters
-        ----------
-        t : array-like
-            Strictly increasing output times.
-        y0 : array-like or dict
-            Initial state, in the order of the equations or by state name.
-        inputs : dict, optional
-            Input name -> callable of ``t``, array sampled on ``t``, or constant.
-        method : str, optional
-            How to integrate; as in :meth:`Skeleton.simulate
-            <sklearn_pycc.Skeleton.simulate>` (the sampled-input integrator
-            for array inputs, else LSODA).
-        input_hold : {"auto", "bandlimited", "foh", "zoh"}, default="auto"
-            How an array input is read between its samples; see
-            :meth:`Skeleton.simulate <sklearn_pycc.Skeleton.simulate>`.
-            ``"auto"`` is the hold the model was fitted with
-            (``input_hold_``).
-        verbose : bool, default=False
-            Show a progress bar (tqdm) over the samples.
-        rtol, atol : float
-            Solver tolerances.
-        return_derivatives : bool
-            Add the inputs and the ``NAME_dot`` columns along the trajectory.
-        level : float, optional
-            Add ``NAME_lower`` and ``NAME_upper`` columns for each state and
-            output: the band holding that share of ``n_draws`` simulations
-            of models drawn from the fit's uncertainty (``covariance_``).
-        n_draws : int, default=100
-            Models simulated for the band.
-        random_state : int, RandomState, Generator or None
-            Seeds the draws of the band.
-        **solver_options
-            Passed to the SciPy solver, and ``max_steps``: the most solver
-            steps before a :class:`SimulationError` (by default 500000; with
-            array inputs 50 a sample, at most
-            ``sklearn_pycc.simulation.STEP_BUDGET``, and a record of
-            more samples than ``max_steps`` is refused before the first
-            step, with how to simulate it in pieces).
-
-        Returns
-        -------
-        pandas.DataFrame
-            Columns ``t``, the states and the outputs of static equations
-            (``F1`` of ``F1 = f1(x1)``) along the trajectory.
-
-        Raises
-        ------
-        SimulationError
-            When the model diverges, the solver fails or takes more than
-            ``max_steps``; it carries the time reached and the partial
-            trajectory.
-        ValueError
-            When the skeleton has no differential equation, ``y0`` starts
-            a state beyond its hard limits, or ``input_hold`` is none of
-            the holds above.
-
-        Warns
-        -----
-        UserWarning
-            Once per call, naming the equations without a derivative of
-            their own and without an output (``0 = ...``, a conserved
-            quantity): they were fitted, and are left out of the simulation.
-        ExtrapolationWarning
-            Once, when the trajectory takes a curve that declares an
-            ``extrapolation`` policy more than 1 % of its training range
-            beyond that range.
-        """
-        system = self._system()
-        skeleton = self.skeleton_
-        input_hold = requested_hold(self, input_hold)
-        if not skeleton.states:
-            raise ValueError(
-                "the skeleton has no differential equation, so there is nothing to "
-                f"simulate: its equations ({'; '.join(skeleton.equations)}) are static; "
-                "use predict")
-        loose = [eq for eq in skeleton.algebraic if eq.output is None]
-        if loose:
-            warnings.warn(
-                "simulate integrates the differential equations only: "
-                + "; ".join(f"equations[{eq.index}] ({eq.text!r})" for eq in loose)
-                + (" has" if len(loose) == 1 else " have") + " no derivative of its own "
-                "and, fitted with the others, takes no part in the simulation",
-                UserWarning, stacklevel=2)
-        if isinstance(y0, Mapping):
-            states = skeleton.states
-            unknown = [k for k in y0 if k not in states]
-            if unknown:
-                raise ValueError(f"y0 names {unknown[0]!r}, which is not a state of {states}")
-            missing = [s for s in states if s not in y0]
-            if missing:
-                raise ValueError(f"y0 has no value for the state {missing[0]!r}")
-            y0 = [y0[s] for s in states]
-        watched = {name: curve for name, curve in self.functions_.items()
-                   if curve.extrapolation}
-        outputs = skeleton.outputs
-        frame = simulate_system(system, t, y0, inputs, method=method, rtol=rtol, atol=atol,
-                                return_derivatives=(return_derivatives or bool(watched)
-                                                    or bool(outputs)),
-                                input_hold=input_hold, verbose=verbose, **solver_options)
-        if watched:
-            self._warn_outside_domain(frame, watched)
-        if outputs:
-            columns = {name: frame[name].to_numpy() for name in frame.columns}
-            values = system.evaluate_outputs(columns, len(frame))
-            for j, name in enumerate(outputs):
-                frame[name] = values[:, j]
-        if not return_derivatives:
-            frame = frame[["t", *skeleton.states, *outputs]]
-        if level is None:
-            return frame
-        level = check_level(level)
-
-        def simulate_draw(functions, params):
-            system = skeleton.compile(functions, params)
-            start = system.clip(np.array(y0, dtype=float))  # at a fitted limit: the drawn one
-            drawn = simulate_system(system, t, start, inputs, method=method, rtol=rtol, atol=atol,
-                                    return_derivatives=bool(outputs), input_hold=input_hold,
-                                    **solver_options)
-            if outputs:
-                columns = {name: drawn[name].to_numpy() for name in drawn.columns}
-                values = system.evaluate_outputs(columns, len(drawn))
-                for j, name in enumerate(outputs):
-                    drawn[name] = values[:, j]
-            return drawn
-
-        band = frame[["t", *skeleton.states, *outputs]]
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ExtrapolationWarning)
-            band = self._simulation_band(band, simulate_draw, level, n_draws, random_state)
-        added = [c for c in band.columns if c not in frame.columns]
-        return pd.concat([frame, band[added]], axis=1)
-
     def _warn_not_finite(self, columns: Mapping, pred: np.ndarray) -> None:
         """Warn that predictions are NaN or infinite, naming the equation and the term."""
         slots = {name: i for i, name in enumerate(columns)}
@@ -1023,198 +712,10 @@ class CCRegressor(IntervalsMixin, RegressorMixin, BaseEstimator, metaclass=ABCMe
             "leave a function's domain (sqrt, log, arcsin, ...) or overflow.",
             DomainWarning, stacklevel=3)
 
-    def _warn_outside_domain(self, frame: pd.DataFrame, watched: Mapping) -> None:
-        """Warn once if the trajectory takes curves beyond their training range."""
-        columns = list(frame.columns)
-        slots = {name: i for i, name in enumerate(columns)}
-        env = [frame[name].to_numpy() for name in columns]
-        t = env[slots["t"]]
-        found = []
-        for name, curve in watched.items():
-            lo, hi = curve.domain
-            margin = 0.01 * (hi - lo)
-            for arg in self._arguments(name):
-                values = compile_expression(arg, slots, self.params_, self.functions_)(env)
-                values = np.broadcast_to(np.asarray(values, dtype=float), t.shape)
-                outside = (values < lo - margin) | (values > hi + margin)
-                if outside.any():
-                    k = int(np.flatnonzero(outside)[0])
-                    found.append(f"the argument {to_text(arg)} of {name} reaches "
-                                 f"{values[k]:.4g} at t={t[k]:.4g}, outside [{lo:.4g}, {hi:.4g}] "
-                                 f"(extrapolation={curve.extrapolation!r})")
-                    break
-        if found:
-            warnings.warn(
-                "the simulated trajectory leaves the range the curves were trained on: "
-                + "; ".join(found) + ". Beyond it the model extrapolates.",
-                ExtrapolationWarning, stacklevel=3)
-
-    # -- reading a fitted model ------------------------------------------------
-    def _variable(self, name: str) -> str:
-        args = self._arguments(name)
-        if len(args) == 1 and isinstance(args[0], Symbol):
-            return args[0].name
-        return "u"
-
-    def equations_text(self, precision: int = 6) -> list[str]:
-        """The fitted model written out; ``model.equations()`` returns the same.
-
-        Parameters
-        ----------
-        precision : int, default=6
-            Significant digits of the numbers.
-
-        Returns
-        -------
-        list of str
-            One line per equation with the fitted parameters substituted,
-            then one line per curve with its fitted expression (a curve of
-            an expression argument is written over ``u``, with ``u`` given),
-            then one line per state with a hard limit (``x2 <= 13.0004``, a
-            fitted end at its value).
-        """
-        check_is_fitted(self, "functions_")
-        lines = []
-        for eq in self.skeleton_.residual_equations:
-            lhs = to_text(eq.lhs, self.params_, precision)
-            rhs = to_text(eq.rhs, self.params_, precision)
-            lines.append(f"{lhs} = {rhs}")
-        for name in self.skeleton_.functions:
-            variable = self._variable(name)
-            body = self.backend_.curve_text(self.functions_[name], variable, precision)
-            line = f"{name}({variable}) = {body}"
-            if variable == "u":
-                args = sorted({to_text(a) for a in self._arguments(name)})
-                line += f"  with u = {' or '.join(args)}"
-            lines.append(line)
-        for state, (low, high) in self.skeleton_.limits_at(self.params_).items():
-            ends = ([f"{low:.{precision}g} <="] if np.isfinite(low) else []) + [state] + (
-                [f"<= {high:.{precision}g}"] if np.isfinite(high) else [])
-            lines.append(" ".join(ends))
-        return lines
-
-    def to_sympy(self) -> list:
-        """The fitted model as SymPy equations, one per equation of the skeleton.
-
-        Curves with a closed form (polynomial, symbolic) are written out; the
-        others (networks, tables) stay undefined functions ``f1(x2)``.
-        """
-        import sympy
-
-        from ..backends.symbolic.curves import VARIABLE
-        from ..backends.symbolic.sympy_skeleton import to_sympy
-
-        check_is_fitted(self, "functions_")
-        written = {name: curve.to_sympy(VARIABLE) for name, curve in self.functions_.items()}
-        curves = {name: expression for name, expression in written.items()
-                  if expression is not None}
-        return [sympy.Eq(to_sympy(eq.lhs, self.params_, curves),
-                         to_sympy(eq.rhs, self.params_, curves))
-                for eq in self.skeleton_.residual_equations]
-
-    def to_latex(self) -> list[str]:
-        """The fitted model as LaTeX, one string per equation (see :meth:`to_sympy`)."""
-        import sympy
-
-        names = {}
-        for state in self.skeleton_.states:
-            names[sympy.Symbol(f"{state}_dot")] = rf"\dot{{{sympy.latex(sympy.Symbol(state))}}}"
-        return [sympy.latex(eq.evalf(6), symbol_names=names) for eq in self.to_sympy()]
-
-    # -- notebook display -----------------------------------------------------------
-    def _html_repr(self) -> str:
-        """scikit-learn's estimator display, then the fitted equations as rendered maths."""
-        html = super()._html_repr()
-        if not hasattr(self, "functions_"):
-            return html
-        from .._utils.html_pages import equations_html
-
-        return equations_html(self) + html
-
-    def _repr_latex_(self) -> str | None:
-        """The fitted equations for a notebook (None before ``fit``)."""
-        if not hasattr(self, "functions_"):
-            return None
-        rows = r" \\ ".join(line.replace("=", "&=", 1) for line in self.to_latex())
-        return rf"$$\begin{{aligned}} {rows} \end{{aligned}}$$"
-
-    def _arguments(self, name: str):
-        return self.skeleton_.curve_arguments(name)
-
-    def cc_curves(self, n: int = 200, level: float | None = None,
-                  domain=None) -> dict[str, pd.DataFrame]:
-        """Each fitted curve on ``n`` points over the range of its argument in training.
-
-        Parameters
-        ----------
-        n : int, default=200
-            Points per curve.
-        level : float, optional
-            Add ``lower`` and ``upper`` columns: the confidence band of each
-            curve at that level (from the fit's ``covariance_`` or its refits
-            on resamples). It widens where the data say less, beyond the
-            measured range above all; a network ensemble's band is NaN
-            beyond the measured range, where every network only continues
-            its edge slope and their agreement proves nothing.
-        domain : (float, float) or dict, optional
-            Evaluate over this range instead of the training range (one pair
-            for every curve, or ``{"f1": (lo, hi)}``).
-
-        Returns
-        -------
-        dict of str -> DataFrame
-            ``{"f1": DataFrame(columns=["x", "f1"]), ...}`` (the paper's
-            ``evals``); ``frame.attrs["argument"]`` holds the argument's text.
-        """
-        check_is_fitted(self, "functions_")
-        if int(n) < 2:
-            raise ValueError(f"n must be at least 2, got {n}")
-        level = None if level is None else check_level(level)
-        spans = _domains(domain, self.curve_ranges_)
-        out = {}
-        for name, curve in self.functions_.items():
-            lo, hi = spans[name]
-            x = np.linspace(lo, hi, int(n))
-            values = np.broadcast_to(np.asarray(curve(x), dtype=float), x.shape)
-            frame = pd.DataFrame({"x": x, name: np.array(values)})
-            if level is not None:
-                frame["lower"], frame["upper"] = self._curve_band(name, x, np.array(values),
-                                                                  level)
-            frame.attrs["argument"] = " or ".join(sorted({to_text(a)
-                                                          for a in self._arguments(name)}))
-            out[name] = frame
-        return out
-
     @property
     def n_states_(self) -> int:
         """Number of states (differential equations)."""
         return len(self.skeleton_.states)
-
-
-def _domains(domain, trained: Mapping[str, tuple[float, float]]) -> dict:
-    """The range to evaluate each curve over (``cc_curves``' ``domain``)."""
-    if domain is None:
-        return dict(trained)
-    if isinstance(domain, Mapping):
-        unknown = [k for k in domain if k not in trained]
-        if unknown:
-            raise ValueError(f"domain names {unknown[0]!r}, which is not a curve of the model "
-                             f"({', '.join(trained) or 'none'})")
-        return {name: _pair(domain[name]) if name in domain else span
-                for name, span in trained.items()}
-    pair = _pair(domain)
-    return {name: pair for name in trained}
-
-
-def _pair(domain) -> tuple[float, float]:
-    try:
-        lo, hi = (float(v) for v in domain)
-    except (TypeError, ValueError):
-        raise ValueError(f"domain must be a pair (low, high) or a dict of pairs, got "
-                         f"{domain!r}") from None
-    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-        raise ValueError(f"domain must run from a lower to a higher finite value, got {domain!r}")
-    return lo, hi
 
 
 def _measured_limits(skeleton, record) -> dict[str, float]:
