@@ -171,14 +171,14 @@ def test_a_free_curve_the_whole_record_does_not_favour_spares_the_held_out_folds
     import importlib
     from types import SimpleNamespace
 
-    decide = importlib.import_module("sklearn_pycc.diagnostics.diagnose")
+    decide = importlib.import_module("sklearn_pycc.diagnostics._decide")
     model = SimpleNamespace(fit_mode_="simulation")
     flat, slight, better = (SimpleNamespace(refit=name, note="", held_out=None,
                                             whole_record=None)
                             for name in ("flat", "slight", "better"))
     # the whole record's output error of each fit: the model's, then the curves'
     errors = {"flat": 0.0996, "slight": 0.097, "better": 0.08}
-    monkeypatch.setattr(decide, "_whole_record", lambda m, record, cache=None:
+    monkeypatch.setattr(decide, "whole_record_error", lambda m, record, cache=None:
                         errors[m] if isinstance(m, str) else 0.1)
     held = []
 
@@ -187,13 +187,13 @@ def test_a_free_curve_the_whole_record_does_not_favour_spares_the_held_out_folds
         return SimpleNamespace(confirmed=True)
 
     monkeypatch.setattr(decide, "held_out_check", held_out_check)
-    chosen = decide._decide_open([flat, better], model, None, None, [1], steps=100, held_out=True,
+    chosen = decide.decide_open([flat, better], model, None, None, [1], steps=100, held_out=True,
                                  record=pd.DataFrame())
     assert chosen is better and held == ["better"]
     assert "not confirmed by the whole record" in flat.note and "-0.4 %" in flat.note
     # 3 % would do for an effect of the catalogue, not for a free curve
     held.clear()
-    assert decide._decide_open([slight], model, None, None, [1], steps=100, held_out=True,
+    assert decide.decide_open([slight], model, None, None, [1], steps=100, held_out=True,
                                record=pd.DataFrame()) is None and held == []
     assert "-3.0 %" in slight.note
     # asked again (a rival's check), it is not fitted again nor said twice
@@ -202,5 +202,5 @@ def test_a_free_curve_the_whole_record_does_not_favour_spares_the_held_out_folds
     # fitted by equation error, the folds alone judge
     held.clear()
     model.fit_mode_ = "equation"
-    assert decide._decide_open([flat, better], model, None, None, [1], steps=100, held_out=True,
+    assert decide.decide_open([flat, better], model, None, None, [1], steps=100, held_out=True,
                                record=pd.DataFrame()) is flat and held == ["flat"]

@@ -202,7 +202,7 @@ def test_neural_simulation_mode_needs_solved_equations():
 def test_a_fit_knows_the_record_and_settings_it_saw():
     # a refit on the same record with the same settings would repeat the estimate: the
     # diagnosis then reads the model's own output error instead of fitting it again
-    from sklearn_pycc.diagnostics.diagnose import _whole_record
+    from sklearn_pycc.diagnostics._decide import whole_record_error
     from sklearn_pycc.fitting.fingerprint import fitted_on
     from sklearn_pycc.measurements import Measurement
 
@@ -211,7 +211,7 @@ def test_a_fit_knows_the_record_and_settings_it_saw():
     model = PolyCCRegressor(equations=SECOND_ORDER, fit_mode="simulation",
                             shooting_iterations=3).fit(X)
     assert fitted_on(model, X) and fitted_on(model, X.copy()) and fitted_on(model, Measurement(X))
-    assert _whole_record(model, X) == model.shooting_["nrmse_after"]
+    assert whole_record_error(model, X) == model.shooting_["nrmse_after"]
     # the mode it was chosen by and the refits on resamples do not change the estimate
     assert fitted_on(model.set_params(fit_mode="auto", n_bootstrap=5), X)
     assert not fitted_on(model, X.iloc[:-1])
@@ -222,5 +222,5 @@ def test_a_fit_knows_the_record_and_settings_it_saw():
     changed.loc[7, "x1"] += 1e-9
     assert not fitted_on(model, changed)
     # a model that is not the fit of the record is fitted again
-    assert _whole_record(model, changed) == pytest.approx(model.shooting_["nrmse_after"],
+    assert whole_record_error(model, changed) == pytest.approx(model.shooting_["nrmse_after"],
                                                           rel=1e-3)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 import pandas as pd
@@ -37,7 +37,7 @@ from ._refit import fit_rows, prepared
 from ._roles import EquationRoles
 
 __all__ = ["MOVES", "Candidate", "enumerate_candidates", "enumerate_moves", "refit_candidate",
-           "screen_candidates"]
+           "refit_candidates", "screen_candidates"]
 
 #: a term whose contribution is this many times the derivative it explains is absurd
 ABSURD_RATIO = 10.0
@@ -677,3 +677,32 @@ def _unresolved_oscillation(node: Node, params: dict[str, float],
             return (f"the fitted oscillation (angular frequency {w:.3g}) lies above the "
                     f"Nyquist frequency {math.pi / step:.3g} of the record")
     return ""
+
+
+def _refitted(model, candidate: Candidate, data: Record, residuals: np.ndarray,
+              rss_before: np.ndarray, *, baseline: frozenset) -> Candidate:
+    refit_candidate(model, candidate, data, residuals, rss_before, baseline=baseline)
+    return candidate
+
+
+def refit_candidates(candidates: list[Candidate], model, data: Record,
+                     residuals: np.ndarray, rss_before: np.ndarray, *, baseline: frozenset,
+                     n_jobs: int | None) -> None:
+    """Refit ``candidates`` in place, in parallel when ``n_jobs`` asks for it.
+
+    A worker process refits a copy; its findings are written back onto the
+    candidate the diagnosis holds.
+    """
+    if n_jobs is None or n_jobs == 1 or len(candidates) < 2:
+        for candidate in candidates:
+            refit_candidate(model, candidate, data, residuals, rss_before, baseline=baseline)
+        return
+    from joblib import Parallel, delayed
+
+    done = Parallel(n_jobs=n_jobs)(
+        delayed(_refitted)(model, c, data, residuals, rss_before, baseline=baseline)
+        for c in candidates)
+    for candidate, result in zip(candidates, done):
+        if result is not candidate:
+            for item in fields(Candidate):
+                setattr(candidate, item.name, getattr(result, item.name))
