@@ -18,9 +18,21 @@ Placeholders in the templates:
 ``{v}``
     a velocity,
 ``{u}``
-    a difference of positions (the stretch of a coupling between masses).
+    a difference of positions (the stretch of a coupling between masses),
+``{s}``
+    a first-order state's own value (a level, a temperature, a
+    concentration, a voltage): the term is its own rate of loss (outflow,
+    consumption, decay).
 
 Time is ``t`` itself. Users add their own effects with :func:`register`.
+
+Effects know their field. A mechanical effect (``field="mechanics"``) enters
+only the equations of mechanical states: a position and velocity pair, or a
+first-order state the user says is a velocity. A first-order state of
+another or unknown kind gets the effects that act through ``{s}``, and
+:meth:`Effect.called` names each in the words of the state's quantity (the
+square-root law is "Torricelli outflow" on a level, "orifice flow" on a
+pressure, "square-root law" when the quantity is not known).
 
 Examples
 --------
@@ -29,6 +41,8 @@ Examples
 'a1 tanh(a2 x2)'
 >>> "quadratic_drag" in effects.names()
 True
+>>> effects.get("square_root_outflow").called("level")
+'Torricelli outflow'
 """
 
 from __future__ import annotations
@@ -39,6 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .exceptions import SkeletonError
+from .quantities import is_mechanical
 from .skeleton.constraints import Bound, parse_constraints
 from .skeleton.nodes import Param, walk
 from .skeleton.parser import parse_expression
@@ -52,9 +67,13 @@ ACTS_THROUGH: dict[str, tuple[str, ...]] = {
     "position": ("x",),
     "position_velocity": ("x", "v"),
     "difference": ("u",),
+    "state": ("s",),
     "time": (),
     "none": (),
 }
+
+#: the fields an effect may belong to ("any": every field, named in plain words)
+FIELDS = ("mechanics", "process", "thermal", "electrical", "kinetics", "any")
 
 #: plausibility rules
 PLAUSIBILITY: dict[str, str] = {
@@ -62,10 +81,12 @@ PLAUSIBILITY: dict[str, str] = {
                    "average (sum of term * velocity > 0)",
     "restoring": "pulls back toward equilibrium: the subtracted term has the sign of the "
                  "displacement on average (sum of term * position > 0)",
+    "draining": "takes away what is stored: the subtracted term has the sign of the state "
+                "on average (an outflow, a consumption, a decay; sum of term * state > 0)",
     "any": "no sign requirement",
 }
 
-_SAMPLE = {"x": "x1", "v": "x2", "u": "x1 - x3"}
+_SAMPLE = {"x": "x1", "v": "x2", "u": "x1 - x3", "s": "x1"}
 
 
 @dataclass(frozen=True)
@@ -102,6 +123,20 @@ class Effect:
         same role (a pendulum's sine for a linear spring, Stribeck's law for
         Coulomb friction): a diagnosis then tries the swap as well as the
         addition.
+    field : str, optional
+        A key of :data:`FIELDS`: ``"mechanics"`` for an effect that only a
+        mechanical state can have (friction, springs, drag), another field
+        for a law of that field, ``"any"`` for a shape any state can have.
+        By default ``"mechanics"`` for an effect acting through a position,
+        a velocity or a difference of positions, else ``"any"``.
+    names : tuple of (str, str)
+        ``(quantity, name)`` pairs: what the effect is called on a state of
+        that quantity (``("level", "Torricelli outflow")``); see
+        :func:`sklearn_pycc.quantities.quantity_names`.
+    shape : str
+        The effect's shape in plain words (``"square-root law"``): its name on
+        a state whose quantity is not known, or of another field. Empty: the
+        catalogue name in words.
     """
 
     name: str
@@ -114,6 +149,9 @@ class Effect:
     bounds: tuple[str, ...] = ()
     requires: tuple[str, ...] = ()
     replaces: tuple[str, ...] = ()
+    field: str | None = None
+    names: tuple[tuple[str, str], ...] = ()
+    shape: str = ""
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():
@@ -121,6 +159,23 @@ class Effect:
         if self.acts_through not in ACTS_THROUGH:
             raise ValueError(f"effect {self.name!r}: acts_through must be one of "
                              f"{sorted(ACTS_THROUGH)}, got {self.acts_through!r}")
+        if self.field is None:  # by the place it acts through
+            object.__setattr__(self, "field", "mechanics" if self.acts_through in
+                               MECHANICAL_PLACES else "any")
+        if self.field not in FIELDS:
+            raise ValueError(f"effect {self.name!r}: field must be one of {list(FIELDS)}, got "
+                             f"{self.field!r}")
+        if self.field != "mechanics" and self.acts_through in MECHANICAL_PLACES:
+            raise ValueError(f"effect {self.name!r} acts through a {self.acts_through}, which "
+                             "only a mechanical state has: give it field='mechanics'")
+        if self.field == "mechanics" and self.acts_through == "state":
+            raise ValueError(f"effect {self.name!r}: an effect acting through a first-order "
+                             "state's own value ({s}) belongs to a field other than mechanics")
+        for pair in self.names:
+            if not (isinstance(pair, tuple) and len(pair) == 2
+                    and all(isinstance(p, str) and p for p in pair)):
+                raise ValueError(f"effect {self.name!r}: names must be (quantity, name) pairs "
+                                 f"of strings, got {pair!r}")
         if self.plausibility not in PLAUSIBILITY:
             raise ValueError(f"effect {self.name!r}: plausibility must be one of "
                              f"{sorted(PLAUSIBILITY)}, got {self.plausibility!r}")
@@ -150,6 +205,22 @@ class Effect:
                     raise ValueError(f"effect {self.name!r}: bounds must bound parameters of "
                                      f"its term ({', '.join(sorted(params))}), got "
                                      f"{str(bound)!r}")
+
+    def called(self, quantity: str | None = None) -> str:
+        """What the effect is called on a state of ``quantity`` (None: not known).
+
+        Its name for that quantity when it has one (``"Torricelli outflow"``
+        on a level); a mechanical effect on a mechanical state is called by
+        its catalogue name in words (``"coulomb friction"``); otherwise its
+        shape in plain words (``"square-root law"``; the catalogue name in
+        words for an effect registered without a shape).
+        """
+        named = dict(self.names)
+        if quantity in named:
+            return named[quantity]
+        if (self.field == "mechanics" and is_mechanical(quantity)) or not self.shape:
+            return self.name.replace("_", " ")
+        return self.shape
 
     def _fill(self, template: str, variables: dict[str, str]) -> str:
         needed = ACTS_THROUGH[self.acts_through]
@@ -182,7 +253,8 @@ class Effect:
         velocity : array-like, optional
             The velocity of the same equation (needed by ``"dissipative"``).
         position : array-like, optional
-            The position of the same equation (needed by ``"restoring"``).
+            The position of the same equation (needed by ``"restoring"``),
+            or a first-order state's own value (by ``"draining"``).
 
         Returns
         -------
@@ -195,6 +267,7 @@ class Effect:
         reference = velocity if against == "velocity" else position
         if reference is None:
             raise ValueError(f"effect {self.name!r} is {self.plausibility}: give the {against}")
+        against = "state" if self.plausibility == "draining" else against
         contribution = np.asarray(contribution, dtype=float)
         mean = float(np.mean(contribution * np.asarray(reference, dtype=float)))
         if mean > 0:
@@ -202,7 +275,7 @@ class Effect:
         if not np.any(contribution):
             return False, (f"the fitted {self.name} term vanishes: the data ask for the sign "
                            "its physics excludes (it is held at its bound)")
-        return False, (f"{self.name} must {label}, but the fitted term {failure} "
+        return False, (f"{self.called()} must {label}, but the fitted term {failure} "
                        f"(mean term * {against} = {mean:.3g} <= 0)")
 
 
@@ -210,7 +283,11 @@ class Effect:
 _RULES = {
     "dissipative": ("velocity", "remove energy", "feeds energy in"),
     "restoring": ("position", "pull back toward equilibrium", "pushes away from it"),
+    "draining": ("position", "take away what is stored", "adds to it"),
 }
+
+#: the places only a mechanical state has
+MECHANICAL_PLACES = ("velocity", "position", "position_velocity", "difference")
 
 
 _CATALOGUE: dict[str, Effect] = {}
@@ -256,57 +333,123 @@ def catalogue() -> list[Effect]:
 _POSITIVE = ("a1 >= 0",)
 for _effect in (
     Effect("viscous_damping", "force proportional to velocity (a dashpot, a fluid film)",
-           "velocity", "a1 {v}", "f1({v})", ("f1 odd",), "dissipative", _POSITIVE),
+           "velocity", "a1 {v}", "f1({v})", ("f1 odd",), "dissipative", _POSITIVE,
+           shape="linear law of the rate"),
     Effect("coulomb_friction", "dry friction of constant level opposing the sliding "
            "direction, smoothed at zero speed", "velocity", "a1 tanh(a2 {v})", "f1({v})",
-           ("f1 odd",), "dissipative", ("a1 >= 0", "a2 >= 0")),
+           ("f1 odd",), "dissipative", ("a1 >= 0", "a2 >= 0"),
+           shape="sign-like (tanh) law of the rate"),
     Effect("stribeck_friction", "dry friction that is higher at breakaway and falls with "
            "speed", "velocity", "(a1 + a2 exp(-({v}/a3)^2)) tanh(a4 {v})", "f1({v})",
            ("f1 odd",), "dissipative", ("a1 >= 0", "a2 >= 0", "a4 >= 0"),
-           replaces=("coulomb_friction",)),
+           replaces=("coulomb_friction",),
+           shape="sign-like law of the rate, peaked near zero"),
     Effect("quadratic_drag", "drag growing with the square of speed (turbulent flow)",
            "velocity", "a1 {v} abs({v})", "f1({v})", ("f1 odd",), "dissipative", _POSITIVE,
-           replaces=("viscous_damping",)),
+           replaces=("viscous_damping",),
+           shape="signed square law of the rate"),
     Effect("linear_stiffness", "spring force proportional to displacement", "position",
-           "a1 {x}", "f1({x})", ("f1(0)=0",)),
+           "a1 {x}", "f1({x})", ("f1(0)=0",),
+           shape="linear law"),
     Effect("cubic_stiffness", "hardening or softening spring (Duffing term)", "position",
-           "a1 {x}^3", "f1({x})", ("f1 odd",)),
+           "a1 {x}^3", "f1({x})", ("f1 odd",),
+           shape="cubic law"),
     Effect("saturation", "restoring force that levels off at large displacement", "position",
            "a1 tanh(a2 {x})", "f1({x})", ("f1 odd", "f1 increasing"), "restoring",
-           ("a1 >= 0", "a2 >= 0"), replaces=("linear_stiffness",)),
+           ("a1 >= 0", "a2 >= 0"), replaces=("linear_stiffness",),
+           shape="saturating (tanh) law"),
     Effect("dead_zone", "no force within a clearance, linear beyond it (backlash)",
            "position", "a1 ({x} - a2 sign({x})) (1 + sign(abs({x}) - a2))/2", "f1({x})",
            ("f1 odd", "f1 increasing"), "restoring", ("a1 >= 0", "a2 >= 0"),
-           replaces=("linear_stiffness",)),
+           replaces=("linear_stiffness",),
+           shape="dead zone"),
     Effect("pendulum", "gravity torque on a swinging arm, sine of the angle", "position",
            "a1 sin({x})", "f1({x})", ("f1 odd",), "restoring", _POSITIVE,
-           replaces=("linear_stiffness",)),
+           replaces=("linear_stiffness",),
+           shape="sine law"),
     Effect("position_dependent_damping", "damping that grows with displacement "
            "(van der Pol, Lienard)", "position_velocity", "a1 {x}^2 {v}", None, (),
-           "dissipative", _POSITIVE),
+           "dissipative", _POSITIVE,
+           names=(("charge", "van der Pol damping"), ("current", "van der Pol damping"),
+                  ("voltage", "van der Pol damping")),
+           shape="damping growing with the square of the state"),
     Effect("linear_coupling", "linear spring between two masses", "difference", "a1 {u}",
-           "f1({u})", ("f1(0)=0",)),
+           "f1({u})", ("f1(0)=0",),
+           shape="linear coupling"),
     Effect("coupling", "nonlinear (cubic) spring between two masses", "difference",
-           "a1 {u}^3", "f1({u})", ("f1 odd",)),
+           "a1 {u}^3", "f1({u})", ("f1 odd",),
+           shape="cubic coupling"),
     Effect("asymmetric_viscous_damping", "viscous friction of a different coefficient in "
            "each direction of motion (a worn guide, a seal); added beside viscous damping",
-           "velocity", "a1 abs({v})", "f1({v})", requires=("viscous_damping",)),
+           "velocity", "a1 abs({v})", "f1({v})", requires=("viscous_damping",),
+           shape="one-sided linear law of the rate"),
     Effect("asymmetric_coulomb_friction", "dry friction of a different level in each "
            "direction of motion; added beside Coulomb friction", "velocity",
            "a1 tanh(a2 {v})^2", "f1({v})", bounds=("a2 >= 0",),
-           requires=("coulomb_friction", "stribeck_friction")),
+           requires=("coulomb_friction", "stribeck_friction"),
+           shape="one-sided sign-like law of the rate"),
     Effect("asymmetric_stiffness", "a spring stiffer on one side than on the other (an "
            "even term x|x|); added beside a linear spring", "position", "a1 {x} abs({x})",
-           "f1({x})", requires=("linear_stiffness",)),
+           "f1({x})", requires=("linear_stiffness",),
+           shape="one-sided square law"),
     Effect("falling_damping", "damping concentrated near the equilibrium that falls away "
            "with displacement (an eddy-current brake at the centre)", "position_velocity",
-           "a1 exp(-a2 {x}^2) {v}", None, (), "dissipative", ("a1 >= 0", "a2 >= 0")),
+           "a1 exp(-a2 {x}^2) {v}", None, (), "dissipative", ("a1 >= 0", "a2 >= 0"),
+           shape="damping falling away from zero"),
     Effect("offset", "constant force or bias (gravity on a slope, sensor offset)", "none",
-           "a1"),
+           "a1", names=(("level", "constant inflow or leak"),
+                        ("volume", "constant inflow or leak"),
+                        ("temperature", "constant heat load"),
+                        ("concentration", "constant feed or production"),
+                        ("voltage", "constant bias current"),
+                        ("current", "constant bias voltage"),
+                        ("population", "constant immigration or harvest")),
+           shape="constant source or bias"),
     Effect("periodic_forcing", "unmeasured harmonic excitation", "time",
-           "a1 cos(a2 t) + a3 sin(a2 t)", bounds=("a2 >= 0",)),
+           "a1 cos(a2 t) + a3 sin(a2 t)", bounds=("a2 >= 0",),
+           names=(("temperature", "daily or periodic heat load"),),
+           shape="unmeasured periodic input"),
     Effect("drift", "force or bias changing steadily over the record (a warming sensor, "
-           "a creeping load)", "time", "a1 + a2 t"),
+           "a creeping load)", "time", "a1 + a2 t", shape="slow drift of a source or bias"),
+    # a first-order state's own rate of loss: outflow, consumption, decay
+    Effect("linear_rate", "loss proportional to what is stored (a linear outflow, a "
+           "first-order decay, Newton's cooling)", "state", "a1 {s}", "f1({s})",
+           ("f1(0)=0",), "draining",
+           names=(("level", "linear outflow"), ("volume", "linear outflow"),
+                  ("pressure", "linear (laminar) outflow"), ("temperature", "Newton cooling"),
+                  ("concentration", "first-order decay"), ("voltage", "resistive discharge"),
+                  ("current", "resistive loss"), ("population", "linear mortality")),
+           shape="linear law"),
+    Effect("square_root_outflow", "outflow growing with the square root of what is stored "
+           "(Torricelli's law of a free orifice)", "state", "a1 sqrt(abs({s}))", "f1({s})",
+           ("f1(0)=0", "f1 increasing"), "draining", _POSITIVE, replaces=("linear_rate",),
+           field="process",
+           names=(("level", "Torricelli outflow"), ("volume", "Torricelli outflow"),
+                  ("pressure", "orifice flow")),
+           shape="square-root law"),
+    Effect("saturating_rate", "rate that grows in proportion at small amounts and levels off "
+           "at large ones (Michaelis-Menten, Monod)", "state", "a1 {s}/(a2 + abs({s}))",
+           "f1({s})", ("f1(0)=0", "f1 increasing"), "draining", ("a1 >= 0", "a2 >= 0"),
+           replaces=("linear_rate",), field="kinetics",
+           names=(("concentration", "Michaelis-Menten saturation"),
+                  ("population", "Monod saturation")),
+           shape="saturating law"),
+    Effect("quadratic_rate", "loss growing with the square of what is stored (a second-order "
+           "reaction, crowding)", "state", "a1 {s} abs({s})", "f1({s})", ("f1(0)=0",),
+           "draining", _POSITIVE, field="kinetics",
+           names=(("concentration", "second-order reaction"),
+                  ("population", "logistic crowding")),
+           shape="square law"),
+    Effect("exponential_rate", "rate growing exponentially with the state (a diode's "
+           "current, an Arrhenius-like rate)", "state", "a1 (exp(a2 {s}) - 1)", "f1({s})",
+           ("f1(0)=0", "f1 increasing"), "draining", ("a1 >= 0", "a2 >= 0"),
+           names=(("voltage", "diode current (Shockley)"),
+                  ("temperature", "Arrhenius-like rate")),
+           shape="exponential law"),
+    Effect("radiation", "loss growing with the fourth power of the temperature "
+           "(Stefan-Boltzmann)", "state", "a1 {s}^4", "f1({s})", (), "any", _POSITIVE,
+           field="thermal", names=(("temperature", "radiation (Stefan-Boltzmann)"),),
+           shape="fourth-power law"),
 ):
     register(_effect)
 del _effect, _POSITIVE

@@ -204,7 +204,7 @@ LAYERS = [
     ("exceptions",),
     ("simulation",),
     ("skeleton",),
-    ("plotting", "effects"),
+    ("plotting", "effects", "quantities"),
     ("measurements",),
     ("fitting",),
     ("backends",),

@@ -13,6 +13,7 @@ import pandas as pd
 from .. import effects as catalogue
 from ..exceptions import RankDeficiencyWarning, SkeletonError
 from ..measurements.record import Record
+from ..quantities import field_of
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import (
@@ -133,9 +134,13 @@ class Candidate:
 # -- enumeration ------------------------------------------------------------------
 def _assignments(effect: catalogue.Effect, roles: EquationRoles, has_time: bool):
     """``(variables, label, additions)`` for every way ``effect`` can enter the equation."""
+    if not fits_field(effect, roles):
+        return
     kind = effect.acts_through
     k = roles.index
-    if kind == "velocity":
+    if kind == "state":
+        yield roles.position, [(k, effect.term_for(s=roles.position))]
+    elif kind == "velocity":
         v = roles.velocity
         yield v, [(k, effect.term_for(v=v))]
     elif kind == "position":
@@ -158,10 +163,31 @@ def _assignments(effect: catalogue.Effect, roles: EquationRoles, has_time: bool)
         yield "", [(k, effect.term_for())]
 
 
+def fits_field(effect: catalogue.Effect, roles: EquationRoles) -> bool:
+    """Whether ``effect`` may enter the equation of ``roles``, by field.
+
+    A mechanical effect enters a position-velocity pair (named by its shape
+    when the user says the pair is not mechanical: a charge and a current)
+    and a first-order state the user says is mechanical; an effect acting
+    through a first-order state's own value enters the other first-order
+    states, those of its field or of an unknown quantity.
+    """
+    if effect.field == "mechanics":
+        return roles.second_order or roles.mechanical
+    if effect.acts_through == "state":
+        if roles.second_order or roles.mechanical:
+            return False
+        return effect.field == "any" or roles.position_quantity is None \
+            or field_of(roles.position_quantity) == effect.field
+    return True
+
+
 def _curve_term(effect: catalogue.Effect, roles: EquationRoles, variable: str) -> str | None:
     if effect.curve is None:
         return None
     kind = effect.acts_through
+    if kind == "state":
+        return effect.curve_for(s=roles.position)
     if kind == "velocity":
         return effect.curve_for(v=roles.velocity)
     if kind == "position":
@@ -395,6 +421,18 @@ def _term_values(model, data: Record, equations) -> dict[int, list]:
     return out
 
 
+def _largest_term(model, data: Record, k: int, slots, env) -> float:
+    """RMS of the largest term of ``model``'s equation ``k`` on the data (inputs too)."""
+    largest = 0.0
+    for _, node in signed_terms(_equation(model.skeleton_, k).rhs):
+        with np.errstate(all="ignore"):
+            values = compile_expression(node, slots, model.params_, model.functions_)(env)
+        values = np.broadcast_to(np.asarray(values, dtype=float), (data.n_samples,))
+        if np.isfinite(values).all():
+            largest = max(largest, float(np.sqrt(np.mean(values ** 2))))
+    return largest
+
+
 def _projected_rss(target: np.ndarray, columns: list[np.ndarray]) -> float:
     """Residual sum of squares of ``target`` once the best combination of ``columns`` is off."""
     if not columns:
@@ -589,12 +627,18 @@ def refit_candidate(model, candidate: Candidate, data: Record, residuals: np.nda
         before, after, rss_floor(data.derivatives)[ks], candidate.n_change, n)
     candidate.rmse_before = float(np.sqrt(before.sum() / (n * len(ks))))
     candidate.rmse_after = float(np.sqrt(after.sum() / (n * len(ks))))
-    _judge(candidate, estimator, data, baseline)
+    _judge(candidate, estimator, data, baseline, model=model)
 
 
 def _judge(candidate: Candidate, estimator, data: Record,
-           baseline: frozenset = frozenset()) -> None:
-    """Plausibility of the fitted term: energy balance and size."""
+           baseline: frozenset = frozenset(), *, model=None) -> None:
+    """Plausibility of the fitted term: energy balance and size.
+
+    A term is absurdly large beside the derivative it explains, or, in a
+    first-order balance (what flows in nearly equals what flows out, so the
+    derivative is small beside both), beside the largest term of ``model``'s
+    equation.
+    """
     if candidate.redundant:
         return
     slots, env = _environment(data)
@@ -620,9 +664,13 @@ def _judge(candidate: Candidate, estimator, data: Record,
                 reasons.append(why)
         scale = float(np.sqrt(np.mean(data.derivatives[:, k] ** 2)))
         size = float(np.sqrt(np.mean(values**2)))
-        if scale > 0 and size > ABSURD_RATIO * scale:
-            reasons.append(f"absurd size: the fitted term is {size / scale:.3g} times the "
-                           f"derivative it should explain (terms cancel each other)")
+        balance = 0.0 if model is None or candidate.roles.second_order else \
+            _largest_term(model, data, k, slots, env)
+        if scale > 0 and size > ABSURD_RATIO * max(scale, balance):
+            beside = "derivative it should explain" if scale >= balance else \
+                "largest term of the equation"
+            reasons.append(f"absurd size: the fitted term is {size / max(scale, balance):.3g} "
+                           f"times the {beside} (terms cancel each other)")
     # the rest of the refitted model must still play its physical roles
     own = [(k, parse_expression(text, kind="term")) for k, text in candidate.added]
     reasons.extend(f"the refitted model is implausible: {item}"

@@ -433,7 +433,8 @@ def suggestion_for(c: Candidate, base: Skeleton, model, formula: Candidate | Non
         simulation_rmse=float(c.simulation_rmse), held_out=c.held_out,
         bounds=tuple(str(x) for x in skeleton.constraints
                      if isinstance(x, Bound) and x not in base.constraints),
-        intervals=intervals, settings=_settings(c.refit, model))
+        intervals=intervals, settings=_settings(c.refit, model),
+        called=c.effect.called(c.roles.quantity_of(c.effect.acts_through)))
 
 
 def _settings(refit, model) -> dict:

@@ -42,7 +42,7 @@ OPEN_EFFECTS = {
     "damping": Effect("free_damping_curve", "a damping that varies with the displacement in a "
                       "way no catalogue effect has", "position_velocity", "f1({x}) {v}"),
     "state": Effect("free_state_curve", "a dependence on the state of a shape no catalogue "
-                    "effect has", "position", "f1({x})"),
+                    "effect has", "state", "f1({s})"),
 }
 #: the effect a proposed formula is reported as
 OUTSIDE = Effect("outside_catalogue", "a formula the symbolic engine proposes for a free curve",
@@ -90,7 +90,7 @@ def open_candidates(skeleton: Skeleton, roles: list[EquationRoles]) -> list[Cand
         for kind in kinds:
             effect = OPEN_EFFECTS[kind]
             x, v = r.position, r.velocity
-            variables = {"position": {"x": x}, "velocity": {"v": v},
+            variables = {"position": {"x": x}, "velocity": {"v": v}, "state": {"s": x},
                          "position_velocity": {"x": x, "v": v}}[effect.acts_through]
             term = effect.term_for(**variables)
             reduced = skeleton

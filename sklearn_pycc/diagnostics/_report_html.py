@@ -11,7 +11,7 @@ from .._utils.html_pages import equations_html, figure_html, page, preformatted,
 __all__ = ["RANKING_NOTE", "diagnosis_html", "loop_page"]
 
 #: the ranking's columns a reader needs, in reading order
-RANKING_SHOWN = ["effect", "move", "equation", "variable", "score", "error_removed",
+RANKING_SHOWN = ["effect", "called", "move", "equation", "variable", "score", "error_removed",
                  "held_out_change", "stability", "plausible", "suggested_term"]
 #: what the ranking's numbers mean
 RANKING_NOTE = (

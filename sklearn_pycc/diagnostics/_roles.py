@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
+from ..quantities import is_mechanical, state_quantities
 from ..skeleton import Skeleton
 from ..skeleton.nodes import Symbol
 
@@ -29,6 +31,14 @@ class EquationRoles:
         of their acceleration equation (None when they have none).
     second_order : bool
         Whether the equation is the acceleration of a position-velocity pair.
+    position_quantity, velocity_quantity : str or None
+        What the position and the velocity measure
+        (:func:`~sklearn_pycc.quantities.state_quantities`; a first-order
+        state's own quantity for both; None: not known).
+    mechanical : bool
+        Whether the equation may have mechanical effects: a pair of a
+        mechanical position and velocity, or a first-order state that the
+        user says is mechanical (a velocity).
     """
 
     index: int
@@ -37,6 +47,15 @@ class EquationRoles:
     velocity: str
     others: tuple[tuple[str, int | None], ...]
     second_order: bool
+    position_quantity: str | None = "position"
+    velocity_quantity: str | None = "velocity"
+    mechanical: bool = True
+
+    def quantity_of(self, acts_through: str) -> str | None:
+        """The quantity of the variable an effect acting through ``acts_through`` reads."""
+        if acts_through in ("velocity", "position_velocity"):
+            return self.velocity_quantity
+        return self.position_quantity
 
 
 def kinematic_states(skeleton: Skeleton) -> dict[str, str]:
@@ -50,11 +69,15 @@ def kinematic_states(skeleton: Skeleton) -> dict[str, str]:
     return out
 
 
-def equation_roles(skeleton: Skeleton) -> list[EquationRoles]:
+def equation_roles(skeleton: Skeleton, quantities: Mapping[str, str] | None = None,
+                   units: Mapping[str, str] | None = None) -> list[EquationRoles]:
     """Roles of every equation that can miss a physical effect.
 
     Kinematic equations (``x1_dot = x2``) define a velocity and are left out.
+    ``quantities`` and ``units`` say what states measure (see
+    :func:`~sklearn_pycc.quantities.state_quantities`).
     """
+    measures = state_quantities(skeleton, quantities, units)
     position_of = kinematic_states(skeleton)
     positions = set(position_of.values())
     acceleration_of = {}
@@ -69,7 +92,11 @@ def equation_roles(skeleton: Skeleton) -> list[EquationRoles]:
         if state in position_of:
             own = position_of[state]
             others = tuple((p, acceleration_of.get(p)) for p in sorted(positions - {own}))
-            out.append(EquationRoles(eq.index, eq.derivative, own, state, others, True))
+            pair = (measures[own], measures[state])
+            out.append(EquationRoles(eq.index, eq.derivative, own, state, others, True, *pair,
+                                     mechanical=all(map(is_mechanical, pair))))
         else:
-            out.append(EquationRoles(eq.index, eq.derivative, state, state, (), False))
+            out.append(EquationRoles(eq.index, eq.derivative, state, state, (), False,
+                                     measures[state], measures[state],
+                                     mechanical=is_mechanical(measures[state])))
     return out

@@ -58,7 +58,8 @@ from .report import Diagnosis, Suggestion
 __all__ = ["Diagnosis", "Suggestion", "diagnose"]
 
 _RANKING_COLUMNS = [
-    "equation", "move", "variable", "effect", "score", "suggested_term", "curve_term", "n_params",
+    "equation", "move", "variable", "effect", "called", "score", "suggested_term", "curve_term",
+    "n_params",
     "error_removed", "delta_bic", "rmse_before", "rmse_after", "simulation_rmse",
     "held_out_change", "held_out_wins", "stability", "plausible", "refit", "explained", "note",
 ]
@@ -75,13 +76,14 @@ _RANKING_COLUMNS = [
     "n_jobs": [Integral, None],
     "units": [dict, None],
     "open_curves": ["boolean"],
+    "quantities": [dict, None],
 }, prefer_skip_nested_validation=False)  # the model's refits validate their own settings
 def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1,
              bic_threshold: float = 10.0, simulate: bool = True,
              max_steps: int | None = None, horizon="auto",
              held_out: bool = True, n_bootstrap: int = 100,
              random_state=0, n_jobs: int | None = None, units=None,
-             open_curves: bool = True) -> Diagnosis:
+             open_curves: bool = True, quantities: dict | None = None) -> Diagnosis:
     """Compare a fitted model with measurements and name the physical effect it lacks.
 
     The diagnosis has three parts:
@@ -193,7 +195,17 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     units : dict of str -> str, optional
         Units of the columns (``{"x1": "m", "F": "N"}``), merged over
         ``X.attrs["units"]``; they label the tables, the summary and the
-        figures.
+        figures, and tell what a state measures where ``quantities`` does
+        not (``K`` a temperature, ``mol/l`` a concentration).
+    quantities : dict of str -> str, optional
+        What each state measures (``{"x1": "level"}``; one of
+        :data:`sklearn_pycc.quantities.QUANTITIES`). Mechanical effects
+        (friction, springs, drag) enter only mechanical states; the effects
+        of other states are named in their field's words
+        (:attr:`Suggestion.called`). Without it the units and the structure
+        decide: a state whose derivative is another state is a position and
+        that state a velocity; other first-order states get the effects of
+        a state's own rate (outflow, consumption, decay), named by shape.
     open_curves : bool, default=True
         Before saying nothing is missing, replace the terms of each role (a
         second-order equation's restoring force ``f(x)``, its friction
@@ -275,7 +287,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     simulation_rmse = math.nan if simulated is None else rmse(measured_states, simulated)
 
     # -- where it fails -----------------------------------------------------------------
-    roles = equation_roles(skeleton)
+    roles = equation_roles(skeleton, quantities, units)
     explained, variables = explaining_variables(residuals, roles, data, states,
                                                 skeleton.inputs)
     spread = np.std(measured_states, axis=0)
@@ -495,6 +507,7 @@ def _ranking(ordered: list[Candidate], explained: pd.DataFrame,
             "move": c.move,
             "variable": c.variable,
             "effect": c.effect.name,
+            "called": c.effect.called(c.roles.quantity_of(c.effect.acts_through)),
             "score": score_of(c),
             "suggested_term": c.term,
             "curve_term": c.curve_term,

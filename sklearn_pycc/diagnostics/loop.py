@@ -272,7 +272,7 @@ class HypothesisLoop:
         elif best.move == "open":
             decision = f"outside the catalogue ({best.effect}): {best.action()}"
         else:  # the action names the move: "add '- a3*x1^3' to x2_dot"
-            decision = f"{best.effect}: {best.action()}"
+            decision = f"{best.label}: {best.action()}"
         current = Round(len(self.rounds), model.skeleton_, model, report, decision, best)
         self.rounds.append(current)
         return current

@@ -116,6 +116,12 @@ class Suggestion:
         for a model with unmeasured states): :class:`HypothesisLoop` takes
         it as the next round's model rather than fit it again. None
         otherwise.
+    called : str
+        What the effect is called in the field of the state it acts on
+        (``"Torricelli outflow"`` on a level, ``"square-root law"`` where
+        the state's quantity is not known, ``"coulomb friction"`` on a
+        mechanical velocity); see :meth:`sklearn_pycc.effects.Effect.called`
+        and ``diagnose(..., quantities=...)``. Empty: the catalogue name.
     """
 
     effect: str
@@ -141,9 +147,19 @@ class Suggestion:
     curve: pd.DataFrame | None = field(default=None, repr=False, compare=False)
     settings: dict = field(default_factory=dict)
     refit: object = field(default=None, repr=False, compare=False)
+    called: str = ""
 
     def __str__(self) -> str:
-        return f"{self.action()} ({self.effect} through {self.variable or 'nothing'})"
+        return f"{self.action()} ({self.label} through {self.variable or 'nothing'})"
+
+    @property
+    def label(self) -> str:
+        """The effect as the summary names it: its field's name, then the catalogue's.
+
+        ``"Torricelli outflow (square_root_outflow)"``; the catalogue name
+        alone where the field calls it the same (``"coulomb_friction"``).
+        """
+        return _named(self.effect, self.called)
 
     def action(self) -> str:
         """What to do to the skeleton, in words: ``"replace 'a2*x1' in x2_dot by ..."``."""
@@ -388,14 +404,14 @@ class Diagnosis:
         if best.move == "open":
             return self._open_words()
         if best.move == "remove":
-            lines = [f"Superfluous term: '{best.term}' in {best.equation} ({best.effect}); "
+            lines = [f"Superfluous term: '{best.term}' in {best.equation} ({best.label}); "
                      "the model without it does as well on data its fit did not see."]
         elif best.move == "replace":
-            lines = [f"Better physics: {best.effect} ({best.description}) in "
+            lines = [f"Better physics: {best.label} ({best.description}) in "
                      f"{best.equation}, acting through {best.variable or 'nothing'}, in place "
                      f"of '{' + '.join(best.replaces)}'."]
         else:
-            lines = [f"Missing effect: {best.effect} ({best.description}) in "
+            lines = [f"Missing effect: {best.label} ({best.description}) in "
                      f"{best.equation}, acting through {best.variable or 'nothing'}."]
         lines.append(f"    {best.action()[0].upper()}{best.action()[1:]}"
                      + "".join(f" and '- {t}' to {eq}" for eq, t in best.also.items())
@@ -429,7 +445,7 @@ class Diagnosis:
         if len(runners):
             lead = -best.delta_bic
             lines.append(f"    Runners-up (the winner scores {lead:.1f}): " + "; ".join(
-                f"{r.effect} in {r.equation} (score {r.score:.1f}"
+                f"{_named(r.effect, r.called)} in {r.equation} (score {r.score:.1f}"
                 + ("" if not r.refit or r.plausible else ", implausible")
                 + ("" if r.refit else ", screened only")
                 + (_why_below(r, lead) if r.refit and r.plausible and r.score > lead else "")
@@ -437,7 +453,7 @@ class Diagnosis:
                 for r in runners.itertuples()) + ".")
         rejected = self.ranking[(self.ranking.refit) & (~self.ranking.plausible.astype(bool))]
         for r in rejected.head(2).itertuples():
-            lines.append(f"    Rejected: {r.effect} in {r.equation}: {r.note}.")
+            lines.append(f"    Rejected: {_named(r.effect, r.called)} in {r.equation}: {r.note}.")
         lines.append("    Next: fit report.best.equations and diagnose again.")
         return lines
 
@@ -529,3 +545,10 @@ def _as_fitted(best: Suggestion) -> str:
         return ""
     acting = -float(best.param_init[node.left.name])
     return f"{'+' if acting >= 0 else '-'} {abs(acting):.4g}*{to_text(node.right)}"
+
+
+def _named(effect: str, called) -> str:
+    """An effect by its field's name and its catalogue name (the latter alone when alike)."""
+    if not isinstance(called, str) or not called or called == effect.replace("_", " "):
+        return effect
+    return f"{called} ({effect})"

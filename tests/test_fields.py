@@ -1,0 +1,165 @@
+"""Effects named in the words of the user's field: what each state measures decides.
+
+A tank's level is not a mass on a spring: the loop must never call its
+outflow "Stribeck friction". These tests walk the whole catalogue over every
+quantity a state may measure, and diagnose first-order records of a tank
+and of a substrate from the skeleton a scientist of that field writes first.
+"""
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from sklearn_pycc import PolyCCRegressor, Skeleton, diagnose, effects
+from sklearn_pycc.diagnostics._candidates import enumerate_candidates, enumerate_moves
+from sklearn_pycc.diagnostics._roles import equation_roles
+from sklearn_pycc.quantities import MECHANICAL, QUANTITIES, state_quantities
+
+NOT_MECHANICAL = [q for q in QUANTITIES if q not in MECHANICAL]
+#: words that only a mechanical effect may be called by
+MECHANICAL_WORDS = ("friction", "spring", "stiffness", "drag", "pendulum", "force", "mass",
+                    "stribeck", "duffing", "dashpot")
+OUTFLOW = ["x1_dot = a1 u - a2 x1"]
+OSCILLATOR = ["x1_dot = x2", "x2_dot = u - a1 x2 - a2 x1"]
+
+
+def _tried(equations, quantities=None, units=None):
+    skeleton = Skeleton(equations)
+    roles = equation_roles(skeleton, quantities, units)
+    found = enumerate_candidates(skeleton, roles, True) + enumerate_moves(skeleton, roles, True)
+    return [(c.effect, c.effect.called(c.roles.quantity_of(c.effect.acts_through)))
+            for c in found]
+
+
+@pytest.mark.parametrize("quantity", [None, *NOT_MECHANICAL])
+def test_no_mechanical_effect_is_tried_on_a_first_order_state_that_is_not_mechanical(quantity):
+    tried = _tried(OUTFLOW, None if quantity is None else {"x1": quantity})
+    assert tried
+    assert not [e.name for e, _ in tried if e.field == "mechanics"]
+    for _, called in tried:
+        assert not any(word in called.lower() for word in MECHANICAL_WORDS), called
+
+
+def test_a_first_order_state_said_to_be_a_velocity_has_the_mechanical_catalogue():
+    tried = {e.name for e, _ in _tried(OUTFLOW, {"x1": "velocity"})}
+    assert {"coulomb_friction", "quadratic_drag"} <= tried
+    assert not tried & {"square_root_outflow", "saturating_rate", "linear_rate"}
+    # and an oscillator by its structure alone
+    named = dict((e.name, called) for e, called in _tried(OSCILLATOR))
+    assert named["coulomb_friction"] == "coulomb friction"
+    assert "square_root_outflow" not in named
+
+
+def test_every_effect_of_the_catalogue_avoids_mechanical_words_off_mechanics():
+    for effect in effects.catalogue():
+        for quantity in [None, *NOT_MECHANICAL]:
+            called = effect.called(quantity)
+            assert called, (effect.name, quantity)
+            assert not any(word in called.lower() for word in MECHANICAL_WORDS), \
+                (effect.name, quantity, called)
+        if effect.field == "mechanics":
+            assert effect.called("velocity") == effect.name.replace("_", " ")
+
+
+def test_a_circuit_written_as_a_pair_gets_shapes_not_mechanical_names():
+    # q_dot = i, i_dot = ...: structurally a position and a velocity, said to be electrical
+    tried = _tried(OSCILLATOR, {"x1": "charge", "x2": "current"})
+    names = {e.name: called for e, called in tried}
+    assert names["cubic_stiffness"] == "cubic law"
+    assert names["coulomb_friction"] == "sign-like (tanh) law of the rate"
+    assert names["position_dependent_damping"] == "van der Pol damping"
+
+
+def test_the_field_s_own_laws_enter_only_states_of_that_field_or_of_unknown_quantity():
+    assert "square_root_outflow" in {e.name for e, _ in _tried(OUTFLOW, {"x1": "level"})}
+    assert "square_root_outflow" in {e.name for e, _ in _tried(OUTFLOW)}
+    assert "square_root_outflow" not in {e.name for e, _ in
+                                         _tried(OUTFLOW, {"x1": "concentration"})}
+    assert "radiation" in {e.name for e, _ in _tried(OUTFLOW, units={"x1": "K"})}
+    assert "radiation" not in {e.name for e, _ in _tried(OUTFLOW, {"x1": "voltage"})}
+    # the user's linear outflow is read as the field's term, and the square root may take
+    # its place
+    moves = [(e.name, called) for e, called in _tried(OUTFLOW, {"x1": "level"})]
+    assert ("linear_rate", "linear outflow") in moves
+
+
+def test_what_a_state_measures_comes_from_the_user_the_units_then_the_structure():
+    tank = Skeleton(OUTFLOW)
+    assert state_quantities(tank) == {"x1": None}
+    assert state_quantities(tank, units={"x1": "m"}) == {"x1": "level"}
+    assert state_quantities(tank, units={"x1": "mol/l"}) == {"x1": "concentration"}
+    assert state_quantities(tank, {"x1": "voltage"}, {"x1": "m"}) == {"x1": "voltage"}
+    pair = Skeleton(OSCILLATOR)
+    assert state_quantities(pair) == {"x1": "position", "x2": "velocity"}
+    assert state_quantities(pair, units={"x1": "rad"})["x1"] == "angle"
+    with pytest.raises(ValueError, match="'x9', which is not a state"):
+        state_quantities(tank, {"x9": "level"})
+    with pytest.raises(ValueError, match="'height', which is none of the known quantities"):
+        state_quantities(tank, {"x1": "height"})
+    with pytest.raises(TypeError, match="quantities must be a dict"):
+        state_quantities(tank, ["level"])
+
+
+def test_an_effect_declares_a_field_that_agrees_with_where_it_acts():
+    assert effects.Effect("mine", "a magnet", "position", "a1 {x}^5").field == "mechanics"
+    assert effects.Effect("mine", "a source", "none", "a1").field == "any"
+    with pytest.raises(ValueError, match="only a mechanical state has"):
+        effects.Effect("mine", "a law", "velocity", "a1 {v}", field="process")
+    with pytest.raises(ValueError, match="belongs to a field other than mechanics"):
+        effects.Effect("mine", "a law", "state", "a1 {s}", field="mechanics")
+    with pytest.raises(ValueError, match="field must be one of"):
+        effects.Effect("mine", "a law", "state", "a1 {s}", field="astrology")
+    with pytest.raises(ValueError, match=r"\(quantity, name\) pairs"):
+        effects.Effect("mine", "a law", "state", "a1 {s}", names=(("level",),))
+    ok, why = effects.get("square_root_outflow").is_plausible(-np.ones(5), position=np.ones(5))
+    assert not ok and "take away what is stored" in why and "state" in why
+
+
+def _first_order_record(truth, params, *, seed, dt, hold, low, high, y0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 1200 * dt, dt)
+    u = np.repeat(rng.uniform(low, high, size=len(t) // hold + 1), hold)[:len(t)]
+    x = Skeleton([truth]).simulate(t, [y0], params=params, inputs={"u": u})["x1"].to_numpy()
+    return pd.DataFrame({"t": t, "x1": x + 0.01 * np.std(x) * rng.standard_normal(len(t)),
+                         "u": u})
+
+
+@pytest.fixture(scope="module")
+def tank():
+    X = _first_order_record("x1_dot = a1 u - a2 sqrt(x1)", {"a1": 0.5, "a2": 0.4}, seed=0,
+                            dt=0.5, hold=80, low=0.2, high=1.0, y0=1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return X, PolyCCRegressor(equations=OUTFLOW).fit(X)
+
+
+@pytest.mark.parametrize(("settings", "called"), [
+    ({"quantities": {"x1": "level"}}, "Torricelli outflow"),
+    ({"units": {"x1": "m"}}, "Torricelli outflow"),
+    ({"quantities": {"x1": "pressure"}}, "orifice flow"),
+    ({}, "square-root law"),
+])
+def test_a_tank_draining_through_an_orifice_is_named_as_its_field_says(tank, settings, called):
+    X, model = tank
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        report = diagnose(model, X, n_bootstrap=0, **settings)
+    assert report.best.effect == "square_root_outflow"
+    assert report.best.called == called
+    assert f"Missing effect: {called} (square_root_outflow)" in report.summary()
+    assert "friction" not in report.summary()
+
+
+def test_a_substrate_consumed_with_saturating_kinetics_is_named_michaelis_menten():
+    # a balance: the feed and the consumption are both far larger than the derivative
+    X = _first_order_record("x1_dot = u - a1 x1/(a2 + x1)", {"a1": 2.0, "a2": 1.0}, seed=0,
+                            dt=0.25, hold=120, low=0.1, high=1.6, y0=0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=["x1_dot = u - a1 x1"]).fit(X)
+        report = diagnose(model, X, n_bootstrap=0, quantities={"x1": "concentration"})
+    assert report.best.effect == "saturating_rate"
+    assert report.best.called == "Michaelis-Menten saturation"
+    assert report.best.held_out.confirmed
