@@ -25,7 +25,7 @@ Where to look next:
 The documentation's getting-started page walks through all of it.
 """
 
-from . import datasets, effects, pycc
+from . import datasets, effects, pycc, quantities
 from .diagnostics import HypothesisLoop, compare_skeletons, diagnose
 from .estimators import (
     CCRegressor,
@@ -71,6 +71,7 @@ __all__ = [
     "effects",
     "from_tables",
     "pycc",
+    "quantities",
     "to_interpolated",
     "to_symbolic",
 ]

@@ -20,6 +20,7 @@ from sklearn_pycc import (
     model_selection,
     plotting,
     pycc,
+    quantities,
 )
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -27,14 +28,15 @@ API = (DOCS / "api.rst").read_text()
 # modules whose members are documented one by one
 MODULES = {"datasets": datasets, "diagnostics": diagnostics, "effects": effects,
            "measurements": measurements, "model_selection": model_selection,
-           "plotting": plotting, "pycc": pycc}
+           "plotting": plotting, "pycc": pycc, "quantities": quantities}
 # the public names of the design contract
 DESIGN = ["CCRegressor", "PolyCCRegressor", "NeuralCCRegressor", "SymbolicCCRegressor",
           "Skeleton", "SkeletonError", "SimulationError", "diagnose", "compare_skeletons",
           "to_symbolic", "model_selection.make_simulation_scorer", "pycc.train",
           "pycc.simulate", "pycc.post_processing"]
 # data, not functions or classes: documented in their module's page and the user guide
-CONSTANTS = {"effects.ACTS_THROUGH", "effects.PLAUSIBILITY",
+CONSTANTS = {"effects.ACTS_THROUGH", "effects.PLAUSIBILITY", "quantities.QUANTITIES",
+             "quantities.MECHANICAL", "quantities.UNITS",
              "measurements.DIFFERENTIATION_METHODS", "diagnostics.effects"}
 
 

@@ -152,14 +152,22 @@ def test_a_tank_draining_through_an_orifice_is_named_as_its_field_says(tank, set
     assert "friction" not in report.summary()
 
 
-def test_a_substrate_consumed_with_saturating_kinetics_is_named_michaelis_menten():
+@pytest.mark.parametrize(("truth", "start", "quantity", "record", "named"), [
     # a balance: the feed and the consumption are both far larger than the derivative
-    X = _first_order_record("x1_dot = u - a1 x1/(a2 + x1)", {"a1": 2.0, "a2": 1.0}, seed=0,
-                            dt=0.25, hold=120, low=0.1, high=1.6, y0=0.5)
+    (("x1_dot = u - a1 x1/(a2 + x1)", {"a1": 2.0, "a2": 1.0}), "x1_dot = u - a1 x1",
+     "concentration", {"dt": 0.25, "low": 0.1, "high": 1.6, "y0": 0.5},
+     ("saturating_rate", "Michaelis-Menten saturation")),
+    # growth and crowding both far larger than the derivative near the carrying capacity
+    (("x1_dot = a1 x1 - a2 x1^2 - a3 u", {"a1": 0.8, "a2": 0.4, "a3": 0.5}),
+     "x1_dot = a1 x1 - a3 u", "population", {"dt": 0.1, "low": 0.0, "high": 0.4, "y0": 1.0},
+     ("quadratic_rate", "logistic crowding")),
+], ids=["substrate", "population"])
+def test_a_balance_of_large_rates_is_named_as_its_field_says(truth, start, quantity, record,
+                                                             named):
+    X = _first_order_record(*truth, seed=0, hold=120, **record)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = PolyCCRegressor(equations=["x1_dot = u - a1 x1"]).fit(X)
-        report = diagnose(model, X, n_bootstrap=0, quantities={"x1": "concentration"})
-    assert report.best.effect == "saturating_rate"
-    assert report.best.called == "Michaelis-Menten saturation"
+        model = PolyCCRegressor(equations=[start]).fit(X)
+        report = diagnose(model, X, n_bootstrap=0, quantities={"x1": quantity})
+    assert (report.best.effect, report.best.called) == named
     assert report.best.held_out.confirmed

@@ -421,10 +421,12 @@ def _term_values(model, data: Record, equations) -> dict[int, list]:
     return out
 
 
-def _largest_term(model, data: Record, k: int, slots, env) -> float:
-    """RMS of the largest term of ``model``'s equation ``k`` on the data (inputs too)."""
+def _largest_other_term(model, data: Record, k: int, added: Node, *, slots, env) -> float:
+    """RMS of the largest term of ``model``'s equation ``k`` on the data, but ``added``."""
     largest = 0.0
     for _, node in signed_terms(_equation(model.skeleton_, k).rhs):
+        if to_text(node) == to_text(added):
+            continue
         with np.errstate(all="ignore"):
             values = compile_expression(node, slots, model.params_, model.functions_)(env)
         values = np.broadcast_to(np.asarray(values, dtype=float), (data.n_samples,))
@@ -627,17 +629,19 @@ def refit_candidate(model, candidate: Candidate, data: Record, residuals: np.nda
         before, after, rss_floor(data.derivatives)[ks], candidate.n_change, n)
     candidate.rmse_before = float(np.sqrt(before.sum() / (n * len(ks))))
     candidate.rmse_after = float(np.sqrt(after.sum() / (n * len(ks))))
-    _judge(candidate, estimator, data, baseline, model=model)
+    _judge(candidate, estimator, data, baseline)
 
 
 def _judge(candidate: Candidate, estimator, data: Record,
-           baseline: frozenset = frozenset(), *, model=None) -> None:
+           baseline: frozenset = frozenset()) -> None:
     """Plausibility of the fitted term: energy balance and size.
 
-    A term is absurdly large beside the derivative it explains, or, in a
-    first-order balance (what flows in nearly equals what flows out, so the
-    derivative is small beside both), beside the largest term of ``model``'s
-    equation.
+    A term is absurdly large beside the derivative it explains; in a
+    first-order balance (what flows in nearly equals what flows out, a growth
+    its crowding, so the derivative is small beside both), beside the
+    largest other term of the refitted equation. There a loss as large as
+    the feed it balances is physics; whether the two only cancel each other
+    is for the held-out data to tell.
     """
     if candidate.redundant:
         return
@@ -664,11 +668,11 @@ def _judge(candidate: Candidate, estimator, data: Record,
                 reasons.append(why)
         scale = float(np.sqrt(np.mean(data.derivatives[:, k] ** 2)))
         size = float(np.sqrt(np.mean(values**2)))
-        balance = 0.0 if model is None or candidate.roles.second_order else \
-            _largest_term(model, data, k, slots, env)
+        balance = 0.0 if candidate.roles.second_order else \
+            _largest_other_term(estimator, data, k, node, slots=slots, env=env)
         if scale > 0 and size > ABSURD_RATIO * max(scale, balance):
             beside = "derivative it should explain" if scale >= balance else \
-                "largest term of the equation"
+                "largest other term of the equation"
             reasons.append(f"absurd size: the fitted term is {size / max(scale, balance):.3g} "
                            f"times the {beside} (terms cancel each other)")
     # the rest of the refitted model must still play its physical roles
