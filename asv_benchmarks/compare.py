@@ -746,11 +746,11 @@ TANKS = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = 1.25 a2 sqrt(x1) - a3 sqrt(x2)
 WIDE_LOWER_TANK = {"a3": 0.02, "a4": 0.018}
 
 
-def _validation_errors(model, new, fresh, hold=None) -> np.ndarray:
+def _validation_errors(model, new, fresh, hold="auto") -> np.ndarray:
     """RMSE of the lower level simulated on a new record, on its exact and measured level.
 
     Simulated from ``estimate_initial_state`` with ``hold`` (by default
-    the model's); the true model is driven with the pump held, as the
+    the model's, ``"auto"``); the true model is driven with the pump held, as the
     generator drives it, and its error on the exact level is its initial
     state's.
     """
@@ -787,7 +787,7 @@ def _tank_timings() -> list[Timing]:
         model = run()
         reference = from_tables(skeleton, {}, true, constraints=constraints)
 
-        def validation(m, hold=None, new=new, fresh=fresh):
+        def validation(m, hold="auto", new=new, fresh=fresh):
             return _validation_errors(m, new, fresh, hold)
 
         # each error beside the fit's own standard error (NaN where a scale is unseen)
