@@ -22,9 +22,13 @@ false alarm
 
 It also counts every name the loop gives in mechanical words (friction,
 spring, drag, ...) to a state that is not mechanical: there must be none.
-Not timed for speed claims (the median loop time is printed beside)::
+``--pole`` makes the noise coloured as a sensor's (AR(1) with that pole, of
+the state's spread, :func:`sklearn_pycc.datasets.add_sensor_noise`) and
+``--bits`` rounds it to a converter's resolution; the fresh record stays
+clean. Not timed for speed claims (the median loop time is printed beside)::
 
     python asv_benchmarks/field_study.py [--seeds 0 1] [--snr 40 30] [--cases tank ...]
+    python asv_benchmarks/field_study.py --pole 0.9 --bits 12
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
 
-from sklearn_pycc import HypothesisLoop, PolyCCRegressor, SimulationError, Skeleton
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, SimulationError, Skeleton, datasets
 
 MECHANICAL_WORDS = ("friction", "spring", "stiffness", "drag", "pendulum", "force", "mass")
 #: a fresh-record error below this share of the record's spread counts as complete
@@ -65,19 +69,27 @@ class Case:
 
 CASES = {
     "tank_torricelli": Case(
-        "process", "level", "x1_dot = a1 u - a2 sqrt(x1)", {"a1": 0.5, "a2": 0.4},
+        "process", "level", "x1_dot = a1 u - a2 sqrt(abs(x1))", {"a1": 0.5, "a2": 0.4},
         "x1_dot = a1 u - a2 x1", "square_root_outflow", "Torricelli outflow", (0.2, 1.0),
+        1.0, dt=0.5, hold=80),
+    "tank_weir": Case(
+        "process", "level", "x1_dot = a1 u - a2 abs(x1)^a3", {"a1": 0.5, "a2": 0.4, "a3": 1.5},
+        "x1_dot = a1 u - a2 x1", "power_law_outflow", "weir outflow (power law)", (0.2, 1.0),
         1.0, dt=0.5, hold=80),
     "tank_control": Case(
         "process", "level", "x1_dot = a1 u - a2 x1", {"a1": 0.5, "a2": 0.3},
         "x1_dot = a1 u - a2 x1", None, None, (0.2, 1.0), 1.0, dt=0.5, hold=80),
     "substrate_michaelis_menten": Case(
-        "kinetics", "concentration", "x1_dot = u - a1 x1/(a2 + x1)", {"a1": 2.0, "a2": 1.0},
+        "kinetics", "concentration", "x1_dot = u - a1 x1/(a2 + abs(x1))", {"a1": 2.0, "a2": 1.0},
         "x1_dot = u - a1 x1", "saturating_rate", "Michaelis-Menten saturation", (0.1, 1.6),
         0.5),
     "dimer_second_order": Case(
         "kinetics", "concentration", "x1_dot = u - a1 x1 - a2 x1^2", {"a1": 0.2, "a2": 0.8},
         "x1_dot = u - a1 x1", "quadratic_rate", "second-order reaction", (0.2, 2.0), 0.5),
+    "substrate_hill": Case(
+        "kinetics", "concentration", "x1_dot = u - a1 x1^2/(a2 + x1^2)", {"a1": 2.0, "a2": 1.0},
+        "x1_dot = u - a1 x1", "hill_rate", "Hill kinetics (cooperative, order 2)", (0.1, 1.6),
+        0.5),
     "kinetics_control": Case(
         "kinetics", "concentration", "x1_dot = u - a1 x1", {"a1": 0.7},
         "x1_dot = u - a1 x1", None, None, (0.1, 1.6), 0.5),
@@ -102,15 +114,22 @@ CASES = {
 }
 
 
-def _record(case: Case, *, snr, seed: int) -> pd.DataFrame:
+def _record(case: Case, *, snr, seed: int, sensor: dict | None = None) -> pd.DataFrame:
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, 1200 * case.dt, case.dt)
     u = np.repeat(rng.uniform(*case.inputs, size=len(t) // case.hold + 1), case.hold)[:len(t)]
     x = Skeleton([case.truth]).simulate(t, [case.y0], params=case.params,
                                         inputs={"u": u})["x1"].to_numpy()
-    if snr is not None:
+    if snr is not None and sensor is None:
         x = x + np.std(x) * 10 ** (-snr / 20) * rng.standard_normal(len(t))
-    return pd.DataFrame({"t": t, "x1": x, "u": u})
+    frame = pd.DataFrame({"t": t, "x1": x, "u": u})
+    if snr is not None and sensor is not None:  # coloured, rounded: as a sensor reads it
+        # of the state's spread, as the white noise is (a level's mean is no signal)
+        mean = float(np.mean(x))
+        frame = datasets.add_sensor_noise(frame.assign(x1=x - mean), ["x1"], snr=snr,
+                                          random_state=seed + 7, **sensor)
+        frame["x1"] += mean
+    return frame
 
 
 def _simulation_error(model, frame: pd.DataFrame, y0: float) -> float:
@@ -123,9 +142,9 @@ def _simulation_error(model, frame: pd.DataFrame, y0: float) -> float:
     return float(np.sqrt(np.mean(error**2))) if np.isfinite(error).all() else float("inf")
 
 
-def run_case(name: str, snr, seed: int) -> dict:
+def run_case(name: str, snr, seed: int, sensor: dict | None = None) -> dict:
     case = CASES[name]
-    X = _record(case, snr=snr, seed=seed)
+    X = _record(case, snr=snr, seed=seed, sensor=sensor)
     fresh = _record(case, snr=None, seed=seed + 1000)
     start = time.perf_counter()
     with warnings.catch_warnings():
@@ -170,10 +189,14 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
     parser.add_argument("--snr", type=float, nargs="+", default=[40.0, 30.0])
     parser.add_argument("--cases", nargs="+", choices=sorted(CASES), default=list(CASES))
+    parser.add_argument("--pole", type=float, default=None)
+    parser.add_argument("--bits", type=int, default=None)
     parser.add_argument("--jobs", type=int, default=1)
     args = parser.parse_args()
+    sensor = None if args.pole is None and args.bits is None else \
+        {"pole": args.pole or 0.0, "bits": args.bits}
     jobs = [(name, snr, seed) for name in args.cases for snr in args.snr for seed in args.seeds]
-    rows = Parallel(n_jobs=args.jobs)(delayed(run_case)(*job) for job in jobs)
+    rows = Parallel(n_jobs=args.jobs)(delayed(run_case)(*job, sensor=sensor) for job in jobs)
     print(f"{'case':<28} {'field':<12} {'SNR':>4} {'seed':>4} {'right':>5} {'complete':>8} "
           f"{'ratio':>7} {'s':>6}  called")
     for r in rows:

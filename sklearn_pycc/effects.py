@@ -434,6 +434,21 @@ for _effect in (
            names=(("concentration", "Michaelis-Menten saturation"),
                   ("population", "Monod saturation")),
            shape="saturating law"),
+    Effect("power_law_outflow", "loss growing with a fitted power of what is stored (a weir's "
+           "h^1.5, a reaction of fitted order)", "state", "a1 abs({s})^a2", "f1({s})",
+           ("f1(0)=0", "f1 increasing"), "draining", ("a1 >= 0", "a2 >= 0"),
+           replaces=("linear_rate", "square_root_outflow"),
+           names=(("level", "weir outflow (power law)"), ("volume", "weir outflow (power law)"),
+                  ("pressure", "power-law orifice flow"),
+                  ("concentration", "power-law kinetics (fitted reaction order)")),
+           shape="power law"),
+    Effect("hill_rate", "rate that is slow at small amounts, rises steeply and levels off "
+           "(cooperative binding, a Hill function of order 2)", "state",
+           "a1 {s}^2/(a2 + {s}^2)", "f1({s})", ("f1(0)=0",), "draining",
+           ("a1 >= 0", "a2 >= 0"), replaces=("linear_rate",), field="kinetics",
+           names=(("concentration", "Hill kinetics (cooperative, order 2)"),
+                  ("population", "Holling type III predation")),
+           shape="sigmoidal (Hill) law"),
     Effect("quadratic_rate", "loss growing with the square of what is stored (a second-order "
            "reaction, crowding)", "state", "a1 {s} abs({s})", "f1({s})", ("f1(0)=0",),
            "draining", _POSITIVE, field="kinetics",

@@ -337,3 +337,18 @@ def test_public_functions_name_the_argument_they_refuse(record):
     for call, message in cases:
         with pytest.raises(InvalidParameterError, match=message):
             call()
+
+
+def test_a_term_that_leaves_its_domain_on_the_record_is_named_with_where():
+    # a level that noise reads below zero under a sqrt: refused before the solver sees NaN
+    t = np.arange(0.0, 50.0, 0.5)
+    level = 0.5 + 0.4 * np.sin(0.3 * t)
+    level[40] = -0.02
+    X = pd.DataFrame({"t": t, "x1": level, "u": np.ones_like(t)})
+    y = np.gradient(level, t)
+    with pytest.raises(ValueError, match=r"equations\[0\] \(x1_dot\) is not finite at t=20 "
+                                         r"\(u=1, x1=-0\.02.*the term of a2.*on 1 of the "
+                                         r"fitted rows.*sqrt\(abs\(x1\)\)"):
+        PolyCCRegressor(equations=["x1_dot = a1 u - a2 sqrt(x1)"]).fit(X, y)
+    # written for every measured value, it fits
+    PolyCCRegressor(equations=["x1_dot = a1 u - a2 sqrt(abs(x1))"]).fit(X, y)

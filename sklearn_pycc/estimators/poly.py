@@ -111,7 +111,38 @@ class _Design:
                 C_rows.append(row)
                 d.append(value)
         C = np.array(C_rows) if C_rows else None
+        self._check_finite(A, b, layout, values)
         return A, b, C, (np.array(d) if d else None), layout, bases
+
+    def _check_finite(self, A: np.ndarray, b: np.ndarray, layout, values) -> None:
+        """Refuse a system with a value that is not finite, naming the equation and the sample.
+
+        A sqrt, log, power or division whose argument leaves its domain on
+        some sample (a level that noise reads below zero) would otherwise
+        reach the solver as NaN.
+        """
+        rows = ~(np.isfinite(b) & np.isfinite(A).all(axis=1))
+        if not rows.any():
+            return
+        first = int(np.flatnonzero(rows)[0])
+        sample, eq = first % self.n, self.equations[self.active[first // self.n]]
+        columns = np.flatnonzero(~np.isfinite(A[first]))
+        names, at = [], 0
+        for name, size in layout:
+            if any(at <= c < at + size for c in columns):
+                names.append(name)
+            at += size
+        what = f"the term of {', '.join(names)}" if names else "a term without a fitted number"
+        read = ", ".join(f"{name}={self.data[name][sample]:.4g}" for name in
+                         sorted(eq.symbols()) if name in self.data)
+        where = f"t={self.data['t'][sample]:.6g}" if "t" in self.data else f"sample {sample}"
+        numbers = ", ".join(f"{a}={v:.4g}" for a, v in values.items())
+        raise ValueError(
+            f"equations[{eq.index}] ({eq.derivative or eq.output}) is not finite at {where} "
+            f"({read}{'; ' + numbers if numbers else ''}): {what} leaves the domain of a sqrt, "
+            f"log, power or division there, on {int(rows.sum())} of the fitted rows. Write it "
+            "so that it holds for every measured value (sqrt(abs(x1)) for a level that noise "
+            "reads below zero), or leave those rows out")
 
     def inequalities(self, layout, bases: Mapping[str, PolyBasis]):
         """``G, h`` with ``G x >= h`` for bounded linear parameters and monotone curves.
@@ -406,8 +437,16 @@ class PolyBackend(Backend):
         bounded = bool(np.isfinite(low).any() or np.isfinite(high).any())
 
         def residual_of(solve):
+            size: list[int] = []
+
             def residual(theta):
-                r = solve(theta)[0].residual
+                try:
+                    r = solve(theta)[0].residual
+                except ValueError:  # a term left its domain at these values: far off
+                    if not size:
+                        raise
+                    return np.full(size[0], 1e150)
+                size[:] = [len(r)]
                 return r if np.isfinite(r).all() else np.full_like(r, 1e150)
             return residual
 
