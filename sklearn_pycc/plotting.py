@@ -306,7 +306,7 @@ def _residual_figure(plt, report):
     if best is None:
         fig.suptitle("Residuals: nothing missing")
     else:
-        fig.suptitle(f"Residuals and the suggested effect ({best.effect})")
+        fig.suptitle(f"Residuals and the suggested effect ({_called(best)})")
     fig.tight_layout()
     return fig
 
@@ -501,6 +501,13 @@ def plot_loop(loop):
     return fig
 
 
+def _called(suggestion) -> str:
+    """An effect as its field calls it (``Torricelli outflow``), else by its catalogue name."""
+    called = getattr(suggestion, "called", "")
+    return called if called and called != suggestion.effect.replace("_", " ") \
+        else suggestion.effect
+
+
 def _move_label(added) -> str:
     """A round's change in a few characters (``+cubic_stiffness``, ``pendulum for a2*x1``)."""
     if added.move == "remove":
@@ -510,8 +517,8 @@ def _move_label(added) -> str:
     if added.move == "limit":
         return f"+{added.term}"
     if added.replaces:
-        return f"{added.effect} for {' + '.join(added.replaces)}"
-    return f"+{added.effect}"
+        return f"{_called(added)} for {' + '.join(added.replaces)}"
+    return f"+{_called(added)}"
 
 
 def plot_noise(noise, *, signals=None):

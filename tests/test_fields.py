@@ -171,3 +171,18 @@ def test_a_balance_of_large_rates_is_named_as_its_field_says(truth, start, quant
         report = diagnose(model, X, n_bootstrap=0, quantities={"x1": quantity})
     assert (report.best.effect, report.best.called) == named
     assert report.best.held_out.confirmed
+
+
+def test_the_choice_s_stability_and_figures_speak_the_field_s_words(tank):
+    from sklearn_pycc.plotting import _move_label
+
+    X, model = tank
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        report = diagnose(model, X, n_bootstrap=20, quantities={"x1": "level"})
+    # added beside the linear outflow or in its place, the resamples' winner is the same law
+    won = int(report.summary().split("square_root_outflow wins in ")[1].split(" of ")[0])
+    assert won >= 15
+    assert _move_label(report.best) in ("+Torricelli outflow", "Torricelli outflow for a2*x1")
+    title = report.plot()["residual"]._suptitle.get_text()
+    assert "Torricelli outflow" in title

@@ -499,12 +499,13 @@ class Diagnosis:
             lead = f"nothing is missing in {stability.nothing} of {total} resamples"
             parts = parts[:-1] if stability.nothing else parts
         else:
-            won = 0
-            for k, c in others:
-                if c.effect.name == self.best.effect and c.roles.derivative == \
-                        self.best.equation and c.variable == self.best.variable \
-                        and c.move == self.best.move:
-                    won = k
+            # added beside the skeleton's terms or in their place, it is the same effect:
+            # the held-out data, not the resamples' scores, chose between the two
+            won = sum(k for k, c in others
+                      if c.effect.name == self.best.effect and c.roles.derivative ==
+                      self.best.equation and c.variable == self.best.variable
+                      and (c.move == self.best.move or {c.move, self.best.move} <=
+                           {"add", "replace"}))
             lead = f"{self.best.effect} wins in {won} of {total} resamples"
             parts = [p for p in parts
                      if not p.startswith(f"{self.best.effect} in {self.best.equation} ")]
