@@ -448,7 +448,8 @@ class Diagnosis:
                 f"{_named(r.effect, r.called)} in {r.equation} (score {r.score:.1f}"
                 + ("" if not r.refit or r.plausible else ", implausible")
                 + ("" if r.refit else ", screened only")
-                + (_why_below(r, lead) if r.refit and r.plausible and r.score > lead else "")
+                + (_why_below(r, lead, self.ranking.iloc[0].n_params)
+                   if r.refit and r.plausible and r.score > lead else "")
                 + ")"
                 for r in runners.itertuples()) + ".")
         rejected = self.ranking[(self.ranking.refit) & (~self.ranking.plausible.astype(bool))]
@@ -526,11 +527,14 @@ class Diagnosis:
         return plot_diagnosis(self)
 
 
-def _why_below(row, lead: float) -> str:
+def _why_below(row, lead: float, winner_params: int | None = None) -> str:
     """Why a plausible runner-up that scores higher than the winner ranks below it."""
     if row.score - lead <= max(TIE[0] * abs(row.score), TIE[1]):
-        return (f", a tie within {100 * TIE[0]:g} % that goes to the winner's fewer "
-                "parameters")
+        if winner_params is None or winner_params < row.n_params:
+            return (f", a tie within {100 * TIE[0]:g} % that goes to the winner's fewer "
+                    "parameters")
+        return (f", a tie within {100 * TIE[0]:g} % that the data each fit did not see "
+                "decided for the winner")
     return ", but the data each fit did not see preferred the winner"
 
 
