@@ -53,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .exceptions import SkeletonError
-from .quantities import is_mechanical
+from .quantities import QUANTITIES, is_mechanical
 from .skeleton.constraints import Bound, parse_constraints
 from .skeleton.nodes import Param, walk
 from .skeleton.parser import parse_expression
@@ -131,8 +131,8 @@ class Effect:
         a velocity or a difference of positions, else ``"any"``.
     names : tuple of (str, str)
         ``(quantity, name)`` pairs: what the effect is called on a state of
-        that quantity (``("level", "Torricelli outflow")``); see
-        :func:`sklearn_pycc.quantities.quantity_names`.
+        that quantity (``("level", "Torricelli outflow")``), each quantity one
+        of :data:`sklearn_pycc.quantities.QUANTITIES`.
     shape : str
         The effect's shape in plain words (``"square-root law"``): its name on
         a state whose quantity is not known, or of another field. Empty: the
@@ -176,6 +176,10 @@ class Effect:
                     and all(isinstance(p, str) and p for p in pair)):
                 raise ValueError(f"effect {self.name!r}: names must be (quantity, name) pairs "
                                  f"of strings, got {pair!r}")
+            if pair[0] not in QUANTITIES:
+                raise ValueError(f"effect {self.name!r}: names gives a name for {pair[0]!r}, "
+                                 f"which is none of the known quantities: "
+                                 f"{', '.join(QUANTITIES)}")
         if self.plausibility not in PLAUSIBILITY:
             raise ValueError(f"effect {self.name!r}: plausibility must be one of "
                              f"{sorted(PLAUSIBILITY)}, got {self.plausibility!r}")

@@ -113,6 +113,8 @@ def test_an_effect_declares_a_field_that_agrees_with_where_it_acts():
         effects.Effect("mine", "a law", "state", "a1 {s}", field="astrology")
     with pytest.raises(ValueError, match=r"\(quantity, name\) pairs"):
         effects.Effect("mine", "a law", "state", "a1 {s}", names=(("level",),))
+    with pytest.raises(ValueError, match="'height', which is none of the known quantities"):
+        effects.Effect("mine", "a law", "state", "a1 {s}", names=(("height", "a weir"),))
     ok, why = effects.get("square_root_outflow").is_plausible(-np.ones(5), position=np.ones(5))
     assert not ok and "take away what is stored" in why and "state" in why
 
