@@ -4,8 +4,8 @@ Each case is a first-order record of another field (a tank's level, a
 substrate's concentration, a body's temperature, a capacitor's voltage, a
 population) measured through its state, with Gaussian noise, driven by a
 stepped input; the loop starts from the linear skeleton a scientist of that
-field writes first, told what the state measures (``quantities``), with
-default settings otherwise. Per case and noise level it reports
+field writes first, told what the state measures (the estimator's
+``quantities``), with default settings otherwise. Per case and noise level it reports
 
 right
     the first effect the loop names is the hidden one, called as its field
@@ -149,8 +149,8 @@ def run_case(name: str, snr, seed: int, sensor: dict | None = None) -> dict:
     start = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        loop = HypothesisLoop(PolyCCRegressor(equations=[case.start]), X,
-                              quantities={"x1": case.quantity}).run(max_rounds=4)
+        model = PolyCCRegressor(equations=[case.start], quantities={"x1": case.quantity})
+        loop = HypothesisLoop(model, X).run(max_rounds=4)
         elapsed = time.perf_counter() - start
         reference = PolyCCRegressor(equations=[case.truth]).fit(X)
     added = [r.added for r in loop.rounds if r.added is not None]

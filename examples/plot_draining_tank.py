@@ -8,7 +8,7 @@ settings. A process engineer's first model is a linear outflow,
 ``x1_dot = a1 u - a2 x1``; the water leaves by Torricelli's law instead, at a
 rate growing with the square root of the level.
 
-The hypothesis loop is told what the state measures
+The estimator is told what the state measures
 (``quantities={"x1": "level"}``; a unit of length on a first-order state,
 ``units={"x1": "m"}``, says the same). It then tries the laws of a stored
 quantity's own rate of loss, never friction or springs, and names what it
@@ -36,8 +36,8 @@ X = pd.DataFrame({"t": t, "x1": level + 0.01 * level.std() * rng.standard_normal
 # %%
 # The loop, from the linear outflow
 # ---------------------------------
-loop = HypothesisLoop(PolyCCRegressor(equations=["x1_dot = a1 u - a2 x1"]), X,
-                      quantities={"x1": "level"}, units={"x1": "m", "u": "m3/s"}).run()
+model = PolyCCRegressor(equations=["x1_dot = a1 u - a2 x1"], quantities={"x1": "level"})
+loop = HypothesisLoop(model, X, units={"x1": "m", "u": "m3/s"}).run()
 for r in loop.rounds:
     print(f"round {r.index}: {r.decision}")
 print(loop.model.equations())

@@ -210,6 +210,24 @@ class Effect:
                                      f"its term ({', '.join(sorted(params))}), got "
                                      f"{str(bound)!r}")
 
+    @property
+    def quantities(self) -> tuple[str, ...]:
+        """The quantities of the states the effect applies to.
+
+        A mechanical effect: the mechanical ones (on a position and velocity
+        pair of other quantities, a charge and a current, it is tried by its
+        shape). A law of a first-order state's own rate: the quantities of
+        its field that are not mechanical (all of those for ``"any"``; a
+        state of unknown quantity gets it too). Any other effect: every
+        quantity.
+        """
+        if self.field == "mechanics":
+            return tuple(q for q in QUANTITIES if is_mechanical(q))
+        if self.acts_through == "state":
+            return tuple(q for q, field in QUANTITIES.items() if not is_mechanical(q)
+                         and self.field in ("any", field))
+        return tuple(QUANTITIES)
+
     def called(self, quantity: str | None = None) -> str:
         """What the effect is called on a state of ``quantity`` (None: not known).
 

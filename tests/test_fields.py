@@ -188,3 +188,27 @@ def test_the_choice_s_stability_and_figures_speak_the_field_s_words(tank):
     assert _move_label(report.best) in ("+Torricelli outflow", "Torricelli outflow for a2*x1")
     title = report.plot()["residual"]._suptitle.get_text()
     assert "Torricelli outflow" in title
+
+
+def test_the_estimator_says_what_its_states_measure(tank):
+    X, _ = tank
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=OUTFLOW, quantities={"x1": "level"}).fit(X)
+        report = diagnose(model, X, n_bootstrap=0)
+        assert report.best.called == "Torricelli outflow"
+        # the diagnosis's own argument speaks over the model's
+        assert diagnose(model, X, n_bootstrap=0,
+                        quantities={"x1": "pressure"}).best.called == "orifice flow"
+    with pytest.raises(ValueError, match="'x9', which is not a state"):
+        PolyCCRegressor(equations=OUTFLOW, quantities={"x9": "level"}).fit(X)
+    with pytest.raises(ValueError, match="'height', which is none of the known quantities"):
+        PolyCCRegressor(equations=OUTFLOW, quantities={"x1": "height"}).fit(X)
+
+
+def test_an_effect_says_which_quantities_it_applies_to():
+    assert set(effects.get("coulomb_friction").quantities) == MECHANICAL
+    torricelli = effects.get("square_root_outflow").quantities
+    assert "level" in torricelli and "concentration" not in torricelli
+    assert not set(effects.get("linear_rate").quantities) & MECHANICAL
+    assert set(effects.get("offset").quantities) == set(QUANTITIES)

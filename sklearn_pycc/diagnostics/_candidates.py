@@ -13,7 +13,6 @@ import pandas as pd
 from .. import effects as catalogue
 from ..exceptions import RankDeficiencyWarning, SkeletonError
 from ..measurements.record import Record
-from ..quantities import field_of
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import (
@@ -177,8 +176,7 @@ def fits_field(effect: catalogue.Effect, roles: EquationRoles) -> bool:
     if effect.acts_through == "state":
         if roles.second_order or roles.mechanical:
             return False
-        return effect.field == "any" or roles.position_quantity is None \
-            or field_of(roles.position_quantity) == effect.field
+        return roles.position_quantity is None or roles.position_quantity in effect.quantities
     return True
 
 

@@ -199,7 +199,8 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         not (``K`` a temperature, ``mol/l`` a concentration).
     quantities : dict of str -> str, optional
         What each state measures (``{"x1": "level"}``; one of
-        :data:`sklearn_pycc.quantities.QUANTITIES`). Mechanical effects
+        :data:`sklearn_pycc.quantities.QUANTITIES`); by default the model's
+        own ``quantities`` hyperparameter. Mechanical effects
         (friction, springs, drag) enter only mechanical states; the effects
         of other states are named in their field's words
         (:attr:`Suggestion.called`). Without it the units and the structure
@@ -287,6 +288,8 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     simulation_rmse = math.nan if simulated is None else rmse(measured_states, simulated)
 
     # -- where it fails -----------------------------------------------------------------
+    if quantities is None:
+        quantities = model.get_params().get("quantities")
     roles = equation_roles(skeleton, quantities, units)
     explained, variables = explaining_variables(residuals, roles, data, states,
                                                 skeleton.inputs)

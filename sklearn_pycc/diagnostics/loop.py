@@ -130,9 +130,9 @@ class HypothesisLoop:
         Passed to :func:`~sklearn_pycc.diagnose` (``horizon``,
         ``n_refit``, ``min_improvement``, ``bic_threshold``, ``held_out``,
         ``units`` (else ``X.attrs["units"]``), ``quantities`` (what each
-        state measures, ``{"x1": "level"}``: effects are then named in its
-        field's words), ``n_jobs`` (the candidates' refits and held-out
-        folds in parallel), ...).
+        state measures, ``{"x1": "level"}``, by default the estimator's
+        own: effects are then named in its field's words), ``n_jobs``
+        (the candidates' refits and held-out folds in parallel), ...).
 
     Attributes
     ----------

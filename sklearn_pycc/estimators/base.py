@@ -40,6 +40,7 @@ from ..measurements.differentiation import (
 from ..measurements.measurement import Measurement, unwrap
 from ..measurements.reconstruct import kinematic_chains
 from ..measurements.record import targets_in_y
+from ..quantities import state_quantities
 from ..simulation.integration import INPUT_HOLDS, given_hold
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
@@ -180,6 +181,14 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
         part without unknowns), then multiplied by its weight: raise the
         weight of a relation the fit must honour more closely, such as a
         conserved quantity.
+    quantities : dict, optional
+        What each state measures, ``{"x1": "level"}`` (one of
+        :data:`sklearn_pycc.quantities.QUANTITIES`). The fit does not use it;
+        :func:`~sklearn_pycc.diagnose` and :class:`~sklearn_pycc.HypothesisLoop`
+        then try only the effects such a state can have and name them in its
+        field's words (Torricelli outflow on a level). By default the units
+        and the skeleton's structure decide
+        (:func:`~sklearn_pycc.quantities.state_quantities`).
     input_hold : {"auto", "bandlimited", "foh", "zoh"}, default="auto"
         How the inputs were applied between samples, for the output-error
         stage, the diagnosis's simulations and :meth:`simulate`'s default: a
@@ -266,13 +275,15 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
         "equation_weights": ["array-like", None],
         "input_hold": [StrOptions({*INPUT_HOLDS, "auto"})],
         "noise_model": [StrOptions(set(NOISE_MODELS)), None],
+        "quantities": [dict, None],
     }
 
     def __init__(self, *, equations=None, constraints=None, gauge: str = "auto",
                  differentiation="auto", smooth_states: bool = True,
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, equation_weights=None,
-                 input_hold: str = "auto", noise_model: str | None = None) -> None:
+                 input_hold: str = "auto", noise_model: str | None = None,
+                 quantities: Mapping[str, str] | None = None) -> None:
         self.equations = equations
         self.constraints = constraints
         self.equation_weights = equation_weights
@@ -284,6 +295,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
         self.shooting_iterations = shooting_iterations
         self.input_hold = input_hold
         self.noise_model = noise_model
+        self.quantities = quantities
 
     # -- to be provided by each estimator -------------------------------------
     @abstractmethod
@@ -323,6 +335,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
         """The fitting problem, and what was learned about the record (to be stored)."""
         backend = self._make_backend() if backend is None else backend
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
+        state_quantities(skeleton, self.quantities)  # names a state or quantity it lacks
         if self.fit_mode == "simulation":
             _check_simulable(skeleton, outputs_ok=True)
         constraints, fixed, zeroed, gauge = gauge_skeleton(skeleton, self.gauge)

@@ -227,7 +227,7 @@ class InterpolatedCCRegressor(CCRegressor):
 
     Parameters
     ----------
-    equations, constraints, gauge, differentiation, smooth_states, equation_weights
+    equations, constraints, gauge, differentiation, smooth_states, equation_weights, quantities
         See :class:`CCRegressor`. They override the ``estimator``'s own.
     estimator : CCRegressor, optional
         The backend whose fitted curves are tabulated (not modified; a
@@ -256,10 +256,11 @@ class InterpolatedCCRegressor(CCRegressor):
 
     def __init__(self, *, equations=None, constraints=None, estimator=None, n_points: int = 200,
                  method: str = "pchip", gauge: str = "auto", differentiation="auto",
-                 smooth_states: bool = True, equation_weights=None) -> None:
+                 smooth_states: bool = True, equation_weights=None,
+                 quantities: Mapping[str, str] | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
-                         equation_weights=equation_weights)
+                         equation_weights=equation_weights, quantities=quantities)
         self.estimator = estimator
         self.n_points = n_points
         self.method = method

@@ -162,7 +162,7 @@ class LeastSquaresCCRegressor(CCRegressor):
 
     Parameters
     ----------
-    equations, constraints, gauge, differentiation, smooth_states, equation_weights
+    equations, constraints, gauge, differentiation, smooth_states, equation_weights, quantities
         See :class:`~sklearn_pycc.CCRegressor`.
     degree : int, default=3
         Degree of every curve's power series.
@@ -195,10 +195,11 @@ class LeastSquaresCCRegressor(CCRegressor):
     def __init__(self, *, equations=None, constraints=None, degree: int = 3,
                  param_init: Mapping | None = None, max_nfev: int = 2000,
                  gauge: str = "auto", differentiation="auto", smooth_states: bool = True,
-                 equation_weights=None) -> None:
+                 equation_weights=None, quantities: Mapping[str, str] | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
-                         fit_mode="equation", equation_weights=equation_weights)
+                         fit_mode="equation", equation_weights=equation_weights,
+                         quantities=quantities)
         self.degree = degree
         self.param_init = param_init
         self.max_nfev = max_nfev

@@ -393,6 +393,8 @@ default="lbfgs"
         :class:`CCRegressor`.
     equation_weights : list of float, optional
         One weight per equation: see :class:`CCRegressor`.
+    quantities : dict, optional
+        What each state measures, for the diagnosis: see :class:`CCRegressor`.
     shooting_start_epochs : int or None, default=10
         When the fit refines by output error, epochs of the equation-error fit that
         starts the output-error stage (at most ``max_epochs``; None uses
@@ -489,13 +491,14 @@ default="lbfgs"
                  equation_weights=None, random_state=None, n_bootstrap: int = 0,
                  n_jobs: int | None = None, verbose: int = 0,
                  input_hold: str = "auto",
-                 noise_model: str | None = None) -> None:
+                 noise_model: str | None = None,
+                 quantities: Mapping[str, str] | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
                          shooting_iterations=shooting_iterations,
                          equation_weights=equation_weights, input_hold=input_hold,
-                         noise_model=noise_model)
+                         noise_model=noise_model, quantities=quantities)
         self.hidden_layer_sizes = hidden_layer_sizes
         self.activation = activation
         self.optimizer = optimizer

@@ -605,6 +605,8 @@ class PolyCCRegressor(CCRegressor):
         :class:`CCRegressor`.
     equation_weights : list of float, optional
         One weight per equation: see :class:`CCRegressor`.
+    quantities : dict, optional
+        What each state measures, for the diagnosis: see :class:`CCRegressor`.
     n_bootstrap : int, default=0
         Refit on this many resamples of the record (blocks of consecutive
         samples within each experiment, or whole experiments when there are
@@ -666,13 +668,14 @@ class PolyCCRegressor(CCRegressor):
                  shooting_iterations: int = 30, equation_weights=None,
                  random_state=None, n_bootstrap: int = 0,
                  n_jobs: int | None = None, input_hold: str = "auto",
-                 noise_model: str | None = None) -> None:
+                 noise_model: str | None = None,
+                 quantities: Mapping[str, str] | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
                          shooting_iterations=shooting_iterations,
                          equation_weights=equation_weights, input_hold=input_hold,
-                         noise_model=noise_model)
+                         noise_model=noise_model, quantities=quantities)
         self.degree = degree
         self.basis = basis
         self.alpha = alpha

@@ -448,7 +448,7 @@ class SymbolicCCRegressor(CCRegressor):
         ``SymbolicRegressor`` or ``PySRRegressor``).
     param_init : dict, optional
         Starting values of the parameters (1.0 otherwise).
-    gauge, differentiation, smooth_states, equation_weights
+    gauge, differentiation, smooth_states, equation_weights, quantities
         See :class:`CCRegressor`.
     n_bootstrap : int, default=0
         Refit on this many resamples of the record (blocks of consecutive
@@ -517,10 +517,11 @@ class SymbolicCCRegressor(CCRegressor):
                  engine_options: Mapping | None = None, param_init: Mapping | None = None,
                  gauge: str = "auto", differentiation="auto", smooth_states: bool = True,
                  equation_weights=None, random_state=None, n_bootstrap: int = 0,
-                 n_jobs: int | None = None) -> None:
+                 n_jobs: int | None = None,
+                 quantities: Mapping[str, str] | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
-                         equation_weights=equation_weights)
+                         equation_weights=equation_weights, quantities=quantities)
         self.engine = engine
         self.binary_operators = binary_operators
         self.unary_operators = unary_operators

@@ -151,9 +151,6 @@ class Record:
         if rows is None:
             return self
         position = np.cumsum(rows) - 1
-        data = FitData({name: values[rows] for name, values in self.data.columns.items()},
-                       int(np.count_nonzero(rows)),
-                       None if self.data.trajectory is None else self.data.trajectory[rows])
         experiments = None
         if self.experiments is not None:
             experiments = []
@@ -161,13 +158,7 @@ class Record:
                 inside = rows[e.rows]
                 experiments.append(Experiment(e.label, position[e.rows[inside]],
                                               None if e.t is None else e.t[inside], e.part))
-
-        def cut(values: dict) -> dict:
-            return {name: v[rows] for name, v in values.items()}
-
-        return Record(data, self.derivatives[rows], self.y_ndim, experiments,
-                      cut(self.measured), cut(self.smoothed), cut(self.signals), self.source,
-                      None, self.snr_db, self.hidden, self.names)
+        return self._taken(rows, experiments, trusted=None)
 
     def subset(self, rows: np.ndarray) -> Record:
         """The record on some row positions, in their order.
@@ -189,15 +180,20 @@ class Record:
             for run in np.split(inside, breaks):
                 t = None if e.t is None else self.data[TIME][rows[run]]
                 experiments.append(Experiment(e.label, run, t, e.part))
+        return self._taken(rows, experiments,
+                           trusted=None if self.trusted is None else self.trusted[rows])
+
+    def _taken(self, rows: np.ndarray, experiments, *, trusted) -> Record:
+        """The record on ``rows`` (a mask or positions) with these experiments."""
+        derivatives = self.derivatives[rows]
         data = FitData({name: values[rows] for name, values in self.data.columns.items()},
-                       len(rows),
+                       len(derivatives),
                        None if self.data.trajectory is None else self.data.trajectory[rows])
 
         def cut(values: dict) -> dict:
             return {name: v[rows] for name, v in values.items()}
 
-        trusted = None if self.trusted is None else self.trusted[rows]
-        return Record(data, self.derivatives[rows], self.y_ndim, experiments,
+        return Record(data, derivatives, self.y_ndim, experiments,
                       cut(self.measured), cut(self.smoothed), cut(self.signals), self.source,
                       trusted, self.snr_db, self.hidden, self.names)
 
