@@ -18,7 +18,8 @@ Sensor noise as real records carry it: ``--poles`` makes the noise coloured
 (AR(1), one study per pole), ``--bits`` rounds the position to a converter's
 resolution and ``--drift`` adds a slow wander (a share of the RMS); the
 fresh record stays noise-free. Not timed for speed claims (the median loop
-time is printed beside)::
+time is printed beside, and each coloured record's against the same record under
+white noise, run just before it)::
 
     python asv_benchmarks/loop_study.py [--seeds 0 1] [--snr 40 30] [--cases pendulum ...]
     python asv_benchmarks/loop_study.py --poles 0.8 0.9 0.95 --bits 12 [--drift 0.02]
@@ -174,8 +175,10 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel (processes)")
     args = parser.parse_args()
     sets = _sets(args)
-    runs = [(label, name, snr, seed) for label in sets for name in args.cases
-            for snr in args.snr for seed in args.seeds]
+    # one record's noise sets run one after the other, so that its loop times under
+    # white and coloured noise are measured on the machine in the same state
+    runs = [(label, name, snr, seed) for name in args.cases for snr in args.snr
+            for seed in args.seeds for label in sets]
     print(f"{'case':<28} {'noise':<31} {'SNR':>4} {'seed':>4} {'right':>5} {'complete':>8} "
           f"{'ratio':>7} {'s':>6}  named")
     rows = Parallel(n_jobs=args.jobs, return_as="generator")(

@@ -33,6 +33,9 @@ CONTINUITY_WEIGHT = 10.0
 DENSE_WORK = 5e7
 #: most samples (rows x steps) the Jacobian's bumped simulations take in one pass
 STACKED_SAMPLES = 1_000_000
+#: the search ends where a step lowers the cost by less than this share of what one
+#: standard error of a parameter is worth (about ``cost / n_residuals``): closer is noise
+COST_RESOLUTION = 0.01
 
 
 def check_iterations(iterations) -> int:
@@ -291,11 +294,15 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
                 np.concatenate([bounds[1], np.tile(high_s, K)]))
     before_states, _ = run(z0)
     before = plan.output_nrmse(before_states)
-    cost0 = 0.5 * float(np.sum(plan.residuals(before_states, start0) ** 2))
+    residuals0 = plan.residuals(before_states, start0)
+    cost0 = 0.5 * float(np.sum(residuals0**2))
+    # a relative fall in the cost below 1/n of it moves the parameters by less than one
+    # standard error, so the search stops once a step gains a small share of that
+    ftol = max(COST_RESOLUTION / max(residuals0.size, 1), 1e-10)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         solution = least_squares(fun, z0, jac=jac, method="trf", x_scale="jac",
-                                 bounds=z_bounds, max_nfev=int(max_iterations), ftol=1e-10,
+                                 bounds=z_bounds, max_nfev=int(max_iterations), ftol=ftol,
                                  xtol=1e-10, gtol=1e-10)
     z = solution.x if solution.cost <= cost0 else z0
     if bounds is not None:
