@@ -35,7 +35,7 @@ DENSE_WORK = 5e7
 STACKED_SAMPLES = 1_000_000
 #: the search ends where a step lowers the cost by less than this share of what one
 #: standard error of a parameter is worth (about ``cost / n_residuals``): closer is noise
-COST_RESOLUTION = 0.01
+COST_RESOLUTION = 0.001
 
 
 def check_iterations(iterations) -> int:
