@@ -23,6 +23,10 @@ Placeholders in the templates:
     a first-order state's own value (a level, a temperature, a
     concentration, a voltage): the term is its own rate of loss (outflow,
     consumption, decay).
+``{i}``
+    an input the skeleton reads: an effect acting through it changes how
+    the skeleton's own terms read the input (a transport delay reads it
+    late, ``u(t - a2)``) rather than adding a term.
 
 Time is ``t`` itself. Users add their own effects with :func:`register`.
 
@@ -68,6 +72,7 @@ ACTS_THROUGH: dict[str, tuple[str, ...]] = {
     "position_velocity": ("x", "v"),
     "difference": ("u",),
     "state": ("s",),
+    "input": ("i",),
     "time": (),
     "none": (),
 }
@@ -86,7 +91,7 @@ PLAUSIBILITY: dict[str, str] = {
     "any": "no sign requirement",
 }
 
-_SAMPLE = {"x": "x1", "v": "x2", "u": "x1 - x3", "s": "x1"}
+_SAMPLE = {"x": "x1", "v": "x2", "u": "x1 - x3", "s": "x1", "i": "u"}
 
 
 @dataclass(frozen=True)
@@ -198,6 +203,10 @@ class Effect:
             except SkeletonError as exc:
                 raise ValueError(f"effect {self.name!r}: its {label} is not valid skeleton "
                                  f"text: {exc}") from exc
+        if self.acts_through == "input" and (self.curve is not None or "{i}(t - " not in
+                                             self.term):
+            raise ValueError(f"effect {self.name!r}: an effect acting through an input reads "
+                             "it late, and has no curve: its term is like 'a1 {i}(t - a2)'")
         if self.curve_constraints:
             parse_constraints(list(self.curve_constraints))
         if self.bounds:
@@ -418,6 +427,18 @@ for _effect in (
            "with displacement (an eddy-current brake at the centre)", "position_velocity",
            "a1 exp(-a2 {x}^2) {v}", None, (), "dissipative", ("a1 >= 0", "a2 >= 0"),
            shape="damping falling away from zero"),
+    Effect("transport_delay", "an input acts late: it travels down a pipe, a belt or a line "
+           "(or through a sensor and a controller) before it reaches the state", "input",
+           "a1 {i}(t - a2)",
+           names=(("level", "transport delay"), ("volume", "transport delay"),
+                  ("flow", "transport delay"), ("pressure", "transport delay"),
+                  ("temperature", "transport delay"), ("heat", "transport delay"),
+                  ("concentration", "transport delay"), ("amount", "transport delay"),
+                  ("position", "actuator delay"), ("velocity", "actuator delay"),
+                  ("angle", "actuator delay"), ("angular_velocity", "actuator delay"),
+                  ("voltage", "signal delay"), ("current", "signal delay"),
+                  ("population", "maturation delay")),
+           shape="dead time"),
     Effect("offset", "constant force or bias (gravity on a slope, sensor offset)", "none",
            "a1", names=(("level", "constant inflow or leak"),
                         ("volume", "constant inflow or leak"),

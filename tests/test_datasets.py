@@ -451,7 +451,7 @@ def test_bad_random_state():
 def test_public_api():
     assert sorted(datasets.__all__) == ["add_sensor_noise",
                                         "make_duffing", "make_experiments", "make_first_order",
-                                        "make_oscillator", "make_pendulum",
+                                        "make_heated_tank", "make_oscillator", "make_pendulum",
                                         "make_positioning_axis",
                                         "make_resonator", "make_stick_slip", "make_two_dof",
                                         "make_two_tanks", "make_van_der_pol"]

@@ -50,7 +50,7 @@ from ._oscillators import (
     make_two_dof,
     make_van_der_pol,
 )
-from ._process_records import make_two_tanks
+from ._process_records import make_heated_tank, make_two_tanks
 from ._sensor_noise import add_sensor_noise
 
 __all__ = [
@@ -58,6 +58,7 @@ __all__ = [
     "make_duffing",
     "make_experiments",
     "make_first_order",
+    "make_heated_tank",
     "make_oscillator",
     "make_pendulum",
     "make_positioning_axis",

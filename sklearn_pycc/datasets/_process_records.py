@@ -1,5 +1,8 @@
 """Records of the kind a process plant logs: slow, sampled every few seconds, half unmeasured.
 
+A stirred tank heated through a pipe is the other: the heater's power
+reaches the tank a transport delay late.
+
 A cascade of two tanks is the classic case. A pump fills the upper tank,
 which drains through an orifice into the lower one, which drains out;
 each level follows Torricelli's law, and each tank overflows at its rim.
@@ -25,7 +28,7 @@ from ._generation import (
 )
 from ._lab_records import multisine, positive
 
-__all__ = ["HeldInput", "make_two_tanks"]
+__all__ = ["HeldInput", "make_heated_tank", "make_two_tanks"]
 
 #: integration substeps per sample (the levels clip at the rims once per substep)
 _SUBSTEPS = 40
@@ -212,4 +215,129 @@ def make_two_tanks(
                   y0=tuple(float(v) for v in np.minimum(start, rim)),
                   overflowing={"x1": float(at_rim[:, 0].mean()),
                                "x2": float(at_rim[:, 1].mean())})
+    return frame, truth
+
+
+def make_heated_tank(
+    n_samples: int = 2000,
+    t_span: tuple[float, float] | None = None,
+    *,
+    delay_samples: int = 6,
+    noise: float | None = 40.0,
+    noise_columns=("x1",),
+    params=None,
+    switches: int = 40,
+    power: tuple[float, float] = (0.0, 10.0),
+    y0: float = 2.0,
+    random_state=None,
+    return_truth: bool = False,
+):
+    """A stirred tank heated through a pipe: the heater's power arrives a delay late.
+
+    The tank's temperature above its surroundings, ``x1`` (K), follows the
+    heater power ``u`` (kW) read ``delay_samples`` samples late (the hot
+    water travels down the pipe) and loses heat to the surroundings::
+
+        x1_dot = a1 u(t - delay) - a2 x1
+
+    The heater is switched between random levels within ``power`` at
+    ``switches`` random sampling instants and held between them. The
+    temperature is logged every half second (by default) with white noise at
+    ``noise`` dB (colour it with :func:`add_sensor_noise`).
+
+    Parameters
+    ----------
+    n_samples : int, default=2000
+        Samples logged.
+    t_span : tuple of float, optional
+        Time of the first and the last sample in seconds; by default one
+        sample every 0.5 s from 0.
+    delay_samples : int, default=6
+        The transport delay, in samples (0: none).
+    noise : float or None, default=40.0
+        Signal-to-noise ratio in dB of the sensors; None for none.
+    noise_columns : sequence of str, default=("x1",)
+        The noisy columns, among ``x1`` and ``u``.
+    params : dict, optional
+        ``a1`` (K/s per kW) and ``a2`` (1/s); by default 0.05 and 0.1.
+    switches : int, default=40
+        Times the heater power changes.
+    power : tuple of float, default=(0, 10)
+        Least and largest heater power.
+    y0 : float, default=2.0
+        Temperature above the surroundings at the start (the heater has
+        been at its first level before it).
+    random_state : int, Generator or None
+        Seeds the switching and the noise.
+    return_truth : bool, default=False
+        Also return a Bunch with the skeleton, its parameters, the delay in
+        seconds and the exact temperature.
+
+    Raises
+    ------
+    ValueError
+        For a setting out of its range, named.
+
+    Returns
+    -------
+    frame : DataFrame
+        ``t``, ``u`` and ``x1``.
+    truth : Bunch
+        Only with ``return_truth``: ``equations``, ``params`` (``a5`` is the
+        delay in seconds), ``delay``, ``states`` (exact) and ``y0``.
+
+    Examples
+    --------
+    >>> from sklearn_pycc import datasets
+    >>> frame, truth = datasets.make_heated_tank(random_state=0, return_truth=True)
+    >>> list(frame.columns), truth.equations, truth.delay
+    (['t', 'u', 'x1'], ['x1_dot = a1 u(t - a5) - a2 x1'], 3.0)
+    """
+    n = check_n_samples(n_samples)
+    start_time, end_time = (0.0, 0.5 * (n - 1)) if t_span is None else check_t_span(t_span)
+    h = (end_time - start_time) / max(n - 1, 1)
+    if isinstance(delay_samples, bool) or not isinstance(delay_samples, (int, np.integer)) \
+            or not 0 <= delay_samples < n:
+        raise ValueError(f"delay_samples must be a whole number of samples from 0 to "
+                         f"n_samples - 1, got {delay_samples!r}")
+    if isinstance(switches, bool) or not isinstance(switches, (int, np.integer)) \
+            or switches < 0:
+        raise ValueError(f"switches must be a whole number at least 0, got {switches!r}")
+    noise = check_noise(noise)
+    noisy = check_noise_columns(noise_columns, ["t", "u", "x1"], ["x1"])
+    values = {"a1": 0.05, "a2": 0.1}
+    if params is not None:
+        unknown = [name for name in params if name not in values]
+        if unknown:
+            raise ValueError(f"params names {unknown[0]!r}; the tank has a1 and a2")
+        values.update({name: positive(name, value) for name, value in params.items()})
+    low, high = float(power[0]), float(power[1])
+    if not 0 <= low < high:
+        raise ValueError(f"power must be (least, largest) with 0 <= least < largest, "
+                         f"got {power!r}")
+    rng = check_random_state(random_state)
+    t = start_time + np.arange(n) * h
+    instants = np.sort(rng.integers(1, n, size=int(switches)))
+    levels = rng.uniform(low, high, size=int(switches) + 1)
+    u = levels[np.searchsorted(instants, np.arange(n), side="right")]
+    # the heater's power as the tank receives it: read delay_samples late, its first
+    # level before the record began
+    late = np.concatenate([np.full(int(delay_samples), u[0]), u[:n - int(delay_samples)]])
+    a1, a2 = values["a1"], values["a2"]
+    # exact between samples: the received power is held there
+    decay = math.exp(-a2 * h)
+    x = np.empty(n)
+    x[0] = float(y0)
+    for k in range(n - 1):
+        steady = a1 * late[k] / a2
+        x[k + 1] = steady + (x[k] - steady) * decay
+    frame = pd.DataFrame({"t": t, "u": u, "x1": x})
+    if noise is not None and noisy:
+        frame = add_noise(frame, noise, noisy, rng)
+    if not return_truth:
+        return frame
+    delay = float(delay_samples * h)
+    truth = Bunch(equations=["x1_dot = a1 u(t - a5) - a2 x1"],
+                  params={**values, "a5": delay}, delay=delay,
+                  states=pd.DataFrame({"x1": x}), y0=(float(y0),))
     return frame, truth

@@ -13,6 +13,7 @@ import pandas as pd
 from .. import effects as catalogue
 from ..exceptions import RankDeficiencyWarning, SkeletonError
 from ..measurements.record import Record
+from ..simulation.delays import delayed_name, read_delayed
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.nodes import (
@@ -25,6 +26,7 @@ from ..skeleton.nodes import (
     Unknown,
     product_factors,
     rename,
+    rename_symbols,
     signed_terms,
     sum_terms,
     walk,
@@ -36,7 +38,8 @@ from ._physics import implausible_terms
 from ._refit import fit_rows, prepared
 from ._roles import EquationRoles
 
-__all__ = ["MOVES", "Candidate", "enumerate_candidates", "enumerate_moves", "refit_candidate",
+__all__ = ["MOVES", "Candidate", "enumerate_candidates", "enumerate_delays", "enumerate_moves",
+           "refit_candidate",
            "refit_candidates", "screen_candidates"]
 
 #: a term whose contribution is this many times the derivative it explains is absurd
@@ -292,6 +295,34 @@ def enumerate_moves(skeleton: Skeleton, roles: list[EquationRoles],
     return out
 
 
+def enumerate_delays(skeleton: Skeleton, roles: list[EquationRoles]) -> list[Candidate]:
+    """Every term that reads an input on time, read late instead (``u`` -> ``u(t - a)``).
+
+    A move of the catalogue's effects acting through an input (the transport
+    delay): the term keeps its shape and its coefficient's role, the input
+    in it is read a fitted time late.
+    """
+    inputs = {name for name in skeleton.inputs if read_delayed(name) is None}
+    out = []
+    for effect in catalogue.catalogue():
+        if effect.acts_through != "input":
+            continue
+        for r in roles:
+            for sign, node in signed_terms(_equation(skeleton, r.index).rhs):
+                text = to_text(node)
+                for name in sorted(symbols_in(node) & inputs):
+                    late = to_text(rename_symbols(node, {name: delayed_name(name, "a999")}))
+                    # added terms are subtracted: an input's term keeps its own sign
+                    term = f"-({late})" if sign > 0 else late
+                    reduced = skeleton.remove_term(r.index, text)
+                    gone = [a for a in skeleton.params if a not in reduced.params]
+                    out.append(Candidate(
+                        effect, r, name, [(r.index, term)], None, move="replace",
+                        removals=[(r.index, text)], removed_params=gone,
+                        removed_nodes=[(r.index, sign, node)]))
+    return out
+
+
 # -- redundancy with a free curve already in the equation -----------------------------
 def symbols_in(node: Node) -> set[str]:
     return {n.name for n in walk(node) if isinstance(n, Symbol)}
@@ -403,7 +434,7 @@ def _prefix(states) -> str:
 
 def _term_values(model, data: Record, equations) -> dict[int, list]:
     """Per equation, ``(term text, fitted values)`` of its terms with fitted numbers."""
-    slots, env = _environment(data)
+    slots, env = data.environment()
     out = {}
     for k in equations:
         items = []
@@ -465,7 +496,7 @@ def extend(skeleton: Skeleton, candidate: Candidate) -> None:
 def removed_contribution(model, candidate: Candidate, data: Record) -> np.ndarray:
     """What the removed terms add to each equation's prediction, under ``model``'s fit."""
     out = np.zeros_like(data.derivatives)
-    slots, env = _environment(data)
+    slots, env = data.environment()
     for k, sign, node in candidate.removed_nodes:
         with np.errstate(all="ignore"):
             values = compile_expression(node, slots, model.params_, model.functions_)(env)
@@ -563,9 +594,17 @@ TIE = (0.02, 10.0)
 
 
 # -- refit of the extended skeleton -------------------------------------------------
-def _environment(data: Record) -> tuple[dict[str, int], list[np.ndarray]]:
-    names = list(data.columns)
-    return {name: i for i, name in enumerate(names)}, [data.columns[n] for n in names]
+def _concrete(node: Node, params: dict) -> Node:
+    """``node`` with each fitted delay at its value in ``params``.
+
+    ``u(t - a4)`` becomes ``u(t - 0.3)``, as the fitted skeleton writes it.
+    """
+    late = {}
+    for n in walk(node):
+        read = read_delayed(n.name) if isinstance(n, Symbol) else None
+        if read is not None and isinstance(read[1], str):
+            late[n.name] = delayed_name(read[0], float(params[read[1]]))
+    return rename_symbols(node, late) if late else node
 
 
 def refit_candidate(model, candidate: Candidate, data: Record, residuals: np.ndarray,
@@ -643,10 +682,12 @@ def _judge(candidate: Candidate, estimator, data: Record,
     """
     if candidate.redundant:
         return
-    slots, env = _environment(data)
+    nodes = [(k, _concrete(parse_expression(text, kind="term"), estimator.params_))
+             for k, text in candidate.added]
+    slots, env = data.environment([node for _, node in nodes] + [
+        eq.rhs for eq in estimator.skeleton_.parsed if eq.index in candidate.equations])
     reasons = []
-    for k, text in candidate.added:
-        node = parse_expression(text, kind="term")
+    for k, node in nodes:
         with np.errstate(all="ignore"):
             values = compile_expression(node, slots, estimator.params_,
                                         estimator.functions_)(env)
@@ -673,14 +714,40 @@ def _judge(candidate: Candidate, estimator, data: Record,
                 "largest other term of the equation"
             reasons.append(f"absurd size: the fitted term is {size / max(scale, balance):.3g} "
                            f"times the {beside} (terms cancel each other)")
+    reasons.extend(_below_a_sample([node for _, node in nodes], data))
     # the rest of the refitted model must still play its physical roles
-    own = [(k, parse_expression(text, kind="term")) for k, text in candidate.added]
     reasons.extend(f"the refitted model is implausible: {item}"
-                   for item in implausible_terms(estimator, data, own)
+                   for item in implausible_terms(estimator, data, nodes)
                    if (item.equation, item.role) not in baseline)
     candidate.plausible = not reasons
     if reasons:
         candidate.note = "; ".join(reasons)
+
+
+def _below_a_sample(nodes: list[Node], data: Record) -> list[str]:
+    """A fitted delay shorter than a sampling interval, in words: no transport delay.
+
+    Between its samples an input is held, interpolated or band-limited, and
+    a held input read as interpolated lags by half a sample: a delay that
+    short is how the input is read, which the record cannot tell from physics.
+    """
+    if TIME not in data.columns:
+        return []
+    steps = np.diff(data.columns[TIME])
+    steps = steps[steps > 0]
+    if not steps.size:
+        return []
+    interval = float(np.median(steps))
+    out = []
+    for node in nodes:
+        for n in walk(node):
+            read = read_delayed(n.name) if isinstance(n, Symbol) else None
+            if read is not None and not isinstance(read[1], str) and read[1] < interval:
+                out.append(f"the delay fitted ({read[1]:.3g}) is shorter than the sampling "
+                           f"interval ({interval:.3g}): that is how the input is held between "
+                           "samples (say input_hold='zoh' for a held one), not a delay the "
+                           "record can show")
+    return out
 
 
 #: fewest periods of a fitted oscillation in time that the record must hold to tell it

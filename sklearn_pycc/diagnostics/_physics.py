@@ -145,9 +145,7 @@ def implausible_terms(model, data: Record,
     """
     skeleton = model.skeleton_
     params, functions = model.params_, model.functions_
-    names = list(data.columns)
-    slots = {name: i for i, name in enumerate(names)}
-    env = [data.columns[name] for name in names]
+    slots, env = data.environment([eq.rhs for eq in skeleton.parsed])
     inputs = {name for name in skeleton.inputs if name != TIME}
     out: list[Implausibility] = []
     for roles in equation_roles(skeleton):
@@ -199,7 +197,7 @@ def _check_equation(roles: EquationRoles, derivative: str, terms: list[_Term], s
         elif roles.second_order and symbols == {roles.position}:
             springs.append(term)
         elif symbols and symbols <= inputs and term.node not in skipped:
-            why = _gain(term, params, slots, data)
+            why = _gain(term, params, data)
             if why and _rms(term.values) > significant:
                 out.append(Implausibility(derivative, "gain", why))
     if friction:
@@ -213,11 +211,11 @@ def _check_equation(roles: EquationRoles, derivative: str, terms: list[_Term], s
     return out
 
 
-def _gain(term: _Term, params, slots, data: Record) -> str:
+def _gain(term: _Term, params, data: Record) -> str:
     if any(isinstance(n, Unknown) for n in walk(term.node)):
         return ""
     ones = {name: 1.0 for name in params}
-    env = [data.columns[name] for name in slots]
+    slots, env = data.environment([term.node])
     written = term.sign * _evaluate(term.node, slots, env, ones, {}, n=data.n_samples)
     if float(np.mean(term.values * written)) > 0:
         return ""

@@ -58,7 +58,7 @@ def simulate_against(model, data: Record, horizon: Horizon, *, max_steps: int):
     skeleton = model.skeleton_
     inputs = [n for n in skeleton.inputs if n != TIME]
     columns = {**{s: data.columns[s] for s in skeleton.states},
-               **{name: data.columns[name] for name in inputs}, TIME: data.columns[TIME]}
+               **{name: data.column(name) for name in inputs}, TIME: data.columns[TIME]}
     experiments = [(label, rows, data.columns[TIME][rows]) for label, rows in data.experiment_rows]
     return simulate_rows(model, columns, data.signals, experiments, horizon,
                          n_samples=data.n_samples,

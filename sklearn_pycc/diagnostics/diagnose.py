@@ -19,6 +19,7 @@ from ._candidates import (
     TIE,
     Candidate,
     enumerate_candidates,
+    enumerate_delays,
     enumerate_moves,
     extend,
     refit_candidates,
@@ -306,10 +307,7 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
     maps = {k: v for k, v in maps.items() if v is not None}
 
     # -- which effect is missing -------------------------------------------------------
-    candidates = enumerate_candidates(skeleton, roles, data.has_time)
-    candidates += enumerate_moves(skeleton, roles, data.has_time)
-    for candidate in candidates:
-        extend(skeleton, candidate)
+    candidates = _enumerated(skeleton, roles, data.has_time)
     screen_candidates(candidates, data, residuals, states, model=model)
     rss_before = np.sum(residuals**2, axis=0)
     screened = sorted((c for c in candidates if math.isfinite(c.screen_bic)
@@ -482,6 +480,21 @@ def _map_of(roles: EquationRoles, residuals, data: Record, inputs) -> ResidualMa
         return None
     return residual_map(roles.derivative, residuals[:, roles.index], x, columns[x], y,
                         y=columns[y])
+
+
+def _enumerated(skeleton, roles, has_time: bool) -> list[Candidate]:
+    """Every move to try, each with its changed skeleton.
+
+    The catalogue's additions, the replacements and removals of the
+    skeleton's own terms, and (with time) its inputs read late.
+    """
+    candidates = enumerate_candidates(skeleton, roles, has_time)
+    candidates += enumerate_moves(skeleton, roles, has_time)
+    if has_time:
+        candidates += enumerate_delays(skeleton, roles)
+    for candidate in candidates:
+        extend(skeleton, candidate)
+    return candidates
 
 
 def _simulate_leaders(refitted: list[Candidate], data: Record, measured: np.ndarray,

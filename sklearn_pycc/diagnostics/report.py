@@ -14,9 +14,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from ..exceptions import SkeletonError
 from ..measurements.record import Record
 from ..skeleton import Skeleton
-from ..skeleton.nodes import BinOp, Param, walk
+from ..skeleton.nodes import BinOp, Neg, Param, walk
 from ..skeleton.parser import parse_expression
 from ..skeleton.printer import to_text
 from ._candidates import TIE, Candidate
@@ -169,8 +170,19 @@ class Suggestion:
             return f"add the limit '{self.term}'"
         if self.replaces:
             old = "' and '".join(self.replaces)
-            return f"replace '{old}' in {self.equation} by '- {self.term}'"
-        return f"add '- {self.term}' to {self.equation}"
+            return f"replace '{old}' in {self.equation} by '{_subtracted(self.term)}'"
+        return f"add '{_subtracted(self.term)}' to {self.equation}"
+
+
+def _subtracted(term: str) -> str:
+    """A term the skeleton subtracts, written with its sign (``- (-a3*u)`` is ``+ a3*u``)."""
+    try:
+        node = parse_expression(term, kind="term")
+    except SkeletonError:
+        return f"- {term}"
+    if isinstance(node, Neg):
+        return f"+ {to_text(node.operand)}"
+    return f"- {term}"
 
 
 @dataclass

@@ -37,6 +37,7 @@ from ..measurements.differentiation import (
     Differentiator,
     resolve_differentiation,
 )
+from ..measurements.experiments import TIME
 from ..measurements.measurement import Measurement, unwrap
 from ..measurements.reconstruct import kinematic_chains
 from ..measurements.record import targets_in_y
@@ -48,6 +49,7 @@ from ..skeleton.curves import as_curve
 from ..skeleton.nodes import sum_terms
 from ..skeleton.printer import to_text
 from ..skeleton.system import CompiledSystem
+from ._delays import fit_delays, fit_error, refine_delays
 from ._reading import ReadingMixin
 from ._simulating import SimulationMixin
 from .backend import Backend
@@ -217,7 +219,12 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
     skeleton_ : Skeleton
         The parsed skeleton with its constraints.
     params_ : dict
-        Fitted (and gauge-fixed) parameters ``{"a1": value, ...}``.
+        Fitted (and gauge-fixed) parameters ``{"a1": value, ...}``, the delays
+        of inputs read late (``u(t - a5)``) among them.
+    delays_ : dict
+        Only for a skeleton that reads an input late by a fitted delay: each
+        delay's parameter and value, in the time units of ``t``. The fitted
+        skeleton (``skeleton_``) reads the input at that delay as a number.
     functions_ : dict
         Fitted curves ``{"f1": callable, ...}``, vectorised over numpy arrays.
     gauge_ : dict
@@ -331,10 +338,25 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
         return state
 
     # -- fitting ---------------------------------------------------------------
-    def _problem(self, X, y, backend: Backend | None = None) -> tuple[Problem, dict]:
-        """The fitting problem, and what was learned about the record (to be stored)."""
+    def _problem(self, X, y, backend: Backend | None = None, *,
+                 delays: Mapping[str, float] | None = None,
+                 profile: bool = False) -> tuple[Problem, dict]:
+        """The fitting problem, and what was learned about the record (to be stored).
+
+        An input read late (``u(t - a5)``) is read with its delay at
+        ``delays`` (the fitted ones when None and the model is fitted);
+        ``profile`` fits by equation error where it can, as the search for
+        the delays does.
+        """
         backend = self._make_backend() if backend is None else backend
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
+        if skeleton.delay_params:
+            if delays is None:
+                delays = getattr(self, "delays_", None)
+            if delays is None:
+                raise ValueError(f"{type(self).__name__}: the delays "
+                                 f"{', '.join(skeleton.delay_params)} are fitted by fit")
+            skeleton = skeleton.with_delays(delays)
         state_quantities(skeleton, self.quantities)  # names a state or quantity it lacks
         if self.fit_mode == "simulation":
             _check_simulable(skeleton, outputs_ok=True)
@@ -353,6 +375,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
                 _check_simulable(skeleton)
         weights = check_equation_weights(self.equation_weights, skeleton)
         mode, why = self._resolve_mode(skeleton, record, backend)
+        if profile and not record.hidden:
+            mode, why = "equation", ""
         facts = {"fit_mode_": mode, "derivative_source_": record.source + why,
                  "input_hold_": given_hold(self),
                  "measured_states_": list(record.measured),
@@ -431,7 +455,11 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
             raise ValueError("n_bootstrap must be 0 (no resampling) or at least 2, got 1")
         resolve_differentiation(self.differentiation)
         backend = self._make_backend()
-        problem, facts = self._problem(X, y, backend)
+        skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
+        delays = self._fit_delays(X, y, skeleton, backend) if skeleton.delay_params else {}
+        problem, facts = self._problem(X, y, backend, delays=delays)
+        if delays:
+            facts = {**facts, "delays_": delays}
         problem.check_enough_rows()
         result = backend.estimate(problem, shooting_window=self.shooting_window,
                                   shooting_iterations=self.shooting_iterations)
@@ -455,6 +483,43 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
                 "measured"):
             _warn_coarse_sampling(problem, self._system())
         return self
+
+    def _delay_searcher(self) -> CCRegressor:
+        """The estimator whose many fits compare the delays of inputs read late.
+
+        This one; where its fits are slow, one of polynomial curves on the same
+        settings (:func:`~sklearn_pycc.estimators.poly.polynomial_stand_in`).
+        """
+        return self
+
+    def _fit_delays(self, X, y, skeleton: Skeleton, backend: Backend) -> dict[str, float]:
+        """The delays of the inputs read late, by a profile of equation-error fits."""
+        frame = X.X if isinstance(X, Measurement) else X
+        if not isinstance(frame, pd.DataFrame) or TIME not in frame.columns:
+            raise ValueError(
+                f"{type(self).__name__}: the skeleton reads "
+                f"{', '.join(skeleton.delays)}, an input read late, and its delay is fitted "
+                "from the time column 't': pass X as a DataFrame with a 't' column")
+
+        searcher = self._delay_searcher()
+        if searcher is not self:
+            backend = searcher._make_backend()
+
+        def error_at(values: Mapping[str, float], profile: bool = True) -> float:
+            problem, _ = searcher._problem(X, y, backend, delays=values, profile=profile)
+            problem.check_enough_rows()
+            result = backend.estimate(problem, shooting_window=self.shooting_window,
+                                      shooting_iterations=self.shooting_iterations)
+            return fit_error(problem, result)
+
+        t = frame[TIME].to_numpy(dtype=float)
+        found = fit_delays(skeleton, t, error_at)
+        # where the fit ends by output error, the delay is settled by it (a held input's
+        # steps are not smeared by a simulation as by estimated derivatives)
+        final, _ = searcher._problem(X, y, backend, delays=found)
+        if final.fit_mode != "simulation":
+            return found
+        return refine_delays(skeleton, t, found, lambda values: error_at(values, profile=False))
 
     def _whitened(self, problem: Problem, result: FitResult,
                   backend: Backend) -> tuple[FitResult, object]:
@@ -538,12 +603,14 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
         all_params = {**problem.fixed_params,
                       **{k: float(v) for k, v in result.params.items()}}
         params = {a: float(all_params[a]) for a in skeleton.params}
+        params.update(facts.get("delays_") or {})
         functions = {f: result.functions[f] for f in skeleton.functions}
         self._set_fitted({
             **facts, **result.attributes, "skeleton_": skeleton, "gauge_": dict(problem.gauge),
             "params_": params, "functions_": functions,
             "curve_ranges_": _argument_ranges(problem, params, functions)})
-        self._set_fitted({"n_parameters_": len(problem.free_params) + sum(
+        self._set_fitted({"n_parameters_": len(problem.free_params)
+                          + len(facts.get("delays_") or {}) + sum(
             facts["backend_"].n_numbers(problem, result, f) for f in problem.free_functions)})
 
     def _set_fitted(self, values: Mapping) -> None:
@@ -581,12 +648,14 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
         """
         adopted = ("skeleton_", "gauge_", "curve_ranges_", "n_features_in_",
                    "feature_names_in_", "measured_states_", "derivative_source_", "fit_mode_",
-                   "initial_states_", "_y_1d")
+                   "initial_states_", "_y_1d", "delays_")
         skeleton = source.skeleton_
         values = {name: copy.deepcopy(getattr(source, name)) for name in adopted
                   if hasattr(source, name)}
+        delays = dict(getattr(source, "delays_", None) or {})
         self._set_fitted({**values, **dict(attributes or {}), "backend_": self._make_backend(),
-                          "params_": {a: float(params[a]) for a in skeleton.params},
+                          "params_": {**{a: float(params[a]) for a in skeleton.params},
+                                      **delays},
                           "functions_": {f: functions[f] for f in skeleton.functions},
                           "n_parameters_": int(n_parameters)})
 

@@ -16,6 +16,7 @@ from ..fitting.problem import FitResult, Problem, active_residuals
 from ..skeleton.curves import ZeroCurve
 from .backend import Backend
 from .base import RANDOM_STATES, RESAMPLING, CCRegressor
+from .poly import polynomial_stand_in
 
 __all__ = ["NeuralBackend", "NeuralCCRegressor"]
 
@@ -523,6 +524,10 @@ default="lbfgs"
         self.n_bootstrap = n_bootstrap
         self.n_jobs = n_jobs
         self.verbose = verbose
+
+    def _delay_searcher(self) -> CCRegressor:
+        # the delays' many fits with polynomial curves: seconds, where these take minutes
+        return polynomial_stand_in(self)
 
     def _make_backend(self) -> NeuralBackend:
         return NeuralBackend(**self._backend_settings(NeuralBackend))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import warnings
 from collections.abc import Mapping
 from numbers import Integral, Real
@@ -24,7 +25,7 @@ from ..skeleton.curves import ZeroCurve
 from .backend import Backend
 from .base import RANDOM_STATES, RESAMPLING, CCRegressor
 
-__all__ = ["PolyBackend", "PolyCCRegressor"]
+__all__ = ["PolyBackend", "PolyCCRegressor", "polynomial_stand_in"]
 
 # grid of starting magnitudes for nonlinear parameters: +-10^k
 _LOG_GRID = np.arange(-2.0, 4.01, 0.5)
@@ -791,3 +792,14 @@ def _prefer_positive(theta: np.ndarray, best: float, cost, low: np.ndarray,
     return theta
 
 
+
+
+def polynomial_stand_in(estimator: CCRegressor) -> PolyCCRegressor:
+    """A :class:`PolyCCRegressor` with the settings every estimator shares.
+
+    Taken from ``estimator``: a quick fit of the same skeleton where many are
+    needed (the search for the delays of inputs read late).
+    """
+    shared = inspect.signature(CCRegressor.__init__).parameters
+    return PolyCCRegressor(**{name: value for name, value
+                              in estimator.get_params(deep=False).items() if name in shared})

@@ -28,6 +28,7 @@ from ..fitting.problem import FitResult, Problem
 from ..skeleton.curves import ZeroCurve
 from .backend import Backend
 from .base import OUTPUT_ERROR_SETTINGS, RANDOM_STATES, RESAMPLING, CCRegressor, backend_of
+from .poly import polynomial_stand_in
 
 __all__ = ["SymbolicBackend", "SymbolicCCRegressor", "polish", "refit_params"]
 
@@ -539,6 +540,10 @@ class SymbolicCCRegressor(CCRegressor):
         self.random_state = random_state
         self.n_bootstrap = n_bootstrap
         self.n_jobs = n_jobs
+
+    def _delay_searcher(self) -> CCRegressor:
+        # the delays' many fits with polynomial curves: seconds, where these take minutes
+        return polynomial_stand_in(self)
 
     def _make_backend(self) -> SymbolicBackend:
         return SymbolicBackend(**self._backend_settings(SymbolicBackend))

@@ -290,7 +290,9 @@ class Problem:
 
     def starting_values(self, param_init) -> dict[str, float]:
         """The ``param_init`` hyperparameter, checked against the skeleton's parameters."""
-        init = dict(param_init or {})
+        # a delay is searched over a grid, and is a number here already
+        init = {k: v for k, v in dict(param_init or {}).items()
+                if k not in self.skeleton.delays_given}
         params = self.skeleton.params
         bad = [k for k in init if k not in params]
         if bad:

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 from sklearn.utils.validation import check_array, validate_data
 
+from ..simulation.delays import delayed_column, read_delayed
 from .experiments import TIME, TRAJECTORY
 from .measurement import Measurement
 
@@ -108,6 +109,9 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X",
         for name in needed:
             if name not in names and name in optional:
                 continue
+            if name not in names and read_delayed(name) is not None:
+                columns[name] = _delayed(X, name, names, trajectory, who)
+                continue
             if name not in names:
                 raise ValueError(
                     f"{who} has no column {name!r}, which the skeleton uses; "
@@ -132,6 +136,11 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X",
         array = validate_data(estimator, X, reset=reset, dtype=np.float64,
                               ensure_all_finite=False, ensure_2d=True, copy=True)
     names = [f"x{j}" for j in range(array.shape[1])]
+    delayed = [name for name in needed if read_delayed(name) is not None]
+    if delayed:
+        raise ValueError(
+            f"the skeleton reads {delayed[0]}, an input read late, which needs the record's "
+            f"time: pass {who} as a DataFrame with a 't' column")
     _check_array_naming(needed, optional, array.shape[1], who)
     columns = {}
     for name in needed:
@@ -146,6 +155,23 @@ def read_X(estimator, X, needed: Sequence[str], *, reset: bool, who: str = "X",
         _finite_column(values, f"{who} column {name!r}")
         columns[name] = values
     return FitData(columns, array.shape[0])
+
+
+def _delayed(X: pd.DataFrame, name: str, names: list[str], trajectory, who: str) -> np.ndarray:
+    """The column of an input read late (``u(t - 0.3)``), made from ``u`` and ``t``."""
+    signal, delay = read_delayed(name)
+    if isinstance(delay, str):
+        raise ValueError(f"{name} is read {delay} late, and {delay} has no value here: "
+                         "its estimator fits it")
+    for needed in (signal, TIME):
+        if needed not in names:
+            raise ValueError(f"{who} has no column {needed!r}, which {name} is read from; "
+                             f"{who} has columns {names}")
+    values = _numeric(X[signal], f"{who} column {signal!r}")
+    _finite_column(values, f"{who} column {signal!r}", trajectory)
+    t = _numeric(X[TIME], f"{who} column 't'")
+    _finite_column(t, f"{who} column 't'", trajectory)
+    return delayed_column(values, t, delay, trajectory)
 
 
 def _warn_if_standardised(columns: dict[str, np.ndarray], who: str) -> None:

@@ -15,6 +15,8 @@ from functools import cached_property
 import numpy as np
 import pandas as pd
 
+from ..simulation.delays import delayed_column, read_delayed
+from ..skeleton.nodes import Symbol, walk
 from .columns import FitData, read_X, read_y
 from .differentiation import resolve_differentiation
 from .experiments import TIME, TRAJECTORY, Experiment, split_experiments
@@ -95,6 +97,35 @@ class Record:
     def columns(self) -> dict[str, np.ndarray]:
         """Name -> values of every column of :attr:`data`."""
         return self.data.columns
+
+    def environment(self, nodes=()) -> tuple[dict[str, int], list[np.ndarray]]:
+        """Slots and columns to evaluate expressions on, with the inputs read late they read.
+
+        An input read late by a number (``u(t - 0.3)``) that :attr:`data`
+        lacks (a candidate's refit chose the delay) is made from its signal.
+        """
+        columns = dict(self.data.columns)
+        for node in nodes:
+            for n in walk(node):
+                if isinstance(n, Symbol) and n.name not in columns \
+                        and read_delayed(n.name) is not None:
+                    columns[n.name] = self.column(n.name)
+        names = list(columns)
+        return {name: i for i, name in enumerate(names)}, [columns[n] for n in names]
+
+    def column(self, name: str) -> np.ndarray:
+        """One column by name.
+
+        An input read late by a number (``u(t - 0.3)``) is made from its
+        signal when :attr:`data` lacks it.
+        """
+        if name in self.data.columns:
+            return self.data.columns[name]
+        read = read_delayed(name)
+        if read is None or isinstance(read[1], str):
+            raise KeyError(name)
+        return delayed_column(self.data.columns[read[0]], self.data.columns[TIME], read[1],
+                              self.data.trajectory)
 
     @property
     def estimated(self) -> bool:

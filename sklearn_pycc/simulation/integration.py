@@ -20,6 +20,7 @@ from scipy import integrate
 
 from .._utils.bandlimited import bandlimited_slopes
 from ..exceptions import SimulationError
+from .delays import delayed_column, read_delayed
 
 __all__ = ["DEFAULT_MAX_STEPS", "INPUT_HOLDS", "STEP_BUDGET", "Diverged", "InputSignals",
            "check_hold", "check_time_grid", "fitted_hold", "given_hold", "integrate_sampled",
@@ -182,6 +183,39 @@ def _constant(value: float) -> Callable:
     return signal
 
 
+def _with_delayed(names: Sequence[str], inputs: Mapping, t: np.ndarray) -> dict:
+    """``inputs`` with each input read late (``u(t - 0.3)``) made from its signal ``u``.
+
+    An array is read late on the grid ``t`` as a fit reads it (linear
+    between samples, its first value before them), a callable at ``t - 0.3``,
+    a constant as itself. The signals read late are not themselves inputs
+    of the system: they are taken out once used.
+    """
+    out = dict(inputs)
+    sources = set()
+    for name in names:
+        read = read_delayed(name)
+        if read is None or name in inputs or read[0] not in inputs:
+            continue
+        signal, delay = read
+        sources.add(signal)
+        value = inputs[signal]
+        if callable(value):
+            out[name] = (lambda f, d: lambda s: f(s - d))(value, float(delay))
+        elif value is None or isinstance(value, (str, bytes)) or np.isscalar(value):
+            out[name] = value
+        else:
+            values = np.asarray(value, dtype=float)
+            if values.ndim != 1 or len(values) != len(t):
+                raise ValueError(
+                    f"input {signal!r}: an array input must be sampled on t "
+                    f"(length {len(t)}), got shape {values.shape}")
+            out[name] = delayed_column(values, np.asarray(t, dtype=float), float(delay))
+    for signal in sources - set(names):
+        del out[signal]
+    return out
+
+
 class InputSignals:
     """Validated input signals of a simulation.
 
@@ -209,6 +243,7 @@ class InputSignals:
                 "inputs must be a dict mapping input names to signals, "
                 f"got {type(inputs).__name__}"
             )
+        inputs = _with_delayed(names, inputs, t)
         unknown = [k for k in inputs if k not in names]
         if unknown:
             have = ", ".join(map(repr, names)) if names else "none"

@@ -9,6 +9,8 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, fields, replace
 
+from ..simulation.delays import delayed_name, read_delayed
+
 __all__ = [
     "Apply",
     "BinOp",
@@ -18,8 +20,10 @@ __all__ = [
     "Param",
     "Symbol",
     "Unknown",
+    "params_in",
     "product_factors",
     "rename",
+    "rename_symbols",
     "signed_terms",
     "sum_terms",
     "walk",
@@ -138,12 +142,40 @@ def product_factors(node: Node) -> list[Node]:
 
 
 def rename(node: Node, mapping: Mapping[str, str]) -> Node:
-    """A copy of ``node`` with curves and parameters renamed by ``mapping``."""
+    """A copy of ``node`` with curves and parameters renamed by ``mapping``.
+
+    The delay of an input read late (``u(t - a5)``) is a parameter too.
+    """
     if isinstance(node, (Param, Unknown)) and node.name in mapping:
         node = replace(node, name=mapping[node.name])
+    if isinstance(node, Symbol) and (read := read_delayed(node.name)) is not None \
+            and read[1] in mapping:
+        node = replace(node, name=delayed_name(read[0], mapping[read[1]]))
     changes = {f.name: rename(getattr(node, f.name), mapping) for f in fields(node)
                if isinstance(getattr(node, f.name), Node)}
     return replace(node, **changes) if changes else node
+
+
+def rename_symbols(node: Node, mapping: Mapping[str, str]) -> Node:
+    """A copy of ``node`` with data variables renamed by ``mapping``."""
+    if isinstance(node, Symbol) and node.name in mapping:
+        return replace(node, name=mapping[node.name])
+    changes = {f.name: rename_symbols(getattr(node, f.name), mapping) for f in fields(node)
+               if isinstance(getattr(node, f.name), Node)}
+    return replace(node, **changes) if changes else node
+
+
+def params_in(node: Node) -> list[str]:
+    """The parameters ``node`` uses, delays of inputs read late included, in order met."""
+    names: list[str] = []
+    for n in walk(node):
+        name = n.name if isinstance(n, Param) else None
+        if isinstance(n, Symbol) and (read := read_delayed(n.name)) is not None \
+                and isinstance(read[1], str):
+            name = read[1]
+        if name is not None and name not in names:
+            names.append(name)
+    return names
 
 
 def walk(node: Node) -> Iterator[Node]:

@@ -20,6 +20,8 @@ from __future__ import annotations
 import math
 
 from ..exceptions import SkeletonError
+from ..simulation.delays import delayed_name
+from .equations import TIME
 from .functions import CONSTANTS, ELEMENTARY, is_param_name, is_unknown_name
 from .lexer import Token, tokenize
 from .nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
@@ -206,17 +208,35 @@ class _Parser:
         if followed_by_paren:
             if name == "f":
                 raise self.error("'f' needs an index: write f1, f2, ...", tok.pos)
-            known = ", ".join(sorted(set(ELEMENTARY)))
-            raise self.error(
-                f"unknown function {name!r}; known functions: {known}; "
-                "unknown curves are written f1, f2, ...",
-                tok.pos,
-            )
+            return self.delayed(tok)
         if is_param_name(name):
             return Param(name, pos=tok.pos)
         if name in CONSTANTS:
             return Number(CONSTANTS[name], pos=tok.pos)
         return Symbol(name, pos=tok.pos)
+
+    def delayed(self, tok: Token) -> Node:
+        """``u(t - a5)``: an input read a fitted (or a given) time late, as one symbol."""
+        name = tok.text
+        arg = self.call_argument(tok)
+        if isinstance(arg, Symbol) and arg.name == TIME and name != TIME:
+            return Symbol(name, pos=tok.pos)
+        if (name != TIME and not name.endswith("_dot") and isinstance(arg, BinOp)
+                and arg.op == "-" and isinstance(arg.left, Symbol) and arg.left.name == TIME):
+            if isinstance(arg.right, Param):
+                return Symbol(delayed_name(name, arg.right.name), pos=tok.pos)
+            if isinstance(arg.right, Number) and arg.right.value >= 0:
+                return Symbol(delayed_name(name, arg.right.value), pos=tok.pos)
+            if isinstance(arg.right, Number):
+                raise self.error(f"{name}(t - ...) reads {name} late: its delay must not be "
+                                 "negative (the future is not measured)", tok.pos)
+        known = ", ".join(sorted(set(ELEMENTARY)))
+        raise self.error(
+            f"unknown function {name!r}; known functions: {known}; unknown curves are "
+            f"written f1, f2, ...; an input read late is written {name}(t - a5) (a fitted "
+            f"delay) or {name}(t - 0.3)",
+            tok.pos,
+        )
 
     def checked(self, node: Node) -> Node:
         """``node`` once its depth and its constant parts are known to be sound."""

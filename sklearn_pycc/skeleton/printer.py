@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 
+from ..simulation.delays import read_delayed
 from .nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
 
 __all__ = ["format_number", "to_text"]
@@ -44,6 +45,10 @@ def to_text(
             text = format_number(n.value, precision)
             return text, (3 if text.startswith("-") else 5)
         if isinstance(n, Symbol):
+            read = read_delayed(n.name) if params is not None else None
+            if read is not None and not isinstance(read[1], str):
+                # a fitted delay is written as the parameters are
+                return f"{read[0]}(t - {format_number(read[1], precision)})", 5
             return n.name, 5
         if isinstance(n, Param):
             if params is not None and n.name in params:

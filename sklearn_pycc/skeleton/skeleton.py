@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from ..exceptions import SimulationError, SkeletonError
+from ..simulation.delays import delayed_name, read_delayed
 from ..simulation.integration import (
     InputSignals,
     check_solver_options,
@@ -37,8 +38,10 @@ from .nodes import (
     Param,
     Symbol,
     Unknown,
+    params_in,
     product_factors,
     rename,
+    rename_symbols,
     signed_terms,
     walk,
 )
@@ -167,12 +170,48 @@ class Skeleton:
         self.functions = sorted(functions, key=_index_key)
         self.inputs = inputs
         self.uses_time = uses_time
+        #: delayed input's symbol -> (input, delay: a parameter's name or a number)
+        self.delays = self._read_delays(classified, params)
+        #: parameter -> the delayed inputs it delays (``u(t - a5)``), each fitted
+        self.delay_params: dict[str, list[str]] = {}
+        for name, (_, delay) in self.delays.items():
+            if isinstance(delay, str):
+                self.delay_params.setdefault(delay, []).append(name)
         self.constraints: tuple[Constraint | Bound | StateLimit, ...] = parse_constraints(
             constraints)
-        check_constraints(self.constraints, self.functions, params, self.states)
+        check_constraints(self.constraints, self.functions, [*params, *self.delay_params],
+                          self.states)
         #: parameter -> (state, side) of each state limit to fit (``x1 <= a5``)
         self.limit_params = limit_params(self.constraints)
-        self.params = sorted([*params, *self.limit_params], key=_index_key)
+        self.params = sorted([*params, *self.limit_params, *self.delay_params], key=_index_key)
+        #: delays this skeleton was made with as numbers (:meth:`with_delays`): values of
+        #: them are accepted beside its parameters, and not used
+        self.delays_given: dict[str, float] = {}
+
+    def _read_delays(self, classified: list[Equation], params: list[str]) -> dict:
+        """The delayed inputs, checked: only an input is read late, by a delay of its own."""
+        delays = {}
+        for name in self.inputs:
+            read = read_delayed(name)
+            if read is None:
+                continue
+            signal, delay = read
+            index = next(eq.index for eq in classified
+                         if any(getattr(n, "name", None) == name
+                                for side in (eq.lhs, eq.rhs) for n in walk(side)))
+            if signal in self.states or state_of(signal) is not None \
+                    or signal in self.outputs:
+                raise SkeletonError(
+                    f"{name}: only an input may be read late; {signal} is "
+                    f"{'a state' if signal in self.states else 'defined by the skeleton'}, "
+                    "and a state read late makes a delay-differential equation, which "
+                    "the skeleton language does not express", equation=index)
+            if isinstance(delay, str) and delay in params:
+                raise SkeletonError(
+                    f"{delay} is the delay of {name} and cannot also be a coefficient: "
+                    "give the coefficient a parameter of its own", equation=index)
+            delays[name] = (signal, delay)
+        return delays
 
     # -- conveniences ---------------------------------------------------------
     def _reads(self, name: str) -> bool:
@@ -252,7 +291,44 @@ class Skeleton:
         A limit's end to fit is bounded by its state's other end as well
         (``a5 >= 0`` with ``x1 >= 0`` and ``x1 <= a5``).
         """
-        return merged_bounds(self.constraints)
+        bounds = merged_bounds(self.constraints)
+        for name in self.delay_params:  # a delay is never negative
+            low, high = bounds.get(name, (-np.inf, np.inf))
+            bounds[name] = (max(low, 0.0), high)
+        return bounds
+
+    def with_delays(self, values: Mapping[str, float]) -> Skeleton:
+        """A new skeleton with each fitted delay given as a number.
+
+        ``u(t - a5)`` becomes ``u(t - 0.3)``; the delays' own bounds go.
+
+        Parameters
+        ----------
+        values : mapping
+            A value (time units, at least 0) for every parameter of
+            :attr:`delay_params`.
+        """
+        missing = [a for a in self.delay_params if a not in values]
+        if missing:
+            raise ValueError(f"no value given for the delay {missing[0]}")
+        renamed = {}
+        for name, (signal, delay) in self.delays.items():
+            if isinstance(delay, str):
+                value = float(values[delay])
+                if not np.isfinite(value) or value < 0:
+                    raise ValueError(f"the delay {delay} must be finite and at least 0, "
+                                     f"got {value}")
+                renamed[name] = delayed_name(signal, value)
+        equations = []
+        for index, text in enumerate(self.equations):
+            lhs, rhs = parse_equation(text, index)
+            lhs, rhs = (rename_symbols(side, renamed) for side in (lhs, rhs))
+            equations.append(f"{to_text(lhs, precision=17)} = {to_text(rhs, precision=17)}")
+        kept = [c for c in self.constraints
+                if not (isinstance(c, Bound) and c.param in self.delay_params)]
+        concrete = Skeleton(equations, kept)
+        concrete.delays_given = {a: float(values[a]) for a in self.delay_params}
+        return concrete
 
     @property
     def limits(self) -> dict[str, tuple[float | str, float | str]]:
@@ -315,7 +391,7 @@ class Skeleton:
             raise ValueError(f"sign must be '-' or '+', got {sign!r}")
         node = parse_expression(term, kind="term")
         curves = sorted({n.name for n in walk(node) if isinstance(n, Unknown)}, key=_index_key)
-        params = sorted({n.name for n in walk(node) if isinstance(n, Param)}, key=_index_key)
+        params = sorted(params_in(node), key=_index_key)
         mapping = {}
         for names, taken in ((curves, self.functions), (params, self.params)):
             start = max((_index_key(name) for name in taken), default=0)
@@ -441,10 +517,12 @@ class Skeleton:
         return hash((self.equations, frozenset(self.constraints)))
 
     def __getstate__(self) -> dict:
-        return {"equations": self.equations, "constraints": self.constraints}
+        return {"equations": self.equations, "constraints": self.constraints,
+                "delays_given": self.delays_given}
 
     def __setstate__(self, state: dict) -> None:
         self.__init__(list(state["equations"]), list(state["constraints"]))
+        self.delays_given = dict(state.get("delays_given", {}))
 
     # -- analysis -------------------------------------------------------------
     def identifiability(self):
@@ -469,7 +547,7 @@ class Skeleton:
         returned as floats.
         """
         functions = dict(functions or {})
-        params = dict(params or {})
+        params = {a: v for a, v in dict(params or {}).items() if a not in self.delays_given}
         for kind, given, needed in (("curve", functions, self.functions),
                                     ("parameter", params, self.params)):
             missing = [n for n in needed if n not in given]
@@ -488,8 +566,15 @@ class Skeleton:
 
     def compile(self, functions: Mapping[str, Callable] | None = None,
                 params: Mapping[str, float] | None = None) -> CompiledSystem:
-        """Compile the right-hand side with given curves and parameter values."""
+        """Compile the right-hand side with given curves and parameter values.
+
+        The delays of inputs read late are among the parameters: the system
+        reads each such input at its delay.
+        """
         functions, params = self.check_values(functions, params)
+        if self.delay_params:
+            late = self.with_delays({a: params[a] for a in self.delay_params})
+            return late.compile(functions, params)
         static = [eq for eq in self._all if eq.output is not None]
         return CompiledSystem(self._equations, self.states, self.inputs, params, functions,
                               static=static, limits=self.limits_at(params))
