@@ -25,8 +25,10 @@ Placeholders in the templates:
     consumption, decay).
 ``{i}``
     an input the skeleton reads: an effect acting through it changes how
-    the skeleton's own terms read the input (a transport delay reads it
-    late, ``u(t - a2)``) rather than adding a term.
+    the skeleton's own terms read the input rather than adding a term. Its
+    term is what takes the input's place in them: ``{i}(t - a1)`` reads it
+    late (a transport delay), ``a1 tanh({i}/a1)`` levels it off (an
+    actuator's saturation).
 
 Time is ``t`` itself. Users add their own effects with :func:`register`.
 
@@ -203,10 +205,10 @@ class Effect:
             except SkeletonError as exc:
                 raise ValueError(f"effect {self.name!r}: its {label} is not valid skeleton "
                                  f"text: {exc}") from exc
-        if self.acts_through == "input" and (self.curve is not None or "{i}(t - " not in
-                                             self.term):
-            raise ValueError(f"effect {self.name!r}: an effect acting through an input reads "
-                             "it late, and has no curve: its term is like 'a1 {i}(t - a2)'")
+        if self.acts_through == "input" and (self.curve is not None or "{i}" not in self.term):
+            raise ValueError(f"effect {self.name!r}: an effect acting through an input is how "
+                             "the skeleton's terms read it ('{i}(t - a1)', 'a1 tanh({i}/a1)'), "
+                             "without a curve")
         if self.curve_constraints:
             parse_constraints(list(self.curve_constraints))
         if self.bounds:
@@ -429,7 +431,7 @@ for _effect in (
            shape="damping falling away from zero"),
     Effect("transport_delay", "an input acts late: it travels down a pipe, a belt or a line "
            "(or through a sensor and a controller) before it reaches the state", "input",
-           "a1 {i}(t - a2)",
+           "{i}(t - a1)",
            names=(("level", "transport delay"), ("volume", "transport delay"),
                   ("flow", "transport delay"), ("pressure", "transport delay"),
                   ("temperature", "transport delay"), ("heat", "transport delay"),
@@ -439,6 +441,26 @@ for _effect in (
                   ("voltage", "signal delay"), ("current", "signal delay"),
                   ("population", "maturation delay")),
            shape="dead time"),
+    Effect("input_saturation", "an actuator gives no more than its limit: the input's effect "
+           "levels off (a pump at full speed, a valve wide open, a heater at full power, an "
+           "amplifier at its rails)", "input", "a1 tanh({i}/a1)", bounds=("a1 >= 0",),
+           names=(("level", "pump or valve saturation"), ("volume", "pump or valve saturation"),
+                  ("flow", "pump or valve saturation"), ("pressure", "pump or valve saturation"),
+                  ("temperature", "heater saturation"), ("heat", "heater saturation"),
+                  ("position", "actuator saturation"), ("velocity", "actuator saturation"),
+                  ("angle", "actuator saturation"), ("angular_velocity", "actuator saturation"),
+                  ("voltage", "amplifier saturation"), ("current", "amplifier saturation")),
+           shape="input saturation"),
+    Effect("input_dead_zone", "an actuator does nothing until its input passes a threshold "
+           "(a valve's dead band, a motor's breakaway voltage)", "input",
+           "({i} - a1 sign({i})) (1 + sign(abs({i}) - a1))/2", bounds=("a1 >= 0",),
+           names=(("temperature", "heater dead band"), ("heat", "heater dead band"),
+                  ("level", "valve dead band"), ("volume", "valve dead band"),
+                  ("flow", "valve dead band"), ("pressure", "valve dead band"),
+                  ("position", "actuator dead zone"), ("velocity", "actuator dead zone"),
+                  ("angle", "actuator dead zone"), ("angular_velocity", "actuator dead zone"),
+                  ("voltage", "amplifier dead zone"), ("current", "amplifier dead zone")),
+           shape="input dead zone"),
     Effect("offset", "constant force or bias (gravity on a slope, sensor offset)", "none",
            "a1", names=(("level", "constant inflow or leak"),
                         ("volume", "constant inflow or leak"),

@@ -15,7 +15,7 @@ import pytest
 from sklearn.base import clone
 
 from sklearn_pycc import HypothesisLoop, PolyCCRegressor, Skeleton, datasets, effects
-from sklearn_pycc.diagnostics._candidates import enumerate_delays
+from sklearn_pycc.diagnostics._candidates import enumerate_input_moves
 from sklearn_pycc.diagnostics._roles import equation_roles
 from sklearn_pycc.estimators.least_squares import LeastSquaresCCRegressor
 from sklearn_pycc.exceptions import SkeletonError
@@ -185,7 +185,8 @@ def test_the_loop_names_no_delay_where_there_is_none():
 def test_a_delay_is_tried_on_every_term_that_reads_an_input(equations, quantity, called):
     skeleton = Skeleton(equations)
     roles = equation_roles(skeleton, None if quantity is None else {"x1": quantity})
-    tried = enumerate_delays(skeleton, roles)
+    tried = [c for c in enumerate_input_moves(skeleton, roles)
+             if c.effect.name == "transport_delay"]
     assert len(tried) == 1
     candidate = tried[0]
     assert candidate.effect.called(candidate.roles.quantity_of("input")) == called
@@ -198,13 +199,16 @@ def test_a_delay_is_tried_on_every_term_that_reads_an_input(equations, quantity,
 
 def test_a_skeleton_already_reading_an_input_late_is_not_delayed_again():
     skeleton = Skeleton(HEATER)
-    assert enumerate_delays(skeleton, equation_roles(skeleton)) == []
+    assert enumerate_input_moves(skeleton, equation_roles(skeleton)) == []
+    # nor is a term moved twice: the loop's next round leaves the delayed input alone
+    late = Skeleton(["x1_dot = -a2*x1 + a3*u(t - a4)"])
+    assert enumerate_input_moves(late, equation_roles(late)) == []
 
 
-def test_an_effect_through_an_input_must_read_it_late():
-    with pytest.raises(ValueError, match="reads it late"):
-        effects.Effect("gain", "a gain", "input", "a1 {i}")
-    assert effects.get("transport_delay").term_for(i="u") == "a1 u(t - a2)"
+def test_an_effect_through_an_input_says_how_the_input_is_read():
+    with pytest.raises(ValueError, match="how the skeleton's terms read it"):
+        effects.Effect("gain", "a gain", "input", "a1", curve="f1({i})")
+    assert effects.get("transport_delay").term_for(i="u") == "u(t - a1)"
 
 
 def test_a_frame_of_the_user_is_not_modified_by_a_delay():

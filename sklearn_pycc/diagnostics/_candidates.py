@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections import Counter
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 import pandas as pd
@@ -16,6 +16,7 @@ from ..measurements.record import Record
 from ..simulation.delays import delayed_name, read_delayed
 from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
+from ..skeleton.constraints import parse_constraints
 from ..skeleton.nodes import (
     Apply,
     BinOp,
@@ -24,10 +25,12 @@ from ..skeleton.nodes import (
     Param,
     Symbol,
     Unknown,
+    params_in,
     product_factors,
     rename,
     rename_symbols,
     signed_terms,
+    substitute,
     sum_terms,
     walk,
 )
@@ -38,9 +41,8 @@ from ._physics import implausible_terms
 from ._refit import fit_rows, prepared
 from ._roles import EquationRoles
 
-__all__ = ["MOVES", "Candidate", "enumerate_candidates", "enumerate_delays", "enumerate_moves",
-           "refit_candidate",
-           "refit_candidates", "screen_candidates"]
+__all__ = ["MOVES", "Candidate", "enumerate_candidates", "enumerate_input_moves",
+           "enumerate_moves", "refit_candidate", "refit_candidates", "screen_candidates"]
 
 #: a term whose contribution is this many times the derivative it explains is absurd
 ABSURD_RATIO = 10.0
@@ -100,11 +102,19 @@ class Candidate:
     after_squares: np.ndarray | None = None
     # fitted numbers of the free curves the move brings (known once refitted)
     curve_numbers: int = 0
+    # bounds of the parameters the move brings, in the names of its terms (None: the
+    # effect's own)
+    bounds: tuple[str, ...] | None = None
 
     @property
     def equations(self) -> list[int]:
         """Indices of the equations the candidate changes."""
         return sorted({k for k, _ in (*self.additions, *self.removals)})
+
+    @property
+    def term_bounds(self) -> tuple[str, ...]:
+        """Bounds of the parameters of the terms the move adds, in their names."""
+        return self.effect.bounds if self.bounds is None else self.bounds
 
     @property
     def n_change(self) -> int:
@@ -295,12 +305,14 @@ def enumerate_moves(skeleton: Skeleton, roles: list[EquationRoles],
     return out
 
 
-def enumerate_delays(skeleton: Skeleton, roles: list[EquationRoles]) -> list[Candidate]:
-    """Every term that reads an input on time, read late instead (``u`` -> ``u(t - a)``).
+def enumerate_input_moves(skeleton: Skeleton,
+                          roles: list[EquationRoles]) -> list[Candidate]:
+    """Every term that reads an input as measured, reading it another way instead.
 
-    A move of the catalogue's effects acting through an input (the transport
-    delay): the term keeps its shape and its coefficient's role, the input
-    in it is read a fitted time late.
+    The moves of the catalogue's effects acting through an input: the term
+    keeps its shape and its coefficient's role, and the input in it is read
+    late (``u`` -> ``u(t - a)``), levelled off (``a tanh(u/a)``) or past a
+    dead zone. An input already read so, or inside a function, is left alone.
     """
     inputs = {name for name in skeleton.inputs if read_delayed(name) is None}
     out = []
@@ -310,17 +322,40 @@ def enumerate_delays(skeleton: Skeleton, roles: list[EquationRoles]) -> list[Can
         for r in roles:
             for sign, node in signed_terms(_equation(skeleton, r.index).rhs):
                 text = to_text(node)
-                for name in sorted(symbols_in(node) & inputs):
-                    late = to_text(rename_symbols(node, {name: delayed_name(name, "a999")}))
+                for name in sorted(_plainly_read(node) & inputs):
+                    read, bounds = _input_reading(effect, name, skeleton)
+                    changed = to_text(substitute(node, name, read))
                     # added terms are subtracted: an input's term keeps its own sign
-                    term = f"-({late})" if sign > 0 else late
+                    term = f"-({changed})" if sign > 0 else changed
                     reduced = skeleton.remove_term(r.index, text)
                     gone = [a for a in skeleton.params if a not in reduced.params]
                     out.append(Candidate(
                         effect, r, name, [(r.index, term)], None, move="replace",
                         removals=[(r.index, text)], removed_params=gone,
-                        removed_nodes=[(r.index, sign, node)]))
+                        removed_nodes=[(r.index, sign, node)], bounds=bounds))
     return out
+
+
+def _plainly_read(node: Node) -> set[str]:
+    """The variables a term reads as a factor or a sum's part, not inside a function."""
+    inside = {n.name for f in walk(node) if isinstance(f, (Apply, Unknown))
+              for n in walk(f.arg) if isinstance(n, Symbol)}
+    return symbols_in(node) - inside
+
+
+def _input_reading(effect: catalogue.Effect, name: str,
+                   skeleton: Skeleton) -> tuple[Node, tuple[str, ...]]:
+    """How ``effect`` reads the input ``name``, and the bounds of its parameters.
+
+    Its parameters are numbered past the skeleton's, so that none is taken
+    for the term's own; its bounds are renamed alike.
+    """
+    read = parse_expression(effect.term_for(i=name), kind="term")
+    start = 1 + max((int(a[1:]) for a in skeleton.params), default=0) + 900
+    mapping = {a: f"a{start + k}" for k, a in enumerate(params_in(read))}
+    bounds = tuple(str(replace(b, param=mapping[b.param]))
+                   for b in parse_constraints(list(effect.bounds)))
+    return rename(read, mapping), bounds
 
 
 # -- redundancy with a free curve already in the equation -----------------------------
@@ -417,7 +452,7 @@ def _screen_skeleton(candidate: Candidate, states: list[str],
     names = [f"{_prefix(states)}{i}" for i in range(len(candidate.additions))]
     skeleton = Skeleton([f"{name}_dot = 0" for name in names])
     for i, (_, term) in enumerate(candidate.additions):
-        skeleton = skeleton.add_term(i, term, constraints=list(candidate.effect.bounds))
+        skeleton = skeleton.add_term(i, term, constraints=list(candidate.term_bounds))
     own = list(skeleton.params)
     for i, columns in enumerate(basis):
         for column in columns:
@@ -484,7 +519,7 @@ def extend(skeleton: Skeleton, candidate: Candidate) -> None:
     added = []
     for k, term in candidate.additions:
         before = extended.equations[k]
-        extended = extended.add_term(k, term, constraints=list(candidate.effect.bounds))
+        extended = extended.add_term(k, term, constraints=list(candidate.term_bounds))
         added.append((k, extended.equations[k][len(before) + 3:]))
     for k, term in candidate.removals:
         extended = extended.remove_term(k, term)

@@ -19,7 +19,7 @@ from ._candidates import (
     TIE,
     Candidate,
     enumerate_candidates,
-    enumerate_delays,
+    enumerate_input_moves,
     enumerate_moves,
     extend,
     refit_candidates,
@@ -491,7 +491,7 @@ def _enumerated(skeleton, roles, has_time: bool) -> list[Candidate]:
     candidates = enumerate_candidates(skeleton, roles, has_time)
     candidates += enumerate_moves(skeleton, roles, has_time)
     if has_time:
-        candidates += enumerate_delays(skeleton, roles)
+        candidates += enumerate_input_moves(skeleton, roles)
     for candidate in candidates:
         extend(skeleton, candidate)
     return candidates

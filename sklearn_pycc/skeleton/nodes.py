@@ -25,6 +25,7 @@ __all__ = [
     "rename",
     "rename_symbols",
     "signed_terms",
+    "substitute",
     "sum_terms",
     "walk",
 ]
@@ -162,6 +163,15 @@ def rename_symbols(node: Node, mapping: Mapping[str, str]) -> Node:
         return replace(node, name=mapping[node.name])
     changes = {f.name: rename_symbols(getattr(node, f.name), mapping) for f in fields(node)
                if isinstance(getattr(node, f.name), Node)}
+    return replace(node, **changes) if changes else node
+
+
+def substitute(node: Node, name: str, replacement: Node) -> Node:
+    """A copy of ``node`` with every data variable ``name`` replaced by ``replacement``."""
+    if isinstance(node, Symbol) and node.name == name:
+        return replacement
+    changes = {f.name: substitute(getattr(node, f.name), name, replacement)
+               for f in fields(node) if isinstance(getattr(node, f.name), Node)}
     return replace(node, **changes) if changes else node
 
 
