@@ -28,7 +28,9 @@ Placeholders in the templates:
     the skeleton's own terms read the input rather than adding a term. Its
     term is what takes the input's place in them: ``{i}(t - a1)`` reads it
     late (a transport delay), ``a1 tanh({i}/a1)`` levels it off (an
-    actuator's saturation).
+    actuator's saturation). One that changes the input's shape is tried
+    only on states that are not mechanical: on a forced mechanical record
+    friction and springs take the same shapes.
 
 Time is ``t`` itself. Users add their own effects with :func:`register`.
 
@@ -447,8 +449,6 @@ for _effect in (
            names=(("level", "pump or valve saturation"), ("volume", "pump or valve saturation"),
                   ("flow", "pump or valve saturation"), ("pressure", "pump or valve saturation"),
                   ("temperature", "heater saturation"), ("heat", "heater saturation"),
-                  ("position", "actuator saturation"), ("velocity", "actuator saturation"),
-                  ("angle", "actuator saturation"), ("angular_velocity", "actuator saturation"),
                   ("voltage", "amplifier saturation"), ("current", "amplifier saturation")),
            shape="input saturation"),
     Effect("input_dead_zone", "an actuator does nothing until its input passes a threshold "
@@ -457,8 +457,6 @@ for _effect in (
            names=(("temperature", "heater dead band"), ("heat", "heater dead band"),
                   ("level", "valve dead band"), ("volume", "valve dead band"),
                   ("flow", "valve dead band"), ("pressure", "valve dead band"),
-                  ("position", "actuator dead zone"), ("velocity", "actuator dead zone"),
-                  ("angle", "actuator dead zone"), ("angular_velocity", "actuator dead zone"),
                   ("voltage", "amplifier dead zone"), ("current", "amplifier dead zone")),
            shape="input dead zone"),
     Effect("offset", "constant force or bias (gravity on a slope, sensor offset)", "none",

@@ -77,3 +77,13 @@ def test_the_parameters_an_input_move_brings_are_its_own_and_bounded():
     assert late.equations == ("x1_dot = -a2*x1 + a3*a4*tanh(u / a4)",)
     assert late.bounds["a4"] == (0.0, np.inf)  # the level, not the gain, is bounded
     assert "a3" not in late.bounds and "a1" not in late.params
+
+
+def test_a_mechanical_equation_keeps_its_input_s_shape_and_may_read_it_late():
+    # on a forced mechanical record friction and springs take an actuator limit's shapes
+    skeleton = Skeleton(["x1_dot = x2", "x2_dot = F - a1 x2 - a2 x1"])
+    moves = enumerate_input_moves(skeleton, equation_roles(skeleton))
+    assert [c.effect.name for c in moves] == ["transport_delay"]
+    velocity = Skeleton(["x1_dot = a3 F - a1 x1"])
+    moves = enumerate_input_moves(velocity, equation_roles(velocity, {"x1": "velocity"}))
+    assert [c.effect.name for c in moves] == ["transport_delay"]

@@ -312,7 +312,9 @@ def enumerate_input_moves(skeleton: Skeleton,
     The moves of the catalogue's effects acting through an input: the term
     keeps its shape and its coefficient's role, and the input in it is read
     late (``u`` -> ``u(t - a)``), levelled off (``a tanh(u/a)``) or past a
-    dead zone. An input already read so, or inside a function, is left alone.
+    dead zone. An input already read so, or inside a function, is left alone;
+    the input's shape is changed only in the equations of states that are
+    not mechanical.
     """
     inputs = {name for name in skeleton.inputs if read_delayed(name) is None}
     out = []
@@ -320,6 +322,10 @@ def enumerate_input_moves(skeleton: Skeleton,
         if effect.acts_through != "input":
             continue
         for r in roles:
+            if (r.second_order or r.mechanical) and not _keeps_shape(effect):
+                # a forced mechanical record shows friction and springs in the shapes an
+                # actuator's limit would take: the catalogue's own effects speak there
+                continue
             for sign, node in signed_terms(_equation(skeleton, r.index).rhs):
                 text = to_text(node)
                 for name in sorted(_plainly_read(node) & inputs):
@@ -334,6 +340,11 @@ def enumerate_input_moves(skeleton: Skeleton,
                         removals=[(r.index, text)], removed_params=gone,
                         removed_nodes=[(r.index, sign, node)], bounds=bounds))
     return out
+
+
+def _keeps_shape(effect: catalogue.Effect) -> bool:
+    """Whether ``effect`` reads its input unchanged in shape (late, as a delay does)."""
+    return isinstance(parse_expression(effect.term_for(i="u"), kind="term"), Symbol)
 
 
 def _plainly_read(node: Node) -> set[str]:
