@@ -68,7 +68,7 @@ def test_a_delayed_column_holds_the_first_value_before_each_experiment():
 
 
 # -- fitting --------------------------------------------------------------------------
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_the_delay_is_fitted_within_a_sampling_interval_under_coloured_noise(seed):
     frame, truth = _tank(seed)
     with warnings.catch_warnings():
@@ -116,6 +116,7 @@ def test_a_fitted_delay_survives_a_clone_and_a_pickle():
     np.testing.assert_allclose(restored.predict(frame), model.predict(frame))
 
 
+@pytest.mark.slow
 def test_a_bound_on_the_delay_widens_the_search():
     frame, truth = datasets.make_heated_tank(delay_samples=90, random_state=5,
                                              return_truth=True)
@@ -125,6 +126,7 @@ def test_a_bound_on_the_delay_widens_the_search():
     assert abs(model.params_["a5"] - truth.delay) < 0.5
 
 
+@pytest.mark.slow
 def test_a_slow_backend_searches_the_delay_with_polynomial_curves():
     frame, truth = datasets.make_heated_tank(n_samples=800, random_state=6,
                                              return_truth=True)

@@ -35,8 +35,9 @@ def _heater(truth: str, seed: int = 0, snr: float = 40.0) -> pd.DataFrame:
     return pd.DataFrame({"t": t, "u": u, "x1": x})
 
 
-@pytest.mark.parametrize("hidden, called", [("input_saturation", "heater saturation"),
-                                            ("input_dead_zone", "heater dead band")])
+@pytest.mark.parametrize("hidden, called", [
+    ("input_saturation", "heater saturation"),
+    pytest.param("input_dead_zone", "heater dead band", marks=pytest.mark.slow)])
 def test_the_loop_names_how_the_heater_reads_its_input(hidden, called):
     X = _heater(TRUTHS[hidden])
     start = PolyCCRegressor(equations=START, quantities={"x1": "temperature"})

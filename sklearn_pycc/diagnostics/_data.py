@@ -83,5 +83,8 @@ def read_measurements(skeleton, X, y, differentiation="auto",
                          derivatives_from_X=True, split=True, who=who)
     if skeleton.uses_time and not record.has_time:
         raise ValueError("X lacks the time column 't', which the skeleton reads")
-    names = [*skeleton.states, *(n for n in skeleton.inputs if n != TIME), *skeleton.outputs]
+    # an input read late comes with the input it is read from: a refit may read it anew
+    inputs = [name for n in skeleton.inputs if n != TIME
+              for name in ((n, skeleton.delays[n][0]) if n in skeleton.delays else (n,))]
+    names = dict.fromkeys([*skeleton.states, *inputs, *skeleton.outputs])
     return replace(record, names=tuple(names))

@@ -130,6 +130,11 @@ def decide_addition(eligible: list[Candidate], model, data: Record, horizon: Hor
     """
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
     cache = {} if cache is None else cache
+    # on a mechanical equation how the input is read is tried after the state's own
+    # physics: a missing damping shifts the phase of a forced response, which a delay of
+    # the input imitates
+    eligible = sorted(eligible, key=lambda c: c.effect.acts_through == "input"
+                      and (c.roles.second_order or c.roles.mechanical))
 
     def check(c: Candidate) -> bool:
         if output_error and record is not None \

@@ -95,6 +95,8 @@ class HeldOut:
         return after / before - 1.0 if before > 0 else math.nan
 
     def __str__(self) -> str:
+        if self.criterion not in self.before:
+            return f"held out ({self.folds}): the model could not be refitted without any fold"
         parts = []
         for name in (self.criterion, *(n for n in self.before if n != self.criterion)):
             parts.append(f"{name} error {self.before[name]:.3g} -> {self.after[name]:.3g} "

@@ -254,7 +254,8 @@ class Skeleton:
         """Data columns the equations read: states and inputs (and ``t`` if used).
 
         A static equation's output is not among them (it is predicted), unless
-        another equation reads it.
+        another equation reads it. An input read late (``u(t - 0.3)``) comes
+        with the input it is read from (``u``), and ``t``.
         """
         names = []
         for eq in self._all:
@@ -264,6 +265,9 @@ class Skeleton:
                         and name not in names
                         and (name not in self.outputs or self._reads(name))):
                     names.append(name)
+                    if name in self.delays:
+                        names.extend(n for n in (self.delays[name][0], TIME)
+                                     if n not in names)
         return names
 
     def curve_arguments(self, function: str) -> list:
