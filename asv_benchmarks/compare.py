@@ -108,6 +108,11 @@ w.    ``PolyCCRegressor.fit`` of the two-tank cascade (``make_two_tanks``,
       Torricelli skeleton without limits on the overflowing record (goal
       30 s): the effects it names and its final model's validation ratio.
 
+x.    ``HypothesisLoop(...).run(max_rounds=3)`` on two bodies joined by a spring,
+      the first forced, a cubic spring hidden on the second (the field study's
+      ``bodies_cubic_spring``, 40 dB), from the linear skeleton: 4,000 samples
+      of both positions only, four states. Goal: under 20 s.
+
 and three lines only report times (no goal): k. ``SymbolicCCRegressor.fit``
 on the Duffing oscillator, l. ``to_symbolic`` of the neural stick-slip fit
 (20 dB on the force) from its curves alone and m. with the data.
@@ -831,6 +836,29 @@ def _tank_loop_timing() -> Timing:
                   f"{ratio[1]:.3f} on the measured one")
 
 
+def _two_body_loop_timing() -> Timing:
+    import importlib.util
+    from pathlib import Path
+
+    from sklearn_pycc import HypothesisLoop
+
+    path = Path(__file__).with_name("field_study.py")
+    spec = importlib.util.spec_from_file_location("_field_study", path)
+    study = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(study)
+    case = study.CASES["bodies_cubic_spring"]
+    frame = study._record(case, snr=40.0, seed=0)
+
+    def run():
+        return HypothesisLoop(PolyCCRegressor(equations=case.equations[1]), frame).run(
+            max_rounds=3)
+
+    loop = run()
+    named = [r.added.effect if r.added else "stop" for r in loop.rounds]
+    return Timing("x. loop, two bodies position only, n=4000", run, 20_000.0,
+                  " -> ".join(named))
+
+
 #: the effects make_oscillator can hide beyond its viscous damping
 HIDDEN = ["coulomb_friction", "quadratic_drag", "cubic_stiffness", "saturation", "pendulum",
           "position_dependent_damping", "offset"]
@@ -904,7 +932,7 @@ def print_table(results: list[Result]) -> None:
 
 
 #: lines measured only with --full (or when --only names them): each takes minutes
-FULL_ONLY = {"b", "e", "n", "o", "q", "r", "lm"}
+FULL_ONLY = {"b", "e", "n", "o", "q", "r", "x", "lm"}
 
 
 def _wanted(key: str, args) -> bool:
@@ -980,6 +1008,7 @@ def main(argv=None) -> int:
                     ("q", _axis_loop_timings), ("u", _bootstrap_timing),
                     ("v", _neural_scale_timings),
                     ("w", _tank_timings),
+                    ("x", _two_body_loop_timing),
                     ("k", _symbolic_fit_timing),
                     ("lm", _post_sr_timings)]
         for key, build in builders:

@@ -23,6 +23,11 @@ Placeholders in the templates:
     a first-order state's own value (a level, a temperature, a
     concentration, a voltage): the term is its own rate of loss (outflow,
     consumption, decay).
+``{r}``
+    with ``{s}``, another first-order state the state's rate depends on: the
+    term is an interaction of the two (a reaction between two species, a
+    predator's catch of its prey). Each such effect is tried with ``{s}`` the
+    equation's own state and the other state, and the other way round.
 ``{i}``
     an input the skeleton reads: an effect acting through it changes how
     the skeleton's own terms read the input rather than adding a term. Its
@@ -76,6 +81,7 @@ ACTS_THROUGH: dict[str, tuple[str, ...]] = {
     "position_velocity": ("x", "v"),
     "difference": ("u",),
     "state": ("s",),
+    "interaction": ("s", "r"),
     "input": ("i",),
     "time": (),
     "none": (),
@@ -95,7 +101,7 @@ PLAUSIBILITY: dict[str, str] = {
     "any": "no sign requirement",
 }
 
-_SAMPLE = {"x": "x1", "v": "x2", "u": "x1 - x3", "s": "x1", "i": "u"}
+_SAMPLE = {"x": "x1", "v": "x2", "u": "x1 - x3", "s": "x1", "r": "x2", "i": "u"}
 
 
 @dataclass(frozen=True)
@@ -177,7 +183,7 @@ class Effect:
         if self.field != "mechanics" and self.acts_through in MECHANICAL_PLACES:
             raise ValueError(f"effect {self.name!r} acts through a {self.acts_through}, which "
                              "only a mechanical state has: give it field='mechanics'")
-        if self.field == "mechanics" and self.acts_through == "state":
+        if self.field == "mechanics" and self.acts_through in ("state", "interaction"):
             raise ValueError(f"effect {self.name!r}: an effect acting through a first-order "
                              "state's own value ({s}) belongs to a field other than mechanics")
         for pair in self.names:
@@ -236,7 +242,7 @@ class Effect:
         """
         if self.field == "mechanics":
             return tuple(q for q in QUANTITIES if is_mechanical(q))
-        if self.acts_through == "state":
+        if self.acts_through in ("state", "interaction"):
             return tuple(q for q, field in QUANTITIES.items() if not is_mechanical(q)
                          and self.field in ("any", field))
         return tuple(QUANTITIES)
@@ -528,6 +534,23 @@ for _effect in (
            "(Stefan-Boltzmann)", "state", "a1 {s}^4", "f1({s})", (), "any", _POSITIVE,
            field="thermal", names=(("temperature", "radiation (Stefan-Boltzmann)"),),
            shape="fourth-power law"),
+    # two first-order states acting on each other: {s} and {r}, one of them the
+    # equation's own state
+    Effect("mass_action", "a rate proportional to the product of two amounts (the law of "
+           "mass action: a reaction A + B, a predator's catch, an infection)", "interaction",
+           "a1 {s} {r}", field="kinetics",
+           names=(("concentration", "mass-action reaction (A + B)"),
+                  ("amount", "mass-action reaction (A + B)"),
+                  ("population", "predation (mass action, Lotka-Volterra)")),
+           shape="product of two states"),
+    Effect("saturating_interaction", "a rate on the product of two amounts that levels off as "
+           "the first grows (a predator's saturating catch, Holling type II; a reaction "
+           "limited by its catalyst)", "interaction", "a1 {s} {r}/(a2 + abs({s}))",
+           bounds=("a2 >= 0",), replaces=("mass_action",), field="kinetics",
+           names=(("concentration", "saturating reaction (Michaelis-Menten in a reactant)"),
+                  ("amount", "saturating reaction (Michaelis-Menten in a reactant)"),
+                  ("population", "Holling type II predation")),
+           shape="product saturating in one state"),
 ):
     register(_effect)
 del _effect, _POSITIVE

@@ -152,6 +152,15 @@ def _assignments(effect: catalogue.Effect, roles: EquationRoles, has_time: bool)
     k = roles.index
     if kind == "state":
         yield roles.position, [(k, effect.term_for(s=roles.position))]
+    elif kind == "interaction":
+        own = roles.position
+        for other in roles.partners:
+            term = effect.term_for(s=own, r=other)
+            yield f"{own} {other}", [(k, term)]
+            swapped = effect.term_for(s=other, r=own)
+            if _shape_key(parse_expression(swapped, kind="term")) != _shape_key(
+                    parse_expression(term, kind="term")):  # not symmetric in the two
+                yield f"{other} {own}", [(k, swapped)]
     elif kind == "velocity":
         v = roles.velocity
         yield v, [(k, effect.term_for(v=v))]
@@ -181,12 +190,13 @@ def fits_field(effect: catalogue.Effect, roles: EquationRoles) -> bool:
     A mechanical effect enters a position-velocity pair (named by its shape
     when the user says the pair is not mechanical: a charge and a current)
     and a first-order state the user says is mechanical; an effect acting
-    through a first-order state's own value enters the other first-order
-    states, those of its field or of an unknown quantity.
+    through a first-order state's own value, or its interaction with another
+    such state, enters the other first-order states, those of its field or of
+    an unknown quantity.
     """
     if effect.field == "mechanics":
         return roles.second_order or roles.mechanical
-    if effect.acts_through == "state":
+    if effect.acts_through in ("state", "interaction"):
         if roles.second_order or roles.mechanical:
             return False
         return roles.position_quantity is None or roles.position_quantity in effect.quantities
