@@ -430,9 +430,10 @@ for _effect in (
            requires=("coulomb_friction", "stribeck_friction"),
            shape="one-sided sign-like law of the rate"),
     Effect("asymmetric_stiffness", "a spring stiffer on one side than on the other (an "
-           "even term x|x|); added beside a linear spring", "position", "a1 {x} abs({x})",
+           "even term |x|: beside a linear spring k x, a stiffness k + a on one side and "
+           "k - a on the other); added beside a linear spring", "position", "a1 abs({x})",
            "f1({x})", requires=("linear_stiffness",),
-           shape="one-sided square law"),
+           shape="one-sided linear law"),
     Effect("falling_damping", "damping concentrated near the equilibrium that falls away "
            "with displacement (an eddy-current brake at the centre)", "position_velocity",
            "a1 exp(-a2 {x}^2) {v}", None, (), "dissipative", ("a1 >= 0", "a2 >= 0"),

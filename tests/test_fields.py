@@ -217,3 +217,45 @@ def test_an_effect_says_which_quantities_it_applies_to():
     assert "level" in torricelli and "concentration" not in torricelli
     assert not set(effects.get("linear_rate").quantities) & MECHANICAL
     assert set(effects.get("offset").quantities) == set(QUANTITIES)
+
+
+# -- two first-order states acting on each other -------------------------------------------
+def _interactions(equations, quantity="population"):
+    skeleton = Skeleton(equations)
+    roles = equation_roles(skeleton, dict.fromkeys(skeleton.states, quantity))
+    found = enumerate_candidates(skeleton, roles, True) + enumerate_moves(skeleton, roles, True)
+    return [c for c in found if c.effect.acts_through == "interaction"]
+
+
+def test_two_species_are_tried_reacting_in_one_equation_or_in_both():
+    tried = {(c.effect.name, c.move, tuple(c.additions))
+             for c in _interactions(["x1_dot = u - a1 x1", "x2_dot = a2 - a1 x2"],
+                                    "concentration")}
+    product = "a1 x1 x2"
+    assert ("mass_action", "add", ((0, product),)) in tried
+    assert ("mass_action", "add", ((0, product), (1, product))) in tried
+    # the saturation levels off in either species
+    for s, r in (("x1", "x2"), ("x2", "x1")):
+        term = f"a1 {s} {r}/(a2 + abs({s}))"
+        assert ("saturating_interaction", "add", ((0, term), (1, term))) in tried
+    # a product is tried once however its states are ordered
+    assert sum(c[0] == "mass_action" and len(c[2]) == 2 for c in tried) == 1
+
+
+def test_a_predators_catch_written_in_both_equations_is_replaced_in_both():
+    moves = [c for c in _interactions(["x1_dot = a1 x1 - a2 x1 x2", "x2_dot = a3 x1 x2 - a4 x2"])
+             if c.move == "replace" and len(c.removals) == 2]
+    assert moves and all(c.effect.name == "saturating_interaction" for c in moves)
+    prey_saturating = next(c for c in moves if c.variable == "x1 x2")
+    assert prey_saturating.removals == [(0, "a2*x1*x2"), (1, "a3*x1*x2")]
+    assert prey_saturating.removed_params == ["a2", "a3"]
+    assert prey_saturating.effect.called("population") == "Holling type II predation"
+
+
+def test_no_interaction_is_tried_on_mechanical_states():
+    assert _interactions(["x1_dot = x2", "x2_dot = u - a1 x2 - a2 x1", "x3_dot = - a3 x3"],
+                         "position") == []
+    # a first-order state next to a mechanical pair has no partner there
+    skeleton = Skeleton(["x1_dot = x2", "x2_dot = u - a1 x2 - a2 x1", "x3_dot = - a3 x3"])
+    roles = equation_roles(skeleton, {"x3": "temperature"})
+    assert [r.partners for r in roles] == [(), ()]

@@ -174,6 +174,20 @@ def test_asymmetric_effects_are_tried_only_beside_their_symmetric_partner():
     assert "asymmetric_viscous_damping" in tried and "asymmetric_stiffness" not in tried
 
 
+@pytest.mark.parametrize("name", ["asymmetric_viscous_damping", "asymmetric_coulomb_friction",
+                                  "asymmetric_stiffness"])
+def test_an_asymmetric_variant_is_even_so_its_partner_differs_on_each_side(name):
+    # beside an odd law (k x), an even term (a |x|) makes it k + a on one side and k - a on
+    # the other; an odd one (x |x|) would change both sides alike
+    effect = effects.get(name)
+    variable = {"velocity": "v", "position": "x"}[effect.acts_through]
+    term = Skeleton([f"x1_dot = {effect.term_for(**{variable: 'x1'})}"])
+    z = np.linspace(0.1, 2.0, 7)
+    system = term.compile(params=dict.fromkeys(term.params, 1.5))
+    rates = system.evaluate({"x1": np.concatenate([z, -z])}, 14)[:, 0]
+    assert np.allclose(rates[:7], rates[7:]) and not np.allclose(rates, 0.0)
+
+
 @pytest.mark.slow
 def test_asymmetric_viscous_friction_is_named_on_a_positioning_axis():
     frame = datasets.make_positioning_axis(random_state=0, viscous=(10.0, 6.0))

@@ -153,14 +153,13 @@ def _assignments(effect: catalogue.Effect, roles: EquationRoles, has_time: bool)
     if kind == "state":
         yield roles.position, [(k, effect.term_for(s=roles.position))]
     elif kind == "interaction":
+        # in the equation alone, and in the other state's too, with a coefficient of its
+        # own: what one species loses to the reaction another loses or gains, by a yield
         own = roles.position
-        for other in roles.partners:
-            term = effect.term_for(s=own, r=other)
-            yield f"{own} {other}", [(k, term)]
-            swapped = effect.term_for(s=other, r=own)
-            if _shape_key(parse_expression(swapped, kind="term")) != _shape_key(
-                    parse_expression(term, kind="term")):  # not symmetric in the two
-                yield f"{other} {own}", [(k, swapped)]
+        for other, partner in roles.partners:
+            for variable, term in _interaction_readings(effect, own, other):
+                yield variable, [(k, term)]
+                yield variable, [(k, term), (partner, term)]
     elif kind == "velocity":
         v = roles.velocity
         yield v, [(k, effect.term_for(v=v))]
@@ -182,6 +181,23 @@ def _assignments(effect: catalogue.Effect, roles: EquationRoles, has_time: bool)
         yield TIME, [(k, effect.term_for())]
     elif kind == "none":
         yield "", [(k, effect.term_for())]
+
+
+def _interaction_readings(effect: catalogue.Effect, own: str, other: str):
+    """``(variable, term)`` of an interaction of two states, each way it reads them.
+
+    Once where the term is symmetric in the two (a product), else with each
+    as ``{s}`` (the one a saturation levels off in); the variable names the
+    two states in that order (sorted for a symmetric term).
+    """
+    term = effect.term_for(s=own, r=other)
+    swapped = effect.term_for(s=other, r=own)
+    if _shape_key(parse_expression(swapped, kind="term")) == _shape_key(
+            parse_expression(term, kind="term")):
+        yield " ".join(sorted((own, other))), term
+        return
+    yield f"{own} {other}", term
+    yield f"{other} {own}", swapped
 
 
 def fits_field(effect: catalogue.Effect, roles: EquationRoles) -> bool:
@@ -231,7 +247,8 @@ def enumerate_candidates(skeleton: Skeleton, roles: list[EquationRoles],
             for variable, additions in _assignments(effect, r, has_time):
                 # a coupling is proposed from both of its masses: keep it once
                 equations = frozenset(k for k, _ in additions)
-                key = (effect.name, equations, None if len(equations) > 1 else variable)
+                key = (effect.name, equations, None if len(equations) > 1
+                       and effect.acts_through != "interaction" else variable)
                 if key in seen:
                     continue
                 seen.add(key)
@@ -293,26 +310,60 @@ def enumerate_moves(skeleton: Skeleton, roles: list[EquationRoles],
     drag); any term with fitted numbers and no input may be removed.
     """
     inputs = set(skeleton.inputs)
-    out = []
+    by_index = {r.index: r for r in roles}
+    out, seen = [], set()
     for r in roles:
         for sign, node in fitted_terms(skeleton, r, inputs):
-            text = to_text(node)
-            reduced = skeleton.remove_term(r.index, text)
-            gone = [a for a in skeleton.params if a not in reduced.params]
-            removed = dict(removals=[(r.index, text)], removed_params=gone,
-                           removed_nodes=[(r.index, sign, node)])
             old, variable = _effect_of(node, r, has_time)
+            removed = _removal(skeleton, [(r.index, sign, node)])
             out.append(Candidate(old, r, variable, [], None, move="remove", **removed))
             for effect in catalogue.catalogue():
                 if old.name not in effect.replaces:
                     continue
                 for variable, additions in _assignments(effect, r, has_time):
+                    removing = removed
+                    if len(additions) > 1 and effect.acts_through == "interaction":
+                        # an interaction the user wrote in both states' equations is
+                        # replaced in both at once
+                        partner = additions[1][0]
+                        twin = _twin(skeleton, by_index[partner], old, node, inputs, has_time)
+                        if twin is None:
+                            continue
+                        removing = _removal(skeleton, [(r.index, sign, node), twin])
+                    key = (effect.name, frozenset(removing["removals"]), variable,
+                           frozenset(k for k, _ in additions))
+                    if key in seen:
+                        continue
+                    seen.add(key)
                     candidate = Candidate(effect, r, variable, additions,
                                           _curve_term(effect, r, variable), move="replace",
-                                          **removed)
+                                          **removing)
+                    reduced = skeleton
+                    for k, term in removing["removals"]:
+                        reduced = reduced.remove_term(k, term)
                     if not absorbed(reduced, candidate):
                         out.append(candidate)
     return out
+
+
+def _removal(skeleton: Skeleton, terms: list[tuple[int, float, Node]]) -> dict:
+    """The removal fields of a :class:`Candidate` taking ``(equation, sign, node)`` out."""
+    reduced = skeleton
+    for k, _, node in terms:
+        reduced = reduced.remove_term(k, to_text(node))
+    return dict(removals=[(k, to_text(node)) for k, _, node in terms],
+                removed_params=[a for a in skeleton.params if a not in reduced.params],
+                removed_nodes=list(terms))
+
+
+def _twin(skeleton: Skeleton, roles: EquationRoles, effect: catalogue.Effect, node: Node,
+          inputs: set[str], has_time: bool) -> tuple[int, float, Node] | None:
+    """The term of ``roles``' equation that is ``effect`` on the same states as ``node``."""
+    for sign, other in fitted_terms(skeleton, roles, inputs):
+        if (symbols_in(other) == symbols_in(node)
+                and _effect_of(other, roles, has_time)[0].name == effect.name):
+            return roles.index, sign, other
+    return None
 
 
 def enumerate_input_moves(skeleton: Skeleton,

@@ -231,15 +231,18 @@ def _rival_wins(rival: Candidate, leader: Candidate) -> str:
     By the held-out error, lower by :data:`PARSIMONY`, unless one trajectory
     through the whole record says otherwise; or by that whole record's output
     error, lower by as much (both known when the model was fitted by output
-    error): windows restarted from noisy states cannot tell two close shapes
-    apart (a spring's x^3 from its x|x|) that a fit through the whole record
-    can.
+    error), unless the held-out error is higher by as much: windows restarted from
+    noisy states cannot tell two close shapes apart (Stribeck's friction from
+    Coulomb's, on a coloured record) that a fit through the whole record can,
+    and a fit through the whole record lets a flexible shape stand in for
+    another effect still missing, which the held-out windows do not.
     """
     crit = leader.held_out.criterion
     held_out = rival.held_out.after[crit], leader.held_out.after[crit]
     whole = rival.whole_record, leader.whole_record
     known = all(w is not None and math.isfinite(w) for w in whole)
-    if known and whole[0] <= (1 - PARSIMONY) * whole[1]:
+    if known and whole[0] <= (1 - PARSIMONY) * whole[1] \
+            and held_out[0] <= (1 + PARSIMONY) * held_out[1]:
         return f"whole-record output error {whole[0]:.4g} against {whole[1]:.4g}"
     if held_out[0] <= (1 - PARSIMONY) * held_out[1] and not (known and whole[0] > whole[1]):
         return f"held-out {crit} error {held_out[0]:.3g} against {held_out[1]:.3g}"

@@ -39,10 +39,11 @@ class EquationRoles:
         Whether the equation may have mechanical effects: a pair of a
         mechanical position and velocity, or a first-order state that the
         user says is mechanical (a velocity).
-    partners : tuple of str
+    partners : tuple of (str, int)
         The skeleton's other first-order states that are not mechanical, which
         a first-order state of that kind may interact with (a reaction between
-        two species); empty for a mechanical equation.
+        two species), with the index of their equation; empty for a mechanical
+        equation.
     """
 
     index: int
@@ -54,7 +55,7 @@ class EquationRoles:
     position_quantity: str | None = "position"
     velocity_quantity: str | None = "velocity"
     mechanical: bool = True
-    partners: tuple[str, ...] = ()
+    partners: tuple[tuple[str, int], ...] = ()
 
     def quantity_of(self, acts_through: str) -> str | None:
         """The quantity of the variable an effect acting through ``acts_through`` reads."""
@@ -89,7 +90,7 @@ def equation_roles(skeleton: Skeleton, quantities: Mapping[str, str] | None = No
     for eq in skeleton.parsed:
         if eq.state in position_of:
             acceleration_of[position_of[eq.state]] = eq.index
-    first_order = [eq.state for eq in skeleton.parsed
+    first_order = [(eq.state, eq.index) for eq in skeleton.parsed
                    if eq.state not in positions and eq.state not in position_of
                    and not is_mechanical(measures[eq.state])]
     out = []
@@ -105,7 +106,7 @@ def equation_roles(skeleton: Skeleton, quantities: Mapping[str, str] | None = No
                                      mechanical=all(map(is_mechanical, pair))))
         else:
             mechanical = is_mechanical(measures[state])
-            partners = () if mechanical else tuple(s for s in first_order if s != state)
+            partners = () if mechanical else tuple(p for p in first_order if p[0] != state)
             out.append(EquationRoles(eq.index, eq.derivative, state, state, (), False,
                                      measures[state], measures[state], mechanical=mechanical,
                                      partners=partners))
