@@ -845,6 +845,7 @@ def _two_body_loop_timing() -> Timing:
     path = Path(__file__).with_name("field_study.py")
     spec = importlib.util.spec_from_file_location("_field_study", path)
     study = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = study  # its dataclasses look their module up there
     spec.loader.exec_module(study)
     case = study.CASES["bodies_cubic_spring"]
     frame = study._record(case, snr=40.0, seed=0)

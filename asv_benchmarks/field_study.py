@@ -4,8 +4,9 @@ Each case is a record of a field: first-order records of a tank's level, a
 substrate's concentration, a body's temperature, a capacitor's voltage, a
 population, measured through the state and driven by a stepped input (a
 heater's reaching its tank 6 samples late, a pump or a heater that levels off
-or does nothing inside a dead band); two species reacting in a stirred tank
-(A + B, both fed) or a predator and its prey (stocked), both measured; and two
+or does nothing inside a dead band); a cascade of two tanks, two species
+reacting in a stirred tank (A + B, both fed) or a predator and its prey
+(stocked), both states measured; and two
 bodies joined by a spring, the first one forced, measured at both positions
 only (4,000 samples, four states), with the hidden effect on the second body.
 Noise is Gaussian. The loop starts from the skeleton a scientist of that
@@ -117,6 +118,16 @@ CASES = {
         "process", "level", "x1_dot = a1 a3 tanh(u/a3) - a2 x1",
         {"a1": 0.5, "a2": 0.3, "a3": 0.6}, "x1_dot = a1 u - a2 x1", "input_saturation",
         "pump or valve saturation", (0.0, 1.6), 1.0, dt=0.5, hold=80),
+    "tanks_cascade_torricelli": Case(
+        "process", "level",
+        ("x1_dot = a1 u - a2 sqrt(abs(x1))", "x2_dot = a2 sqrt(abs(x1)) - a3 sqrt(abs(x2))"),
+        {"a1": 0.5, "a2": 0.4, "a3": 0.3},
+        ("x1_dot = a1 u - a2 x1", "x2_dot = a2 x1 - a3 x2"), "square_root_outflow",
+        "Torricelli outflow", (0.2, 1.0), (1.0, 1.0), dt=0.5, hold=80, measured=("x1", "x2")),
+    "tanks_cascade_control": Case(
+        "process", "level", ("x1_dot = a1 u - a2 x1", "x2_dot = a2 x1 - a3 x2"),
+        {"a1": 0.5, "a2": 0.4, "a3": 0.3}, ("x1_dot = a1 u - a2 x1", "x2_dot = a2 x1 - a3 x2"),
+        None, None, (0.2, 1.0), (1.0, 1.0), dt=0.5, hold=80, measured=("x1", "x2")),
     "tank_control": Case(
         "process", "level", "x1_dot = a1 u - a2 x1", {"a1": 0.5, "a2": 0.3},
         "x1_dot = a1 u - a2 x1", None, None, (0.2, 1.0), 1.0, dt=0.5, hold=80),

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from sklearn_pycc import PolyCCRegressor, Skeleton, diagnose, effects
-from sklearn_pycc.diagnostics._candidates import enumerate_candidates, enumerate_moves
+from sklearn_pycc.diagnostics._candidates import enumerate_candidates, enumerate_moves, extend
 from sklearn_pycc.diagnostics._roles import equation_roles
 from sklearn_pycc.quantities import MECHANICAL, QUANTITIES, state_quantities
 
@@ -259,3 +259,28 @@ def test_no_interaction_is_tried_on_mechanical_states():
     skeleton = Skeleton(["x1_dot = x2", "x2_dot = u - a1 x2 - a2 x1", "x3_dot = - a3 x3"])
     roles = equation_roles(skeleton, {"x3": "temperature"})
     assert [r.partners for r in roles] == [(), ()]
+
+
+def test_a_storage_s_outflow_law_replaces_its_own_term_and_the_next_storage_s_inflow():
+    skeleton = Skeleton(["x1_dot = a1 u - a2 x1", "x2_dot = a2 x1 - a3 x2"], ["a2 >= 0"])
+    roles = equation_roles(skeleton, {"x1": "level", "x2": "level"})
+    joint = [c for c in enumerate_moves(skeleton, roles, True)
+             if c.effect.name == "square_root_outflow" and len(c.additions) == 2]
+    assert [c.removals for c in joint] == [[(0, "a2*x1"), (1, "a2*x1")]]
+    extend(skeleton, joint[0])
+    # what the upper tank loses the lower one gains, each with a coefficient of its own
+    assert joint[0].extended.equations == ("x1_dot = a1*u - a4*sqrt(abs(x1))",
+                                           "x2_dot = -a3*x2 + a5*sqrt(abs(x1))")
+    assert joint[0].extended.bounds["a5"] == (0.0, np.inf)
+
+
+def test_a_storage_s_inflow_is_read_by_the_law_of_the_storage_it_comes_from():
+    skeleton = Skeleton(["x1_dot = a1 u - a4 sqrt(abs(x1))", "x2_dot = a2 x1 - a3 x2"])
+    roles = equation_roles(skeleton, {"x1": "level", "x2": "level"})
+    inflows = {c.effect.name: c for c in enumerate_moves(skeleton, roles, True)
+               if c.roles.index == 1 and c.variable == "x1" and c.move == "replace"}
+    assert "square_root_outflow" in inflows and "saturating_rate" in inflows
+    torricelli = inflows["square_root_outflow"]
+    extend(skeleton, torricelli)
+    assert torricelli.extended.equations[1] == "x2_dot = -a3*x2 + a5*sqrt(abs(x1))"
+    assert torricelli.effect.called("level") == "Torricelli outflow"

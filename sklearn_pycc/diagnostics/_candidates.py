@@ -317,19 +317,29 @@ def enumerate_moves(skeleton: Skeleton, roles: list[EquationRoles],
             old, variable = _effect_of(node, r, has_time)
             removed = _removal(skeleton, [(r.index, sign, node)])
             out.append(Candidate(old, r, variable, [], None, move="remove", **removed))
+            out.extend(_inflows(skeleton, r, sign, node, by_index=by_index,
+                                has_time=has_time, removed=removed))
             for effect in catalogue.catalogue():
                 if old.name not in effect.replaces:
                     continue
-                for variable, additions in _assignments(effect, r, has_time):
+                for variable, additions in [*_assignments(effect, r, has_time),
+                                            *_flows(effect, r, node, skeleton,
+                                                    by_index=by_index, inputs=inputs)]:
                     removing = removed
                     if len(additions) > 1 and effect.acts_through == "interaction":
                         # an interaction the user wrote in both states' equations is
                         # replaced in both at once
                         partner = additions[1][0]
-                        twin = _twin(skeleton, by_index[partner], old, node, inputs, has_time)
+                        twin = _twin(skeleton, by_index[partner], old, node, inputs=inputs,
+                                     has_time=has_time)
                         if twin is None:
                             continue
                         removing = _removal(skeleton, [(r.index, sign, node), twin])
+                    elif len(additions) > 1 and effect.acts_through == "state":
+                        removing = _removal(skeleton, [(r.index, sign, node),
+                                                       _flow_twin(skeleton, by_index,
+                                                                  additions[1][0], node,
+                                                                  inputs)])
                     key = (effect.name, frozenset(removing["removals"]), variable,
                            frozenset(k for k, _ in additions))
                     if key in seen:
@@ -356,7 +366,62 @@ def _removal(skeleton: Skeleton, terms: list[tuple[int, float, Node]]) -> dict:
                 removed_nodes=list(terms))
 
 
-def _twin(skeleton: Skeleton, roles: EquationRoles, effect: catalogue.Effect, node: Node,
+def _flow_twin(skeleton: Skeleton, by_index: dict, k: int, node: Node,
+               inputs: set[str]) -> tuple[int, float, Node] | None:
+    """The term of equation ``k`` of the same shape as ``node`` (a storage's inflow)."""
+    for sign, other in fitted_terms(skeleton, by_index[k], inputs):
+        if _shape_key(other) == _shape_key(node):
+            return k, sign, other
+    return None
+
+
+def _inflows(skeleton: Skeleton, roles: EquationRoles, sign: float, node: Node, *,
+             by_index: dict, has_time: bool, removed: dict) -> list[Candidate]:
+    """Another storage's inflow, read by each law of that storage's outflow.
+
+    A term of the equation that reads only another first-order state
+    (``a2 x1`` in ``x2_dot``) is that state's outflow coming in; it is
+    replaced by each law that replaces the term as that state's own
+    (``a sqrt(x1)``), keeping its sign.
+    """
+    out = []
+    for other, k in roles.partners:
+        if symbols_in(node) & set(skeleton.states) != {other}:
+            continue
+        source = by_index[k]
+        old, _ = _effect_of(node, source, has_time)
+        for effect in catalogue.catalogue():
+            if old.name not in effect.replaces or effect.acts_through != "state":
+                continue
+            term = effect.term_for(s=other)
+            added = f"-({term})" if sign > 0 else term
+            out.append(Candidate(effect, roles, other, [(roles.index, added)], None,
+                                 move="replace", **removed))
+    return out
+
+
+def _flows(effect: catalogue.Effect, roles: EquationRoles, node: Node, skeleton: Skeleton, *,
+           by_index: dict, inputs: set[str]):
+    """A storage's law of outflow replacing its own term and the other storage's inflow.
+
+    Where the state's own term (``a2 x1`` in ``x1_dot``) has a twin of the
+    same shape in another first-order state's equation (``a3 x1`` in
+    ``x2_dot``: what the first storage loses the second gains), the law
+    replaces both, subtracted from the first and added to the second, each
+    with its own coefficient (a yield).
+    """
+    if effect.acts_through != "state" or not roles.partners:
+        return
+    own = roles.position
+    if symbols_in(node) & set(skeleton.states) != {own}:
+        return
+    term = effect.term_for(s=own)
+    for _, k in roles.partners:
+        if _flow_twin(skeleton, by_index, k, node, inputs) is not None:
+            yield own, [(roles.index, term), (k, f"-({term})")]
+
+
+def _twin(skeleton: Skeleton, roles: EquationRoles, effect: catalogue.Effect, node: Node, *,
           inputs: set[str], has_time: bool) -> tuple[int, float, Node] | None:
     """The term of ``roles``' equation that is ``effect`` on the same states as ``node``."""
     for sign, other in fitted_terms(skeleton, roles, inputs):

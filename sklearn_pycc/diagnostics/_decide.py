@@ -229,19 +229,24 @@ def _rival_wins(rival: Candidate, leader: Candidate) -> str:
     """Why ``rival`` is to be named rather than ``leader``, both confirmed; empty if not.
 
     By the held-out error, lower by :data:`PARSIMONY`, unless one trajectory
-    through the whole record says otherwise; or by that whole record's output
-    error, lower by as much (both known when the model was fitted by output
-    error), unless the held-out error is higher by as much: windows restarted from
-    noisy states cannot tell two close shapes apart (Stribeck's friction from
-    Coulomb's, on a coloured record) that a fit through the whole record can,
-    and a fit through the whole record lets a flexible shape stand in for
-    another effect still missing, which the held-out windows do not.
+    through the whole record says otherwise. A rival that refines the leader's
+    law (it :attr:`~sklearn_pycc.effects.Effect.replaces` it: Stribeck's
+    friction Coulomb's) also wins by that whole record's output error, lower by
+    as much (both known when the model was fitted by output error), unless the
+    held-out error is higher by as much: windows restarted from noisy states
+    cannot see the detail the refinement adds (the breakaway peak at low
+    speed, on a coloured record), and one trajectory through the whole record
+    can. An unrelated shape does not win so: through the whole record a
+    flexible shape also stands in for another effect still missing (a dead
+    zone for the cubic spring, while a quadratic drag is missing), which the
+    held-out windows do not let it do.
     """
     crit = leader.held_out.criterion
     held_out = rival.held_out.after[crit], leader.held_out.after[crit]
     whole = rival.whole_record, leader.whole_record
     known = all(w is not None and math.isfinite(w) for w in whole)
-    if known and whole[0] <= (1 - PARSIMONY) * whole[1] \
+    refines = leader.effect.name in getattr(rival.effect, "replaces", ())
+    if known and refines and whole[0] <= (1 - PARSIMONY) * whole[1] \
             and held_out[0] <= (1 + PARSIMONY) * held_out[1]:
         return f"whole-record output error {whole[0]:.4g} against {whole[1]:.4g}"
     if held_out[0] <= (1 - PARSIMONY) * held_out[1] and not (known and whole[0] > whole[1]):
