@@ -245,7 +245,7 @@ def _rival_wins(rival: Candidate, leader: Candidate) -> str:
     held_out = rival.held_out.after[crit], leader.held_out.after[crit]
     whole = rival.whole_record, leader.whole_record
     known = all(w is not None and math.isfinite(w) for w in whole)
-    refines = leader.effect.name in getattr(rival.effect, "replaces", ())
+    refines = leader.effect.name in rival.effect.replaces
     if known and refines and whole[0] <= (1 - PARSIMONY) * whole[1] \
             and held_out[0] <= (1 + PARSIMONY) * held_out[1]:
         return f"whole-record output error {whole[0]:.4g} against {whole[1]:.4g}"
