@@ -4,7 +4,8 @@ Each case is a record of a field: first-order records of a tank's level, a
 substrate's concentration, a body's temperature, a capacitor's voltage, a
 population, measured through the state and driven by a stepped input (a
 heater's reaching its tank 6 samples late, a pump or a heater that levels off
-or does nothing inside a dead band); a cascade of two tanks, two species
+or does nothing inside a dead band, a valve whose flow is the square of its
+opening); a cascade of two tanks draining alike, two species
 reacting in a stirred tank (A + B, both fed) or a predator and its prey
 (stocked), both states measured; and two
 bodies joined by a spring, the first one forced, measured at both positions
@@ -118,6 +119,10 @@ CASES = {
         "process", "level", "x1_dot = a1 a3 tanh(u/a3) - a2 x1",
         {"a1": 0.5, "a2": 0.3, "a3": 0.6}, "x1_dot = a1 u - a2 x1", "input_saturation",
         "pump or valve saturation", (0.0, 1.6), 1.0, dt=0.5, hold=80),
+    "tank_valve_characteristic": Case(
+        "process", "level", "x1_dot = a1 u^2 - a2 x1", {"a1": 0.8, "a2": 0.3},
+        "x1_dot = a1 u - a2 x1", "valve_characteristic", "valve characteristic", (0.1, 1.0),
+        1.0, dt=0.5, hold=80),
     "tanks_cascade_torricelli": Case(
         "process", "level",
         ("x1_dot = a1 u - a2 sqrt(abs(x1))", "x2_dot = a2 sqrt(abs(x1)) - a3 sqrt(abs(x2))"),

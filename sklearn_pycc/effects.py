@@ -237,12 +237,13 @@ class Effect:
         pair of other quantities, a charge and a current, it is tried by its
         shape). A law of a first-order state's own rate: the quantities of
         its field that are not mechanical (all of those for ``"any"``; a
-        state of unknown quantity gets it too). Any other effect: every
-        quantity.
+        state of unknown quantity gets it too), and so for any other effect
+        of one field (a valve's characteristic: the process quantities). Any
+        other effect: every quantity.
         """
         if self.field == "mechanics":
             return tuple(q for q in QUANTITIES if is_mechanical(q))
-        if self.acts_through in ("state", "interaction"):
+        if self.acts_through in ("state", "interaction") or self.field != "any":
             return tuple(q for q, field in QUANTITIES.items() if not is_mechanical(q)
                          and self.field in ("any", field))
         return tuple(QUANTITIES)
@@ -466,6 +467,13 @@ for _effect in (
                   ("flow", "valve dead band"), ("pressure", "valve dead band"),
                   ("voltage", "amplifier dead zone"), ("current", "amplifier dead zone")),
            shape="input dead zone"),
+    Effect("valve_characteristic", "a valve passes a flow that is a power of its opening, "
+           "not proportional to it (above 1 an equal-percentage valve, opening slowly at "
+           "first; below 1 a quick-opening one)", "input", "abs({i})^a1 sign({i})",
+           bounds=("a1 >= 0",), field="process",
+           names=(("level", "valve characteristic"), ("volume", "valve characteristic"),
+                  ("flow", "valve characteristic"), ("pressure", "valve characteristic")),
+           shape="power law of the input"),
     Effect("offset", "constant force or bias (gravity on a slope, sensor offset)", "none",
            "a1", names=(("level", "constant inflow or leak"),
                         ("volume", "constant inflow or leak"),

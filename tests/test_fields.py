@@ -284,3 +284,59 @@ def test_a_storage_s_inflow_is_read_by_the_law_of_the_storage_it_comes_from():
     extend(skeleton, torricelli)
     assert torricelli.extended.equations[1] == "x2_dot = -a3*x2 + a5*sqrt(abs(x1))"
     assert torricelli.effect.called("level") == "Torricelli outflow"
+
+
+def test_storages_built_alike_are_tried_draining_alike_down_the_chain():
+    skeleton = Skeleton(["x1_dot = a1 u - a2 x1", "x2_dot = a2 x1 - a3 x2",
+                         "x3_dot = a3 x2 - a4 x3"])
+    roles = equation_roles(skeleton, dict.fromkeys(skeleton.states, "level"))
+    chains = {len(c.additions): c for c in enumerate_moves(skeleton, roles, True)
+              if c.effect.name == "square_root_outflow" and c.roles.index == 0}
+    # the upper tank alone, with the next one's inflow, with its outflow, ... to the last
+    assert sorted(chains) == [1, 2, 3, 4, 5]
+    whole = chains[5]
+    assert whole.removals == [(0, "a2*x1"), (1, "a2*x1"), (1, "a3*x2"), (2, "a3*x2"),
+                              (2, "a4*x3")]
+    assert whole.removed_params == ["a2", "a3", "a4"]
+    extend(skeleton, whole)
+    assert whole.extended.equations == (
+        "x1_dot = a1*u - a5*sqrt(abs(x1))",
+        "x2_dot = a6*sqrt(abs(x1)) - a7*sqrt(abs(x2))",
+        "x3_dot = a8*sqrt(abs(x2)) - a9*sqrt(abs(x3))")
+    # a chain whose next storage drains by another law stops at its inflow
+    mixed = Skeleton(["x1_dot = a1 u - a2 x1", "x2_dot = a2 x1 - a3 sqrt(abs(x2))"])
+    roles = equation_roles(mixed, dict.fromkeys(mixed.states, "level"))
+    assert max(len(c.additions) for c in enumerate_moves(mixed, roles, True)
+               if c.effect.name == "square_root_outflow" and c.roles.index == 0) == 2
+
+
+@pytest.fixture(scope="module")
+def cascade():
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 600.0, 0.5)
+    u = np.repeat(rng.uniform(0.2, 1.0, size=len(t) // 80 + 1), 80)[:len(t)]
+    truth = ["x1_dot = a1 u - a2 sqrt(abs(x1))", "x2_dot = a2 sqrt(abs(x1)) - a3 sqrt(abs(x2))"]
+    states = Skeleton(truth).simulate(t, [1.0, 1.0], params={"a1": 0.5, "a2": 0.4, "a3": 0.3},
+                                      inputs={"u": u})
+    X = pd.DataFrame({"t": t, "u": u})
+    for s in ("x1", "x2"):
+        x = states[s].to_numpy()
+        X[s] = x + 0.01 * np.std(x) * rng.standard_normal(len(t))
+    return X
+
+
+def test_a_cascade_of_tanks_is_told_both_drain_by_torricelli_s_law(cascade):
+    start = ["x1_dot = a1 u - a2 x1", "x2_dot = a2 x1 - a3 x2"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=start, quantities={"x1": "level", "x2": "level"})
+        report = diagnose(model.fit(cascade), cascade)
+    best = report.best
+    assert best.effect == "square_root_outflow" and best.called == "Torricelli outflow"
+    assert best.replaced_in == {"x1_dot": ("a2*x1",), "x2_dot": ("a2*x1", "a3*x2")}
+    assert best.action() == (
+        "replace 'a2*x1' in x1_dot by '- a4*sqrt(abs(x1))', and 'a2*x1' and 'a3*x2' in x2_dot "
+        "by '+ a5*sqrt(abs(x1)) - a6*sqrt(abs(x2))'")
+    assert best.equations.equations[1] == "x2_dot = a5*sqrt(abs(x1)) - a6*sqrt(abs(x2))"
+    assert best.held_out.confirmed
+    assert "in place of 'a2*x1' in x1_dot and 'a2*x1 + a3*x2' in x2_dot" in report.summary()

@@ -88,3 +88,25 @@ def test_a_mechanical_equation_keeps_its_input_s_shape_and_may_read_it_late():
     velocity = Skeleton(["x1_dot = a3 F - a1 x1"])
     moves = enumerate_input_moves(velocity, equation_roles(velocity, {"x1": "velocity"}))
     assert [c.effect.name for c in moves] == ["transport_delay"]
+
+
+def test_a_tank_filled_through_a_valve_is_told_the_valve_s_characteristic():
+    # an equal-percentage-like valve: the inflow grows with the square of the opening
+    rng = np.random.default_rng(2)
+    t = np.arange(0.0, 600.0, 0.5)
+    u = np.repeat(rng.uniform(0.1, 1.0, size=len(t) // 80 + 1), 80)[:len(t)]
+    x = Skeleton(["x1_dot = a1 u^2 - a2 x1"]).simulate(
+        t, [1.0], params={"a1": 0.8, "a2": 0.3}, inputs={"u": u})["x1"].to_numpy()
+    X = pd.DataFrame({"t": t, "u": u, "x1": x + 0.01 * np.std(x) * rng.standard_normal(len(t))})
+    start = PolyCCRegressor(equations=START, quantities={"x1": "level"})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = HypothesisLoop(start, X).run(max_rounds=2)
+    first = loop.rounds[0].added
+    assert (first.effect, first.called) == ("valve_characteristic", "valve characteristic")
+    exponent = [v for a, v in loop.model.params_.items() if a not in ("a1", "a2", "a3")]
+    assert len(exponent) == 1 and abs(exponent[0] - 2.0) < 0.1
+    # a heater has no valve: the characteristic is not tried on a temperature
+    skeleton = Skeleton(START)
+    tried = enumerate_input_moves(skeleton, equation_roles(skeleton, {"x1": "temperature"}))
+    assert "valve_characteristic" not in {c.effect.name for c in tried}

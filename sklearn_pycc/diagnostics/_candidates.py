@@ -208,15 +208,17 @@ def fits_field(effect: catalogue.Effect, roles: EquationRoles) -> bool:
     and a first-order state the user says is mechanical; an effect acting
     through a first-order state's own value, or its interaction with another
     such state, enters the other first-order states, those of its field or of
-    an unknown quantity.
+    an unknown quantity; so does any other effect of one field (a valve's
+    characteristic, in how a process's input is read).
     """
     if effect.field == "mechanics":
         return roles.second_order or roles.mechanical
-    if effect.acts_through in ("state", "interaction"):
-        if roles.second_order or roles.mechanical:
-            return False
-        return roles.position_quantity is None or roles.position_quantity in effect.quantities
-    return True
+    own_rate = effect.acts_through in ("state", "interaction")
+    if own_rate and (roles.second_order or roles.mechanical):
+        return False
+    if not own_rate and effect.field == "any":
+        return True
+    return roles.position_quantity is None or roles.position_quantity in effect.quantities
 
 
 def _curve_term(effect: catalogue.Effect, roles: EquationRoles, variable: str) -> str | None:
@@ -322,11 +324,14 @@ def enumerate_moves(skeleton: Skeleton, roles: list[EquationRoles],
             for effect in catalogue.catalogue():
                 if old.name not in effect.replaces:
                     continue
-                for variable, additions in [*_assignments(effect, r, has_time),
-                                            *_flows(effect, r, node, skeleton,
-                                                    by_index=by_index, inputs=inputs)]:
+                moves = [(v, a, None) for v, a in _assignments(effect, r, has_time)]
+                moves += _flows(effect, r, (sign, node), skeleton, by_index=by_index,
+                                inputs=inputs, has_time=has_time)
+                for variable, additions, nodes in moves:
                     removing = removed
-                    if len(additions) > 1 and effect.acts_through == "interaction":
+                    if nodes is not None:
+                        removing = _removal(skeleton, nodes)
+                    elif len(additions) > 1 and effect.acts_through == "interaction":
                         # an interaction the user wrote in both states' equations is
                         # replaced in both at once
                         partner = additions[1][0]
@@ -335,11 +340,6 @@ def enumerate_moves(skeleton: Skeleton, roles: list[EquationRoles],
                         if twin is None:
                             continue
                         removing = _removal(skeleton, [(r.index, sign, node), twin])
-                    elif len(additions) > 1 and effect.acts_through == "state":
-                        removing = _removal(skeleton, [(r.index, sign, node),
-                                                       _flow_twin(skeleton, by_index,
-                                                                  additions[1][0], node,
-                                                                  inputs)])
                     key = (effect.name, frozenset(removing["removals"]), variable,
                            frozenset(k for k, _ in additions))
                     if key in seen:
@@ -400,25 +400,71 @@ def _inflows(skeleton: Skeleton, roles: EquationRoles, sign: float, node: Node, 
     return out
 
 
-def _flows(effect: catalogue.Effect, roles: EquationRoles, node: Node, skeleton: Skeleton, *,
-           by_index: dict, inputs: set[str]):
-    """A storage's law of outflow replacing its own term and the other storage's inflow.
+def _flows(effect: catalogue.Effect, roles: EquationRoles, own_term: tuple[float, Node],
+           skeleton: Skeleton, *, by_index: dict, inputs: set[str], has_time: bool) -> list:
+    """A storage's law of outflow replacing its own term and the next storage's inflow.
 
     Where the state's own term (``a2 x1`` in ``x1_dot``) has a twin of the
     same shape in another first-order state's equation (``a3 x1`` in
     ``x2_dot``: what the first storage loses the second gains), the law
     replaces both, subtracted from the first and added to the second, each
-    with its own coefficient (a yield).
+    with its own coefficient (a yield). Where that storage drains by a term
+    of the same law as the first's (``a4 x2``), the law also replaces it,
+    and so on down the chain: storages built alike (a cascade of tanks) drain
+    alike, and one storage's law alone, written into a chain still linear
+    further down, fits neither.
+
+    Returns ``(variable, additions, removed)`` triples, ``removed`` the
+    ``(equation, sign, node)`` terms each replaces.
     """
-    if effect.acts_through != "state" or not roles.partners:
-        return
+    sign, node = own_term
     own = roles.position
-    if symbols_in(node) & set(skeleton.states) != {own}:
-        return
+    if effect.acts_through != "state" or not roles.partners \
+            or symbols_in(node) & set(skeleton.states) != {own}:
+        return []
+    old, _ = _effect_of(node, roles, has_time)
     term = effect.term_for(s=own)
+    out = []
     for _, k in roles.partners:
-        if _flow_twin(skeleton, by_index, k, node, inputs) is not None:
-            yield own, [(roles.index, term), (k, f"-({term})")]
+        twin = _flow_twin(skeleton, by_index, k, node, inputs)
+        if twin is None:
+            continue
+        additions = [(roles.index, term), (k, f"-({term})")]
+        nodes = [(roles.index, sign, node), twin]
+        out.append((own, list(additions), list(nodes)))
+        # the chain: each next storage's own term of the same law, and its own inflow twin
+        visited, current = {roles.index}, k
+        while current not in visited:
+            visited.add(current)
+            drain = _own_term(skeleton, by_index[current], old, sign, inputs=inputs,
+                              has_time=has_time)
+            if drain is None:
+                break
+            state = by_index[current].position
+            law = effect.term_for(s=state)
+            additions.append((current, law))
+            nodes.append(drain)
+            out.append((own, list(additions), list(nodes)))
+            following = [(j, t) for _, j in by_index[current].partners if j not in visited
+                         for t in [_flow_twin(skeleton, by_index, j, drain[2], inputs)]
+                         if t is not None]
+            if len(following) != 1:
+                break
+            current, onward = following[0]
+            additions.append((current, f"-({law})"))
+            nodes.append(onward)
+            out.append((own, list(additions), list(nodes)))
+    return out
+
+
+def _own_term(skeleton: Skeleton, roles: EquationRoles, old: catalogue.Effect, sign: float, *,
+              inputs: set[str], has_time: bool) -> tuple[int, float, Node] | None:
+    """The term of ``roles``' equation that is ``old`` on its own state, with ``sign``."""
+    for s, other in fitted_terms(skeleton, roles, inputs):
+        if (s == sign and symbols_in(other) & set(skeleton.states) == {roles.position}
+                and _effect_of(other, roles, has_time)[0].name == old.name):
+            return roles.index, s, other
+    return None
 
 
 def _twin(skeleton: Skeleton, roles: EquationRoles, effect: catalogue.Effect, node: Node, *,
@@ -448,6 +494,8 @@ def enumerate_input_moves(skeleton: Skeleton,
         if effect.acts_through != "input":
             continue
         for r in roles:
+            if not fits_field(effect, r):
+                continue
             if (r.second_order or r.mechanical) and not _keeps_shape(effect):
                 # a forced mechanical record shows friction and springs in the shapes an
                 # actuator's limit would take: the catalogue's own effects speak there
@@ -580,16 +628,19 @@ def absorbed(skeleton: Skeleton, candidate: Candidate) -> bool:
 # -- screening: fit the term to the residual alone ------------------------------------
 def _screen_skeleton(candidate: Candidate, states: list[str],
                      basis: list[list[str]]) -> tuple[Skeleton, list[str], list[str]]:
-    """``z_i_dot = - term_i + c1 b1 + c2 b2 ...`` per equation the candidate enters.
+    """``z_i_dot = - terms_i + c1 b1 + c2 b2 ...`` per equation the candidate enters.
 
+    One screening equation per equation the candidate adds to, in the order
+    of its first addition there, holding every term it adds there.
     ``basis[i]`` names columns holding the fitted values of the equation's
     own terms: the screen may rescale them, as the refit will. Returns the
     skeleton, its state names and the parameters of the candidate's terms.
     """
-    names = [f"{_prefix(states)}{i}" for i in range(len(candidate.additions))]
+    ks = list(dict.fromkeys(k for k, _ in candidate.additions))
+    names = [f"{_prefix(states)}{i}" for i in range(len(ks))]
     skeleton = Skeleton([f"{name}_dot = 0" for name in names])
-    for i, (_, term) in enumerate(candidate.additions):
-        skeleton = skeleton.add_term(i, term, constraints=list(candidate.term_bounds))
+    for k, term in candidate.additions:
+        skeleton = skeleton.add_term(ks.index(k), term, constraints=list(candidate.term_bounds))
     own = list(skeleton.params)
     for i, columns in enumerate(basis):
         for column in columns:
@@ -715,13 +766,13 @@ def screen_candidates(candidates: list[Candidate], data: Record, residuals: np.n
             candidate.screen_bic, candidate.screen_removed = _delta_bic(
                 before, after, floors[ks], candidate.n_change, n)
             continue
-        basis = [[basis_names[(k, text)] for text, _ in kept[k]] for k, _ in candidate.additions]
+        ks = list(dict.fromkeys(k for k, _ in candidate.additions))
+        basis = [[basis_names[(k, text)] for text, _ in kept[k]] for k in ks]
         skeleton, names, own = _screen_skeleton(candidate, states, basis)
         # the residual (measured minus model) of a missing subtracted term is -term,
         # which is what the screening equation ``z_dot = 0 - term`` predicts; the
         # equation's own terms may change their scale, as they will when refitted
-        targets = pd.DataFrame({f"{name}_dot": target[rows, k]
-                                for name, (k, _) in zip(names, candidate.additions)})
+        targets = pd.DataFrame({f"{name}_dot": target[rows, k] for name, k in zip(names, ks)})
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -730,7 +781,6 @@ def screen_candidates(candidates: list[Candidate], data: Record, residuals: np.n
         except (SkeletonError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             candidate.note = f"could not be fitted to the residual: {exc}"
             continue
-        ks = [k for k, _ in candidate.additions]
         before = np.sum(residuals[rows][:, ks] ** 2, axis=0) / scale
         after = np.sum((targets.to_numpy() - predicted) ** 2, axis=0) / scale
         candidate.screen_bic, candidate.screen_removed = _delta_bic(

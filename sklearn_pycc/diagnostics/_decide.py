@@ -449,7 +449,16 @@ def suggestion_for(c: Candidate, base: Skeleton, model, formula: Candidate | Non
         new = [x for x in curved.constraints if x not in start.constraints]
         curve_constraints = tuple(str(x) for x in new)
     derivative = {eq.index: eq.derivative for eq in skeleton.parsed}
-    also = {derivative[k]: text for k, text in c.added if k != c.roles.index}
+    also: dict = {}
+    for k, text in c.added:
+        if k != c.roles.index:
+            eq = derivative[k]
+            also[eq] = f"{also[eq]} + ({text})" if eq in also else text
+    replaced_in: dict = {}
+    for k, text in c.removals:
+        replaced_in.setdefault(derivative[k], []).append(text)
+    if set(replaced_in) <= {c.roles.derivative}:
+        replaced_in = {}
     intervals = {}
     # what the refit's backend knows of its own uncertainty, without resampling; only for
     # a model fitted by equation error, as the refit is (an output-error model's
@@ -471,7 +480,8 @@ def suggestion_for(c: Candidate, base: Skeleton, model, formula: Candidate | Non
         bounds=tuple(str(x) for x in skeleton.constraints
                      if isinstance(x, Bound) and x not in base.constraints),
         intervals=intervals, settings=_settings(c.refit, model),
-        called=c.effect.called(c.roles.quantity_of(c.effect.acts_through)))
+        called=c.effect.called(c.roles.quantity_of(c.effect.acts_through)),
+        replaced_in={eq: tuple(terms) for eq, terms in replaced_in.items()})
 
 
 def _settings(refit, model) -> dict:

@@ -17,7 +17,7 @@ import pandas as pd
 from ..exceptions import SkeletonError
 from ..measurements.record import Record
 from ..skeleton import Skeleton
-from ..skeleton.nodes import BinOp, Neg, Param, walk
+from ..skeleton.nodes import BinOp, Neg, Param, signed_terms, walk
 from ..skeleton.parser import parse_expression
 from ..skeleton.printer import to_text
 from ._candidates import TIE, Candidate
@@ -59,8 +59,10 @@ class Suggestion:
     curve_constraints : tuple of str
         Constraints of that curve, already renamed.
     also : dict
-        Other equations the effect enters (a coupling acts on both masses):
-        derivative -> term.
+        Other equations the effect enters (a coupling acts on both masses;
+        a storage's outflow law also enters the next storage): derivative ->
+        term, subtracted as ``term`` is (several terms entering one equation
+        are written as their sum).
     error_removed : float
         Share of the equation's derivative residual the refit removes.
     delta_bic : float
@@ -88,6 +90,10 @@ class Suggestion:
     replaces : tuple of str
         The terms of the diagnosed skeleton the move takes out, as written
         there (empty for an addition).
+    replaced_in : dict
+        For a move that takes terms out of several equations: derivative ->
+        the terms of :attr:`replaces` taken out of that equation (empty when
+        they all come from :attr:`equation`).
     intervals : dict
         95 % confidence interval of each new parameter, ``{"a3": (low,
         high)}``, from the diagnosis's refit (empty when its backend has no
@@ -149,6 +155,7 @@ class Suggestion:
     settings: dict = field(default_factory=dict)
     refit: object = field(default=None, repr=False, compare=False)
     called: str = ""
+    replaced_in: dict = field(default_factory=dict)
 
     def __str__(self) -> str:
         return f"{self.action()} ({self.label} through {self.variable or 'nothing'})"
@@ -168,10 +175,34 @@ class Suggestion:
             return f"remove '{self.term}' from {self.equation}"
         if self.move == "limit":
             return f"add the limit '{self.term}'"
-        if self.replaces:
-            old = "' and '".join(self.replaces)
-            return f"replace '{old}' in {self.equation} by '{_subtracted(self.term)}'"
-        return f"add '{_subtracted(self.term)}' to {self.equation}"
+        if not self.replaces:
+            return f"add '{_subtracted(self.term)}' to {self.equation}" + "".join(
+                f" and '{_written(t)}' to {eq}" for eq, t in self.also.items())
+        taken = self.replaced_in or {self.equation: self.replaces}
+        words = [f"replace '{_joined(taken.get(self.equation, ()))}' in {self.equation} "
+                 f"by '{_subtracted(self.term)}'"]
+        for eq, old in taken.items():
+            if eq == self.equation:
+                continue
+            words.append(f"'{_joined(old)}' in {eq} by '{_written(self.also[eq])}'"
+                         if eq in self.also else f"remove '{_joined(old)}' from {eq}")
+        words += [f"add '{_written(t)}' to {eq}" for eq, t in self.also.items()
+                  if eq not in taken]
+        return ", and ".join(words)
+
+
+def _joined(terms) -> str:
+    return "' and '".join(terms)
+
+
+def _written(term: str) -> str:
+    """A subtracted ``term`` (or sum of terms) as the equation reads it, each with its sign."""
+    try:
+        node = parse_expression(term, kind="terms")
+    except SkeletonError:
+        return f"- {term}"
+    return " ".join(_subtracted(to_text(part)) if sign > 0 else f"+ {to_text(part)}"
+                    for sign, part in signed_terms(node))
 
 
 def _subtracted(term: str) -> str:
@@ -419,14 +450,16 @@ class Diagnosis:
             lines = [f"Superfluous term: '{best.term}' in {best.equation} ({best.label}); "
                      "the model without it does as well on data its fit did not see."]
         elif best.move == "replace":
+            places = (" and ".join(f"'{' + '.join(old)}' in {eq}"
+                                   for eq, old in best.replaced_in.items())
+                      or f"'{' + '.join(best.replaces)}'")
             lines = [f"Better physics: {best.label} ({best.description}) in "
                      f"{best.equation}, acting through {best.variable or 'nothing'}, in place "
-                     f"of '{' + '.join(best.replaces)}'."]
+                     f"of {places}."]
         else:
             lines = [f"Missing effect: {best.label} ({best.description}) in "
                      f"{best.equation}, acting through {best.variable or 'nothing'}."]
         lines.append(f"    {best.action()[0].upper()}{best.action()[1:]}"
-                     + "".join(f" and '- {t}' to {eq}" for eq, t in best.also.items())
                      + (f" (within {', '.join(best.bounds)})" if best.bounds else "")
                      + (f"; or a free curve '- {best.curve_term}' "
                         f"({', '.join(best.curve_constraints)})" if best.curve_term else "")
