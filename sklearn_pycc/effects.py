@@ -506,11 +506,12 @@ for _effect in (
                   ("pressure", "orifice flow")),
            shape="square-root law"),
     Effect("saturating_rate", "rate that grows in proportion at small amounts and levels off "
-           "at large ones (Michaelis-Menten, Monod)", "state", "a1 {s}/(a2 + abs({s}))",
+           "at large ones (Michaelis-Menten, Monod, Langmuir)", "state",
+           "a1 {s}/(a2 + abs({s}))",
            "f1({s})", ("f1(0)=0", "f1 increasing"), "draining", ("a1 >= 0", "a2 >= 0"),
            replaces=("linear_rate",), field="kinetics",
            names=(("concentration", "Michaelis-Menten saturation"),
-                  ("population", "Monod saturation")),
+                  ("population", "Monod saturation"), ("amount", "Langmuir saturation")),
            shape="saturating law"),
     Effect("power_law_outflow", "loss growing with a fitted power of what is stored (a weir's "
            "h^1.5, a reaction of fitted order)", "state", "a1 abs({s})^a2", "f1({s})",
