@@ -4,6 +4,8 @@ Data have known hidden effects; "noisy" means 1 % noise (40 dB) on every
 measured column (states and derivatives).
 """
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -510,3 +512,43 @@ def test_the_diagnosis_refits_without_resamples_and_the_loop_keeps_the_users(mon
     assert len(fitted_with_resamples) == len(loop.rounds)
     for r in loop.rounds:
         assert r.model.n_bootstrap == 4 and len(r.model.bootstrap_) >= 2
+
+
+def test_an_unmeasured_periodic_force_is_named_when_every_fold_shows_it():
+    # a harmonic push nobody measured, beside the measured force: it acts through the whole
+    # record, so it lowers the held-out error in every fold
+    t = np.linspace(0.0, 60.0, 3000)
+    force = 0.5 * np.cos(1.3 * t)
+    truth = Skeleton(["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 + a3 sin(0.4 t)"])
+    x = truth.simulate(t, [0.0, 0.0], params={"a1": 0.2, "a2": 1.0, "a3": 0.3},
+                       inputs={"F_ext": force})["x1"].to_numpy()
+    rng = np.random.default_rng(0)
+    X = pd.DataFrame({"t": t, "x1": x + 0.01 * np.std(x) * rng.standard_normal(len(t)),
+                      "F_ext": force})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"])
+        report = diagnose(model.fit(X), X)
+    assert report.best.effect == "periodic_forcing"
+    held_out = report.best.held_out
+    assert held_out.every_fold and held_out.wins == held_out.n_folds
+
+
+def test_a_force_of_time_must_beat_what_its_numbers_take_out_of_the_noise():
+    from types import SimpleNamespace
+
+    from sklearn_pycc.diagnostics._decide import CHANCE_Z, WHOLE_RECORD_GAIN, chance_fall
+
+    frame = datasets.make_oscillator(n_samples=3000, t_span=(0.0, 60.0), random_state=0)
+    white = datasets.add_sensor_noise(frame, ["x1"], snr=30.0, random_state=0)
+    coloured = datasets.add_sensor_noise(frame, ["x1"], snr=30.0, pole=0.9, random_state=0)
+    model = SimpleNamespace(measured_states_=["x1"])
+    forcing = SimpleNamespace(effect=effects.get("periodic_forcing"), n_change=3)
+    # three numbers take about three independent samples' worth of the noise's squares
+    assert chance_fall(forcing, model, white) == pytest.approx(CHANCE_Z * 3 / 6000, rel=0.2)
+    assert chance_fall(forcing, model, white) < WHOLE_RECORD_GAIN
+    # AR(1) noise of pole 0.9 is worth (1 + 0.9)/(1 - 0.9) = 19 times fewer samples
+    assert 12 * chance_fall(forcing, model, white) < chance_fall(forcing, model, coloured) \
+        < 25 * chance_fall(forcing, model, white)
+    friction = SimpleNamespace(effect=effects.get("coulomb_friction"), n_change=2)
+    assert chance_fall(friction, model, coloured) == 0.0

@@ -17,9 +17,11 @@ import pandas as pd
 
 from ..exceptions import SkeletonError
 from ..fitting.fingerprint import fitted_on
+from ..measurements.noise import read_frame_noise
 from ..measurements.record import Record
 from ..skeleton import Bound, Skeleton
 from ._candidates import TIE, Candidate, extend, refit_candidates
+from ._data import TIME
 from ._held_out import held_out_check
 from ._open_curves import OpenCurve, formula_candidates
 from ._refit import prepared
@@ -42,6 +44,9 @@ PARSIMONY = 0.05
 #: the held-out folds judge it (a model fitted by output error): folds fitted on short
 #: blocks can favour a term that one trajectory through the whole record does not
 WHOLE_RECORD_GAIN = 0.01
+#: how many times what its numbers would take out of the noise alone a force of time must
+#: take out of the whole record's output error (see :func:`chance_fall`)
+CHANCE_Z = 3.0
 #: most relative rise of the whole record's output error that a removal may bring (a model
 #: fitted by output error): a removal is a step to a simpler skeleton that a later round
 #: may complete (a viscous term that stood in for a falling damping), so only a clear
@@ -137,12 +142,17 @@ def decide_addition(eligible: list[Candidate], model, data: Record, horizon: Hor
                       and (c.roles.second_order or c.roles.mechanical))
 
     def check(c: Candidate) -> bool:
-        if output_error and record is not None \
-                and _short_of_whole_record(c, model, record, cache):
-            return False
+        if output_error and record is not None:
+            chance = chance_fall(c, model, record)
+            why = (f"a force of time must lower it by {100 * chance:.1f} %, {CHANCE_Z:g} times "
+                   "what its numbers would take out of this record's noise"
+                   if chance > WHOLE_RECORD_GAIN else "")
+            if _short_of_whole_record(c, model, record, cache,
+                                      gain=max(WHOLE_RECORD_GAIN, chance), why=why):
+                return False
         c.held_out = held_out_check(model, c.refit, data, horizon, equations,
                                     max_steps=steps, output_error=output_error, cache=cache,
-                                    n_jobs=n_jobs)
+                                    n_jobs=n_jobs, every_fold=c.effect.acts_through == "time")
         if not c.held_out.confirmed:
             c.note = "; ".join(filter(None, [c.note, str(c.held_out)]))
         return c.held_out.confirmed
@@ -153,13 +163,31 @@ def decide_addition(eligible: list[Candidate], model, data: Record, horizon: Hor
     return None
 
 
+def chance_fall(c: Candidate, model, record: pd.DataFrame) -> float:
+    """The fall of the whole record's output error a force of time must beat (0 for others).
+
+    ``k`` numbers fitted to noise take about ``k`` independent samples' worth
+    out of its sum of squares, a relative ``k memory / n`` of ``n`` samples
+    whose noise has that memory (:attr:`SignalNoise.memory
+    <sklearn_pycc.measurements.SignalNoise.memory>`; 1 for white noise), and
+    half of that out of its root: a drift or a periodic force of free
+    frequency, which follows anything slow, must take out :data:`CHANCE_Z`
+    times as much. Coloured noise wanders slowly, and its wander is no force.
+    """
+    states = [s for s in getattr(model, "measured_states_", ()) if s in record.columns]
+    if c.effect.acts_through != "time" or TIME not in record.columns or not states:
+        return 0.0
+    memory = max(reading.memory for reading in read_frame_noise(record, states).values())
+    return CHANCE_Z * c.n_change * memory / (2.0 * len(record))
+
+
 def _short_of_whole_record(c: Candidate, model, record: pd.DataFrame, cache: dict, *,
-                           gain: float = WHOLE_RECORD_GAIN) -> bool:
+                           gain: float = WHOLE_RECORD_GAIN, why: str = "") -> bool:
     """Whether ``c`` lowers the whole ``record``'s output error by less than it must.
 
     Both skeletons fitted by output error to the measured record, ends
     included (:func:`whole_record_error`); ``c`` must lower its error by
-    ``gain``, as said in its note where it does not. One
+    ``gain``, as said in its note where it does not (with ``why``). One
     fit that spares the held-out folds' several, and a guard against
     folds fitted on short blocks that favour a term one trajectory through
     the whole record does not.
@@ -174,7 +202,8 @@ def _short_of_whole_record(c: Candidate, model, record: pd.DataFrame, cache: dic
         return True
     c.note = "; ".join(filter(None, [c.note, (
         f"not confirmed by the whole record: its output error goes from {before:.4g} to "
-        f"{after:.4g} of its spread ({100 * (after / before - 1):+.1f} %)")]))
+        f"{after:.4g} of its spread ({100 * (after / before - 1):+.1f} %)"
+        + (f", and {why}" if why else ""))]))
     return True
 
 
