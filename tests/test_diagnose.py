@@ -550,5 +550,9 @@ def test_a_force_of_time_must_beat_what_its_numbers_take_out_of_the_noise():
     # AR(1) noise of pole 0.9 is worth (1 + 0.9)/(1 - 0.9) = 19 times fewer samples
     assert 12 * chance_fall(forcing, model, white) < chance_fall(forcing, model, coloured) \
         < 25 * chance_fall(forcing, model, white)
-    friction = SimpleNamespace(effect=effects.get("coulomb_friction"), n_change=2)
+    friction = SimpleNamespace(effect=effects.get("coulomb_friction"), n_change=2, move="add")
     assert chance_fall(friction, model, coloured) == 0.0
+    # a free curve of seven numbers is held to the same account
+    curve = SimpleNamespace(effect=effects.get("coulomb_friction"), n_change=7, move="open")
+    assert chance_fall(curve, model, coloured) == pytest.approx(
+        7 / 3 * chance_fall(forcing, model, coloured))

@@ -164,18 +164,21 @@ def decide_addition(eligible: list[Candidate], model, data: Record, horizon: Hor
 
 
 def chance_fall(c: Candidate, model, record: pd.DataFrame) -> float:
-    """The fall of the whole record's output error a force of time must beat (0 for others).
+    """The fall of the whole record's output error a force of time or a free curve must beat.
 
     ``k`` numbers fitted to noise take about ``k`` independent samples' worth
     out of its sum of squares, a relative ``k memory / n`` of ``n`` samples
     whose noise has that memory (:attr:`SignalNoise.memory
     <sklearn_pycc.measurements.SignalNoise.memory>`; 1 for white noise), and
     half of that out of its root: a drift or a periodic force of free
-    frequency, which follows anything slow, must take out :data:`CHANCE_Z`
-    times as much. Coloured noise wanders slowly, and its wander is no force.
+    frequency, which follows anything slow, and a free curve of many
+    numbers, must take out :data:`CHANCE_Z` times as much. Coloured noise
+    wanders slowly, and its wander is no force. 0 for any other candidate
+    (one or two numbers of a catalogue law).
     """
     states = [s for s in getattr(model, "measured_states_", ()) if s in record.columns]
-    if c.effect.acts_through != "time" or TIME not in record.columns or not states:
+    if TIME not in record.columns or not states \
+            or (c.effect.acts_through != "time" and c.move != "open"):
         return 0.0
     memory = max(reading.memory for reading in read_frame_noise(record, states).values())
     return CHANCE_Z * c.n_change * memory / (2.0 * len(record))
@@ -413,8 +416,12 @@ def decide_open(eligible: list[Candidate], model, data: Record,
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
     cache = {} if cache is None else cache
     for c in eligible[:N_OPEN]:
-        if output_error and record is not None \
-                and _short_of_whole_record(c, model, record, cache, gain=OPEN_GAIN):
+        chance = 0.0 if record is None else chance_fall(c, model, record)
+        why = (f"a free curve must lower it by {100 * chance:.1f} %, {CHANCE_Z:g} times what "
+               "its numbers would take out of this record's noise" if chance > OPEN_GAIN
+               else "")
+        if output_error and record is not None and _short_of_whole_record(
+                c, model, record, cache, gain=max(OPEN_GAIN, chance), why=why):
             continue
         c.held_out = held_out_check(model, c.refit, data, horizon, equations, max_steps=steps,
                                     output_error=output_error, cache=cache, n_jobs=n_jobs,
