@@ -290,14 +290,19 @@ def _residual_figure(plt, report):
             # refit's changes to the other terms (a gain, a damping) taken off
             ax.plot(values, residual - shift + acting, ".", ms=2, color="0.5",
                     label="residual, the other terms as refitted")
-            where = f" in place of {' + '.join(best.replaces)}" if best.replaces else ""
+            # a move across equations (a chain of storages) takes out of this one its own
+            taken = best.replaced_in.get(name, ()) if best.replaced_in else best.replaces
+            where = f" in place of {' + '.join(taken)}" if taken else ""
+            written = f"- {term}" if best.move == "open" else best.written
             ax.plot(values, acting, ".", ms=1.5, color="C3",
-                    label=f"- {term}{where}, as refitted")
+                    label=f"{written}{where}, as refitted")
         else:
             ax.plot(values, residual, ".", ms=2, color="0.5", label="residual")
             if shift is not None:
+                written = name in best.also or name in best.replaced_in
                 ax.plot(values, shift, ".", ms=1.5, color="C3",
-                        label=f"change of the model refitted without {best.term}")
+                        label="change the suggestion makes here, as refitted" if written
+                        else f"change of the model refitted without {best.term}")
         ax.axhline(0.0, color="k", lw=0.6)
         ax.legend(fontsize="small", markerscale=4, loc="best")
         label_axis(ax, "x", variable, getattr(report, "units", {}))

@@ -340,3 +340,12 @@ def test_a_cascade_of_tanks_is_told_both_drain_by_torricelli_s_law(cascade):
     assert best.equations.equations[1] == "x2_dot = a5*sqrt(abs(x1)) - a6*sqrt(abs(x2))"
     assert best.held_out.confirmed
     assert "in place of 'a2*x1' in x1_dot and 'a2*x1 + a3*x2' in x2_dot" in report.summary()
+    # the residual figure says what the move takes out of each equation
+    import matplotlib.pyplot as plt
+
+    figure = report.plot()["residual"]
+    labels = [t.get_text() for ax in figure.axes if ax.get_legend()
+              for t in ax.get_legend().get_texts()]
+    plt.close("all")
+    assert "- a4*sqrt(abs(x1)) in place of a2*x1, as refitted" in labels
+    assert "change the suggestion makes here, as refitted" in labels

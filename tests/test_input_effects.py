@@ -104,6 +104,7 @@ def test_a_tank_filled_through_a_valve_is_told_the_valve_s_characteristic():
         loop = HypothesisLoop(start, X).run(max_rounds=2)
     first = loop.rounds[0].added
     assert (first.effect, first.called) == ("valve_characteristic", "valve characteristic")
+    assert first.written == "+ a3*abs(u)^a4*sign(u)"  # a gain on the input: added
     exponent = [v for a, v in loop.model.params_.items() if a not in ("a1", "a2", "a3")]
     assert len(exponent) == 1 and abs(exponent[0] - 2.0) < 0.1
     # a heater has no valve: the characteristic is not tried on a temperature

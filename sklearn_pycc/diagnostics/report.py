@@ -169,6 +169,11 @@ class Suggestion:
         """
         return _named(self.effect, self.called)
 
+    @property
+    def written(self) -> str:
+        """:attr:`term` as the equation reads it, with its sign: ``"+ a3*abs(u)^a4*sign(u)"``."""
+        return _subtracted(self.term)
+
     def action(self) -> str:
         """What to do to the skeleton, in words: ``"replace 'a2*x1' in x2_dot by ..."``."""
         if self.move == "remove":
