@@ -70,6 +70,15 @@ def test_a_state_leaving_a_domain_without_a_limit_is_named():
         Skeleton(DRAIN).simulate(t, [1.0], params={"a1": 1.0, "a2": 0.1})
 
 
+def test_a_rate_that_divides_by_zero_is_named_with_where_the_states_were():
+    # a curve in a denominator can reach zero: the rates and the states are named, in the
+    # explicit steps and in the implicit solver that takes over a stiff stretch alike
+    t = np.linspace(0.0, 1.0, 11)
+    with pytest.raises(SimulationError, match=r"right-hand side \(x1_dot\) divides by zero "
+                                              r"at t=0 \(x1=0\)"):
+        Skeleton(["x1_dot = -a1/x1"]).simulate(t, [0.0], params={"a1": 1.0})
+
+
 @pytest.mark.parametrize("name", ["log", "log10"])
 def test_a_logarithm_at_zero_is_answered_not_raised(name):
     assert ELEMENTARY[name].math(0.0) == -math.inf

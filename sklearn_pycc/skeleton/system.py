@@ -289,6 +289,10 @@ class CompiledSystem:
                 _run_plan(plan, env)
             except _OutsideDomain as exc:
                 self._evaluate_at_limits(env, exc)
+            except ZeroDivisionError:  # say where the states were, as for a rate gone infinite
+                where = ", ".join(f"{name}={x:.4g}" for name, x in zip(states, env))
+                raise Diverged(f"the right-hand side ({', '.join(derivatives)}) divides by "
+                               f"zero at t={t:.6g} ({where})") from None
             out = pick(env)
             # one C-level sum is finite whenever every term is (or it overflowed)
             if not isfinite(sum(out)):
