@@ -142,14 +142,10 @@ def decide_addition(eligible: list[Candidate], model, data: Record, horizon: Hor
                       and (c.roles.second_order or c.roles.mechanical))
 
     def check(c: Candidate) -> bool:
-        if output_error and record is not None:
-            chance = chance_fall(c, model, record)
-            why = (f"a force of time must lower it by {100 * chance:.1f} %, {CHANCE_Z:g} times "
-                   "what its numbers would take out of this record's noise"
-                   if chance > WHOLE_RECORD_GAIN else "")
-            if _short_of_whole_record(c, model, record, cache,
-                                      gain=max(WHOLE_RECORD_GAIN, chance), why=why):
-                return False
+        if output_error and record is not None and _short_of_whole_record(
+                c, model, record, cache,
+                **_whole_record_gain(c, model, record, WHOLE_RECORD_GAIN, "a force of time")):
+            return False
         c.held_out = held_out_check(model, c.refit, data, horizon, equations,
                                     max_steps=steps, output_error=output_error, cache=cache,
                                     n_jobs=n_jobs, every_fold=c.effect.acts_through == "time")
@@ -182,6 +178,16 @@ def chance_fall(c: Candidate, model, record: pd.DataFrame) -> float:
         return 0.0
     memory = max(reading.memory for reading in read_frame_noise(record, states).values())
     return CHANCE_Z * c.n_change * memory / (2.0 * len(record))
+
+
+def _whole_record_gain(c: Candidate, model, record: pd.DataFrame, floor: float,
+                       what: str) -> dict:
+    """``gain`` and ``why`` of :func:`_short_of_whole_record`: ``floor``, or chance where more."""
+    chance = chance_fall(c, model, record)
+    if chance <= floor:
+        return {"gain": floor}
+    return {"gain": chance, "why": f"{what} must lower it by {100 * chance:.1f} %, "
+            f"{CHANCE_Z:g} times what its numbers would take out of this record's noise"}
 
 
 def _short_of_whole_record(c: Candidate, model, record: pd.DataFrame, cache: dict, *,
@@ -416,12 +422,9 @@ def decide_open(eligible: list[Candidate], model, data: Record,
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
     cache = {} if cache is None else cache
     for c in eligible[:N_OPEN]:
-        chance = 0.0 if record is None else chance_fall(c, model, record)
-        why = (f"a free curve must lower it by {100 * chance:.1f} %, {CHANCE_Z:g} times what "
-               "its numbers would take out of this record's noise" if chance > OPEN_GAIN
-               else "")
         if output_error and record is not None and _short_of_whole_record(
-                c, model, record, cache, gain=max(OPEN_GAIN, chance), why=why):
+                c, model, record, cache,
+                **_whole_record_gain(c, model, record, OPEN_GAIN, "a free curve")):
             continue
         c.held_out = held_out_check(model, c.refit, data, horizon, equations, max_steps=steps,
                                     output_error=output_error, cache=cache, n_jobs=n_jobs,
