@@ -534,7 +534,7 @@ def test_an_unmeasured_periodic_force_is_named_when_every_fold_shows_it():
     assert held_out.every_fold and held_out.wins == held_out.n_folds
 
 
-def test_a_force_of_time_must_beat_what_its_numbers_take_out_of_the_noise():
+def test_a_candidate_must_beat_what_its_numbers_take_out_of_the_noise():
     from types import SimpleNamespace
 
     from sklearn_pycc.diagnostics._decide import CHANCE_Z, WHOLE_RECORD_GAIN, chance_fall
@@ -550,9 +550,64 @@ def test_a_force_of_time_must_beat_what_its_numbers_take_out_of_the_noise():
     # AR(1) noise of pole 0.9 is worth (1 + 0.9)/(1 - 0.9) = 19 times fewer samples
     assert 12 * chance_fall(forcing, model, white) < chance_fall(forcing, model, coloured) \
         < 25 * chance_fall(forcing, model, white)
+    # so is a catalogue law, by its own numbers; a move that adds none is not
     friction = SimpleNamespace(effect=effects.get("coulomb_friction"), n_change=2, move="add")
-    assert chance_fall(friction, model, coloured) == 0.0
+    assert chance_fall(friction, model, coloured) == pytest.approx(
+        2 / 3 * chance_fall(forcing, model, coloured))
+    swap = SimpleNamespace(effect=effects.get("pendulum"), n_change=0, move="replace")
+    assert chance_fall(swap, model, coloured) == 0.0
     # a free curve of seven numbers is held to the same account
     curve = SimpleNamespace(effect=effects.get("coulomb_friction"), n_change=7, move="open")
     assert chance_fall(curve, model, coloured) == pytest.approx(
         7 / 3 * chance_fall(forcing, model, coloured))
+
+
+def test_a_force_of_time_must_beat_the_slow_wander_the_model_leaves():
+    # a sensor's slow drift lies below the signal's band: the noise read from the record
+    # cannot show it, the model's output errors through the whole record do
+    from types import SimpleNamespace
+
+    from sklearn_pycc.diagnostics._decide import chance_fall
+
+    frame = datasets.make_oscillator(n_samples=3000, t_span=(0.0, 60.0), hidden=(),
+                                     random_state=0)
+    forcing = SimpleNamespace(effect=effects.get("periodic_forcing"), n_change=3, move="add")
+    curve = SimpleNamespace(effect=effects.get("coulomb_friction"), n_change=7, move="open")
+    falls = {}
+    for drift in (0.0, 0.02):
+        record = datasets.add_sensor_noise(frame, ["x1"], snr=40.0, pole=0.9, drift=drift,
+                                           random_state=1)[["t", "x1", "F_ext"]]
+        model = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"],
+                                fit_mode="simulation").fit(record)
+        assert model.shooting_["slow_memory"] >= 1.0
+        falls[drift] = (chance_fall(forcing, model, record, {}),
+                        chance_fall(curve, model, record, {}))
+    # the drift makes a periodic force of free frequency take out far more by chance
+    assert falls[0.02][0] > 4 * falls[0.0][0]
+    # and a free curve's many numbers
+    assert falls[0.02][1] > 4 * falls[0.0][1]
+
+
+def test_close_candidates_go_fewest_numbers_first_then_those_keeping_the_users_terms():
+    from types import SimpleNamespace
+
+    from sklearn_pycc.diagnostics._decide import ordered_candidates
+
+    def candidate(name, move, n_change, delta_bic):
+        return SimpleNamespace(name=name, move=move, n_change=n_change, delta_bic=delta_bic,
+                               screen_bic=delta_bic, refit=object(), plausible=True)
+
+    # the derivatives' scores within 2 % of each other: the information criterion alone
+    # cannot tell a saturating spring from a pendulum's, nor add from replace
+    ranked = ordered_candidates([
+        candidate("saturation beside the spring", "add", 2, -3335.0),
+        candidate("saturation for the spring", "replace", 1, -3343.0),
+        candidate("pendulum", "add", 1, -3329.0),
+        candidate("cubic stiffness", "add", 1, -3000.0),  # clearly behind
+    ])
+    assert [c.name for c in ranked] == ["pendulum", "saturation for the spring",
+                                        "saturation beside the spring", "cubic stiffness"]
+    # a clearly better replacement still goes first
+    ranked = ordered_candidates([candidate("pendulum", "add", 1, -3000.0),
+                                 candidate("saturation for the spring", "replace", 1, -3343.0)])
+    assert ranked[0].name == "saturation for the spring"

@@ -234,6 +234,18 @@ def test_the_held_out_check_confirms_a_true_effect_and_not_a_spurious_one(cubic_
     assert not rejected.confirmed
     assert rejected.change() > -0.01
     assert "not confirmed by the simulation error" in str(rejected)
+    # it lost the first two folds: the third, whatever it showed, could not confirm it
+    assert rejected.stopped and rejected.n_folds == 2 and rejected.wins == 0
+    assert "the folds left were not fitted" in str(rejected)
+    # fitted side by side, every fold is judged, and the verdict is the same
+    every = held_out_check(right, spurious, data, horizon, [1], max_steps=10**6, n_jobs=2)
+    assert not every.confirmed and not every.stopped and every.n_folds == 3
+    assert every.before["simulation"] == pytest.approx(rejected.before["simulation"], rel=0.5)
+    # a force of time stops at the first fold it does not win
+    timed = held_out_check(right, spurious, data, horizon, [1], max_steps=10**6,
+                           every_fold=True)
+    assert timed.stopped and timed.n_folds == 1 and not timed.confirmed
+    assert confirmed.wins == 3 and not confirmed.stopped  # a confirmation sees every fold
 
 
 def test_the_ranking_shows_the_held_out_evidence():

@@ -7,7 +7,7 @@ import pytest
 
 from sklearn_pycc import PolyCCRegressor, datasets
 from sklearn_pycc.measurements import Measurement
-from sklearn_pycc.measurements.noise import read_noise
+from sklearn_pycc.measurements.noise import read_noise, slow_memory
 from sklearn_pycc.measurements.spectral import find_quantum
 
 matplotlib.use("Agg")
@@ -187,3 +187,24 @@ def test_a_found_effect_has_no_detection_limit():
                       held_out=False)
     assert report.best is not None and report.detection_limit == {}
     assert "Detection limit" not in report.summary()
+
+
+def test_the_slow_memory_of_a_residual_shows_what_wanders_below_the_noise_band():
+    from scipy import signal
+
+    rng = np.random.default_rng(3)
+    n = 3000
+    white = rng.standard_normal((n, 40))
+    # white: about 1 (a mean of three periodogram values per column)
+    assert np.median([slow_memory(white[:, j]) for j in range(40)]) == pytest.approx(1.0, rel=0.3)
+    # AR(1) 0.9: (1 + 0.9) / (1 - 0.9) = 19 samples to one
+    ar = signal.lfilter([1.0], [1.0, -0.9], white, axis=0)
+    assert 12 < np.median([slow_memory(ar[:, j]) for j in range(40)]) < 28
+    # a sensor's slow drift, twice the noise's spread: far more than the noise alone
+    drift = signal.lfilter([1.0], [1.0, -np.exp(-5.0 / n)], rng.standard_normal(n))
+    drifting = ar[:, 0] + 2 * np.std(ar[:, 0]) * drift / np.std(drift)
+    assert slow_memory(drifting) > 5 * 19
+    # the largest of the columns; too short a residual says nothing
+    assert slow_memory(np.column_stack([white[:, 0], drifting])) == pytest.approx(
+        slow_memory(drifting))
+    assert slow_memory(np.ones(n)) == 1.0 and slow_memory(white[:5, 0]) == 1.0

@@ -29,8 +29,8 @@ from ._trajectories import Horizon
 from .report import Suggestion
 
 __all__ = ["decide_addition", "decide_open", "decide_removal", "eligible_candidates",
-           "formula_for", "group_of", "ordered_candidates", "score_of", "simulates_better",
-           "suggestion_for", "whole_record_error"]
+           "formula_for", "group_of", "open_gain", "ordered_candidates", "score_of",
+           "simulates_better", "suggestion_for", "whole_record_error"]
 
 #: a candidate whose simulation error is at most this share of the model's is worth a
 #: held-out check even when it removes little of the derivative residual
@@ -44,8 +44,8 @@ PARSIMONY = 0.05
 #: the held-out folds judge it (a model fitted by output error): folds fitted on short
 #: blocks can favour a term that one trajectory through the whole record does not
 WHOLE_RECORD_GAIN = 0.01
-#: how many times what its numbers would take out of the noise alone a force of time must
-#: take out of the whole record's output error (see :func:`chance_fall`)
+#: how many times what its numbers would take out of the noise alone a candidate must take
+#: out of the whole record's output error (see :func:`chance_fall`)
 CHANCE_Z = 3.0
 #: most relative rise of the whole record's output error that a removal may bring (a model
 #: fitted by output error): a removal is a step to a simpler skeleton that a later round
@@ -90,7 +90,10 @@ def ordered_candidates(candidates: list[Candidate]) -> list[Candidate]:
     leader's and that has fewer parameters goes first: when another effect
     is still missing, a more flexible term (Stribeck for Coulomb) soaks up
     part of that other effect's residual, and the information criterion
-    alone would reward it.
+    alone would reward it. Of those with as many, one that keeps the
+    user's terms goes before one that replaces them: a replacement confirmed
+    is checked against the same effect beside those terms anyway
+    (:func:`_preferred`), and the user's terms are what they know.
     """
     finite = [c for c in candidates if math.isfinite(score_of(c))]
     remaining = sorted(finite, key=lambda c: (group_of(c), -score_of(c)))
@@ -100,7 +103,7 @@ def ordered_candidates(candidates: list[Candidate]) -> list[Candidate]:
         margin = max(TIE[0] * abs(score_of(lead)), TIE[1])
         close = [c for c in remaining
                  if group_of(c) == group_of(lead) and score_of(lead) - score_of(c) <= margin]
-        pick = min(close, key=lambda c: (c.n_change, -score_of(c)))
+        pick = min(close, key=lambda c: (c.n_change, c.move == "replace", -score_of(c)))
         out.append(pick)
         remaining.remove(pick)
     return out
@@ -144,7 +147,7 @@ def decide_addition(eligible: list[Candidate], model, data: Record, horizon: Hor
     def check(c: Candidate) -> bool:
         if output_error and record is not None and _short_of_whole_record(
                 c, model, record, cache,
-                **_whole_record_gain(c, model, record, WHOLE_RECORD_GAIN, "a force of time")):
+                **_whole_record_gain(c, model, record, WHOLE_RECORD_GAIN, cache=cache)):
             return False
         c.held_out = held_out_check(model, c.refit, data, horizon, equations,
                                     max_steps=steps, output_error=output_error, cache=cache,
@@ -159,35 +162,61 @@ def decide_addition(eligible: list[Candidate], model, data: Record, horizon: Hor
     return None
 
 
-def chance_fall(c: Candidate, model, record: pd.DataFrame) -> float:
-    """The fall of the whole record's output error a force of time or a free curve must beat.
+def chance_fall(c: Candidate, model, record: pd.DataFrame, cache: dict | None = None) -> float:
+    """The fall of the whole record's output error a candidate must beat.
 
     ``k`` numbers fitted to noise take about ``k`` independent samples' worth
     out of its sum of squares, a relative ``k memory / n`` of ``n`` samples
     whose noise has that memory (:attr:`SignalNoise.memory
     <sklearn_pycc.measurements.SignalNoise.memory>`; 1 for white noise), and
-    half of that out of its root: a drift or a periodic force of free
-    frequency, which follows anything slow, and a free curve of many
-    numbers, must take out :data:`CHANCE_Z` times as much. Coloured noise
-    wanders slowly, and its wander is no force. 0 for any other candidate
-    (one or two numbers of a catalogue law).
+    half of that out of its root: the ``k`` numbers a candidate adds must
+    take out :data:`CHANCE_Z` times as much. Coloured noise wanders slowly,
+    and a term that follows its wander is no physics: a free curve of many
+    numbers, a drift or a periodic force of free frequency, which follows
+    anything slow, or a catalogue law (a dead zone beside a real Coulomb
+    friction took 1.1 % out of a record whose noise has a memory of 20
+    samples). For a force of time and a free curve the memory is at least
+    that of the slow wander the model leaves in its own output errors
+    through the whole record
+    (:func:`~sklearn_pycc.measurements.noise.slow_memory`): a sensor's drift
+    lies below the signal's band, where the noise read from the record
+    cannot show it; a slow force and a slow drift of the sensor look alike
+    there, and a free curve's many numbers find a way to follow it (a free
+    friction curve took 25 % out of a record whose sensor drifted, and
+    raised the held-out error 2.3 times). ``cache`` as for
+    :func:`whole_record_error`. 0 for a candidate that adds no number, or a
+    record without time.
     """
+    return _chance(c, model, record, cache)[0]
+
+
+def _chance(c: Candidate, model, record: pd.DataFrame,
+            cache: dict | None) -> tuple[float, str]:
+    """:func:`chance_fall`, and what its memory was read from, in words."""
     states = [s for s in getattr(model, "measured_states_", ()) if s in record.columns]
-    if TIME not in record.columns or not states \
-            or (c.effect.acts_through != "time" and c.move != "open"):
-        return 0.0
+    if TIME not in record.columns or not states or c.n_change <= 0:
+        return 0.0, ""
     memory = max(reading.memory for reading in read_frame_noise(record, states).values())
-    return CHANCE_Z * c.n_change * memory / (2.0 * len(record))
+    source = "this record's noise"
+    if c.effect.acts_through == "time" or c.move == "open":
+        wander = _whole_record(model, record, cache)[1]
+        if wander > memory:
+            memory, source = wander, ("the slow wander the model leaves through the record "
+                                      "(a sensor's drift, a slow force)")
+    return CHANCE_Z * c.n_change * memory / (2.0 * len(record)), source
 
 
-def _whole_record_gain(c: Candidate, model, record: pd.DataFrame, floor: float,
-                       what: str) -> dict:
+def _whole_record_gain(c: Candidate, model, record: pd.DataFrame, floor: float, *,
+                       cache: dict | None = None) -> dict:
     """``gain`` and ``why`` of :func:`_short_of_whole_record`: ``floor``, or chance where more."""
-    chance = chance_fall(c, model, record)
+    chance, source = _chance(c, model, record, cache)
     if chance <= floor:
         return {"gain": floor}
+    what = ("a free curve" if c.move == "open" else "a force of time"
+            if c.effect.acts_through == "time" else f"an effect of {c.n_change} "
+            f"number{'s' if c.n_change > 1 else ''}")
     return {"gain": chance, "why": f"{what} must lower it by {100 * chance:.1f} %, "
-            f"{CHANCE_Z:g} times what its numbers would take out of this record's noise"}
+            f"{CHANCE_Z:g} times what its numbers would take out of {source}"}
 
 
 def _short_of_whole_record(c: Candidate, model, record: pd.DataFrame, cache: dict, *,
@@ -381,28 +410,45 @@ def whole_record_error(model, record: pd.DataFrame, cache: dict | None = None) -
 
     The measured record as given, ends included (the diagnosis leaves out
     where its derivative filters settle, and a release often decays there).
-    Inf where that fit fails; ``cache`` keeps the value under
-    ``"whole_record"`` (the model's own, asked for again by each check).
+    Inf where that fit fails; ``cache`` keeps it under ``"whole_record"``
+    (the model's own, asked for again by each check).
+    """
+    return _whole_record(model, record, cache)[0]
+
+
+def _whole_record(model, record: pd.DataFrame, cache: dict | None = None) -> tuple[float, float]:
+    """:func:`whole_record_error`, and the slow memory of that fit's output errors.
+
+    The memory (:func:`~sklearn_pycc.measurements.noise.slow_memory`) is 1
+    where the fit failed or its backend does not say.
     """
     if cache is not None and "whole_record" in cache:
         return cache["whole_record"]
     if getattr(model, "fit_mode_", None) == "simulation" and fitted_on(model, record):
-        # it was fitted so on this very record
-        error = float(model.shooting_.get("nrmse_after", math.inf))
-        if cache is not None:
-            cache["whole_record"] = error
-        return error
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            fitted = prepared(model, fit_mode="simulation").fit(record)
-    except Exception:  # a skeleton the record cannot fit this way is no answer
-        error = math.inf
+        info = model.shooting_  # it was fitted so on this very record
     else:
-        error = float(fitted.shooting_.get("nrmse_after", math.inf))
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                info = prepared(model, fit_mode="simulation").fit(record).shooting_
+        except Exception:  # a skeleton the record cannot fit this way is no answer
+            info = {}
+    out = (float(info.get("nrmse_after", math.inf)), float(info.get("slow_memory", 1.0)))
     if cache is not None:
-        cache["whole_record"] = error
-    return error
+        cache["whole_record"] = out
+    return out
+
+
+def open_gain(c: Candidate, model, record: pd.DataFrame, cache: dict | None = None) -> float:
+    """Least relative fall of the error a free curve must bring: :data:`OPEN_GAIN`, or chance.
+
+    On a model fitted by output error, :func:`chance_fall` where that is
+    more (its many numbers on coloured noise, or where the model's errors
+    wander slowly through the record).
+    """
+    if getattr(model, "fit_mode_", "equation") != "simulation":
+        return OPEN_GAIN
+    return max(OPEN_GAIN, chance_fall(c, model, record, cache))
 
 
 def decide_open(eligible: list[Candidate], model, data: Record,
@@ -424,7 +470,7 @@ def decide_open(eligible: list[Candidate], model, data: Record,
     for c in eligible[:N_OPEN]:
         if output_error and record is not None and _short_of_whole_record(
                 c, model, record, cache,
-                **_whole_record_gain(c, model, record, OPEN_GAIN, "a free curve")):
+                **_whole_record_gain(c, model, record, OPEN_GAIN, cache=cache)):
             continue
         c.held_out = held_out_check(model, c.refit, data, horizon, equations, max_steps=steps,
                                     output_error=output_error, cache=cache, n_jobs=n_jobs,

@@ -81,6 +81,10 @@ class HeldOut:
     every_fold : bool
         Whether the effect had to lower the deciding error in every fold
         (a force of time alone; see :func:`held_out_check`).
+    stopped : bool
+        Whether the folds left were not fitted because no outcome of theirs
+        could have confirmed it (folds fitted one after another): the pooled
+        errors are then those of the folds fitted.
     """
 
     folds: str
@@ -91,6 +95,7 @@ class HeldOut:
     n_folds: int = 0
     confirmed: bool = False
     every_fold: bool = False
+    stopped: bool = False
 
     def change(self, criterion: str | None = None) -> float:
         """Relative change of the pooled held-out error (negative: the effect helps)."""
@@ -108,8 +113,9 @@ class HeldOut:
         verdict = "confirmed" if self.confirmed else "not confirmed"
         if self.every_fold and not self.confirmed and self.wins < self.n_folds:
             verdict += " (a force of time alone must lower it in every fold)"
+        left = " (the folds left were not fitted: none could confirm it)" if self.stopped else ""
         return (f"held out ({self.folds}): {'; '.join(parts)}; lower in {self.wins} of "
-                f"{self.n_folds} folds: {verdict} by the {self.criterion} error")
+                f"{self.n_folds} folds: {verdict} by the {self.criterion} error{left}")
 
 
 def make_folds(data: Record) -> tuple[str, list[np.ndarray]]:
@@ -235,7 +241,10 @@ def held_out_check(base, extended, data: Record, horizon: Horizon | None,
         effect worth adding), or no rise of it, in most folds and pooled (a
         term worth removing: ``extended`` is then the smaller model).
     n_jobs : int or None, default=None
-        Fit the folds in parallel with joblib.
+        Fit the folds in parallel with joblib. Fitted one after another
+        (None or 1), the folds left are not fitted once the effect has lost
+        in too many to be confirmed (:attr:`HeldOut.stopped`); the verdict
+        is the same either way.
     gain : float, default=HELD_OUT_GAIN
         Least relative fall of the pooled deciding error that confirms
         ``extended`` under ``rule="gain"``.
@@ -262,9 +271,14 @@ def held_out_check(base, extended, data: Record, horizon: Horizon | None,
                                   spreads, horizon=horizon, max_steps=max_steps,
                                   equations=equations, output_error=output_error)
             for key, held in zip(keys, folds)]
-    outcomes = jobs and (Parallel(n_jobs=n_jobs)(jobs) if n_jobs not in (None, 1)
-                         else [job[0](*job[1], **job[2]) for job in jobs])
-    for held, key, (before, after) in zip(folds, keys, outcomes):
+    # one after another, lazily: the folds left are not fitted once they cannot confirm it
+    lazy = n_jobs in (None, 1)
+    outcomes = jobs and (Parallel(n_jobs=n_jobs)(jobs) if not lazy
+                         else (job[0](*job[1], **job[2]) for job in jobs))
+    # losses beyond which no majority (or, for a force of time, no clean sweep) is left
+    allowed = 0 if result.every_fold else (len(folds) + 1) // 2 - 1
+    n = 0
+    for i, (held, key, (before, after)) in enumerate(zip(folds, keys, outcomes)):
         if key not in cache:
             cache[key] = before
         if cache[key] is None:
@@ -273,12 +287,15 @@ def held_out_check(base, extended, data: Record, horizon: Horizon | None,
             after = {name: math.inf for name in cache[key]}
         before, after = _capped(cache[key]), _capped(after)
         weight = len(held)
+        n += weight
         result.n_folds += 1
         for name in before:
             totals["before"][name] = totals["before"].get(name, 0.0) + weight * before[name]
             totals["after"][name] = totals["after"].get(name, 0.0) + weight * after[name]
         result.wins += int(after[criterion] < before[criterion])
-    n = sum(len(held) for i, held in enumerate(folds) if cache[(i, tuple(equations))])
+        if lazy and result.n_folds - result.wins > allowed and i < len(folds) - 1:
+            result.stopped = True
+            break
     if not n:
         return result
     result.before = {k: math.sqrt(v / n) for k, v in totals["before"].items()}

@@ -28,7 +28,6 @@ from ._candidates import (
 from ._data import TIME, check_units, read_measurements
 from ._decide import (
     N_REMOVE,
-    OPEN_GAIN,
     REMOVAL_SCREEN,
     decide_addition,
     decide_open,
@@ -36,6 +35,7 @@ from ._decide import (
     eligible_candidates,
     formula_for,
     group_of,
+    open_gain,
     ordered_candidates,
     score_of,
     simulates_better,
@@ -349,12 +349,14 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
             _simulate_leaders([c for c in opened if c.refit is not None], data,
                               measured_states, window, steps, base_divergences=divergences)
         opened = ordered_candidates(opened)
-        # a curve that does not simulate the record itself clearly better will not do so
-        # on data it has not seen: spare the held-out fits
+        # a curve that does not simulate the record itself clearly better (by what it must
+        # lower the whole record's error) will not do so on data it has not seen: spare
+        # the whole record's fit and the held-out fits
         promising = [c for c in eligible_candidates(opened, min_improvement, bic_threshold,
                                           simulation_rmse)
                      if not run_simulation or not math.isfinite(simulation_rmse)
-                     or c.simulation_rmse <= (1 - OPEN_GAIN) * simulation_rmse]
+                     or c.simulation_rmse <= (1 - open_gain(c, model, X, cache))
+                     * simulation_rmse]
         chosen = decide_open(promising, model, data, judge, failing, steps=steps,
                               held_out=held_out, n_jobs=n_jobs,
                               cache=cache, record=X)

@@ -29,7 +29,8 @@ from scipy import ndimage, optimize, signal
 
 from .spectral import CLEAN_RATIO, FLOOR_BAND
 
-__all__ = ["NoiseReading", "SignalNoise", "multitaper_density", "read_noise"]
+__all__ = ["NoiseReading", "SignalNoise", "multitaper_density", "read_noise",
+           "slow_memory"]
 
 #: a coloured reading this many times quieter than the signal (in power, 80 dB) is the
 #: tapers' own leakage from a noise-free signal
@@ -59,6 +60,10 @@ WIDENINGS = 4
 REMEMBERED = 16
 _readings: OrderedDict[tuple, SignalNoise] = OrderedDict()
 
+
+#: the slowest frequencies a record resolves (1 to this many cycles over it), where
+#: :func:`slow_memory` reads a residual's wander
+SLOW_BINS = 3
 
 #: time-bandwidth product and number of the Slepian tapers of the multitaper spectrum
 TAPER_NW = 4.0
@@ -585,3 +590,28 @@ def read_frame_noise(frame, columns) -> dict[str, SignalNoise]:
         out[str(name)] = read_noise(grid.fill(times, values), grid.step, name=str(name),
                                     quantum=find_quantum(values))
     return out
+
+
+def slow_memory(residuals: np.ndarray) -> float:
+    """How many samples one sample of a residual is worth at the slowest frequencies.
+
+    The periodogram of each column of ``residuals`` (rows in time order)
+    averaged over the lowest :data:`SLOW_BINS` frequencies the record
+    resolves (1, 2, 3 cycles over it), divided by the column's variance:
+    about 1 for white noise, ``(1 + pole) / (1 - pole)`` for AR(1) noise,
+    and far more where something slow wanders through it (a sensor's drift,
+    a slow force the model lacks), which the noise read above the signal's
+    band cannot show. The largest over the columns; 1 for a residual too
+    short to resolve them or without variance. A rough reading (a mean of
+    three periodogram values): a guard against what wanders, not a
+    measurement.
+    """
+    errors = np.asarray(residuals, dtype=float)
+    errors = errors.reshape(len(errors), -1)
+    if len(errors) < 4 * SLOW_BINS:
+        return 1.0
+    errors = errors - errors.mean(axis=0)
+    variance = np.mean(errors**2, axis=0)
+    lowest = np.abs(np.fft.rfft(errors, axis=0)[1:SLOW_BINS + 1]) ** 2 / len(errors)
+    ratios = np.mean(lowest, axis=0)[variance > 0] / variance[variance > 0]
+    return float(max(np.max(ratios), 1.0)) if ratios.size else 1.0

@@ -19,6 +19,7 @@ from scipy import sparse
 from scipy.optimize import least_squares
 
 from ...measurements.columns import TIME
+from ...measurements.noise import slow_memory
 from ...simulation.windows import Windows
 from ...skeleton.system import CompiledSystem, stack_systems
 from ..problem import Problem
@@ -108,14 +109,14 @@ class ShootingPlan(Windows):
         return {**self._starts, **self._inputs, TIME: self._times}
 
     # -- residuals ---------------------------------------------------------------
-    def _errors(self, states: np.ndarray) -> np.ndarray:
-        """Scaled differences of the measured states, one row per fitted sample."""
+    def output_errors(self, states: np.ndarray) -> np.ndarray:
+        """Scaled differences of the measured states, one row per fitted sample (in time order)."""
         sim = states[:, :, self.measured_index]
         return ((sim - self.targets) / self.scale[self.measured_index])[self.own]
 
     def residuals(self, states: np.ndarray, start: np.ndarray) -> np.ndarray:
         """Scaled measurement residuals, then weighted continuity defects."""
-        meas = self._errors(states).ravel()
+        meas = self.output_errors(states).ravel()
         if self.whitening is not None:
             meas = self.whitening @ meas
         ends = states[np.arange(self.n_segments), self.steps]
@@ -125,7 +126,7 @@ class ShootingPlan(Windows):
 
     def output_nrmse(self, states: np.ndarray) -> float:
         """Normalised RMSE of the measured states along the segments."""
-        return float(np.sqrt(np.mean(self._errors(states) ** 2)))
+        return float(np.sqrt(np.mean(self.output_errors(states) ** 2)))
 
     def jacobian(self, sens_theta: list[np.ndarray], sens_start: list[np.ndarray]):
         """Jacobian of :meth:`residuals` from trajectory sensitivities.
@@ -233,7 +234,9 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
         improved on it).
     info : dict
         ``segments``, ``substeps``, ``iterations``, ``nrmse_before``,
-        ``nrmse_after``, ``max_defect`` (largest continuity jump in units of
+        ``nrmse_after``, ``slow_memory`` (the output errors' wander at the
+        record's slowest frequencies, :func:`~sklearn_pycc.measurements.noise.slow_memory`),
+        ``max_defect`` (largest continuity jump in units of
         each state's RMS), ``diverged`` (segments that escaped at the end)
         and ``initial_states`` (every state at the start of each experiment,
         ``(n_experiments, n_states)``).
@@ -321,6 +324,7 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
         "iterations": int(solution.nfev),
         "nrmse_before": before,
         "nrmse_after": plan.output_nrmse(states),
+        "slow_memory": slow_memory(plan.output_errors(states)),
         "max_defect": defect,
         "diverged": int(escaped.sum()),
         # a start beyond a fitted limit simulates as one at it
