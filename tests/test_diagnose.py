@@ -611,3 +611,30 @@ def test_close_candidates_go_fewest_numbers_first_then_those_keeping_the_users_t
     ranked = ordered_candidates([candidate("pendulum", "add", 1, -3000.0),
                                  candidate("saturation for the spring", "replace", 1, -3343.0)])
     assert ranked[0].name == "saturation for the spring"
+
+
+def test_a_users_term_that_earns_nothing_through_the_record_is_not_kept_beside():
+    from types import SimpleNamespace
+
+    from sklearn_pycc.diagnostics._decide import _earns_nothing
+
+    def candidate(held_out, whole, n_change, replaces=()):
+        return SimpleNamespace(held_out=SimpleNamespace(criterion="simulation",
+                                                        after={"simulation": held_out}),
+                               whole_record=whole, n_change=n_change, replaces=replaces,
+                               note="")
+
+    per_number = 3 * 19 / 6000  # one number's chance share on AR(1) 0.9 noise, 3,000 samples
+    # a pendulum in place of a spring the record does not have: the same error without it
+    beside = candidate(0.229, 0.029794, 1)
+    replacement = candidate(0.220, 0.029793, 0, ("a2*x1",))
+    assert _earns_nothing(beside, replacement, per_number)
+    assert "preferred to keeping 'a2*x1' beside it" in replacement.note
+    # a light real damping under a quadratic drag: the whole record needs it
+    assert not _earns_nothing(candidate(0.229, 0.0250, 1), candidate(0.220, 0.0298, 0),
+                              per_number)
+    # held out, the replacement must do no worse; unknown whole-record errors say nothing
+    assert not _earns_nothing(candidate(0.210, 0.029794, 1), candidate(0.220, 0.029793, 0),
+                              per_number)
+    assert not _earns_nothing(beside, candidate(0.220, None, 0), per_number)
+    assert not _earns_nothing(beside, candidate(0.220, 0.029793, 0), None)

@@ -156,9 +156,10 @@ def decide_addition(eligible: list[Candidate], model, data: Record, horizon: Hor
             c.note = "; ".join(filter(None, [c.note, str(c.held_out)]))
         return c.held_out.confirmed
 
+    per_number = _per_number(model, record) if output_error and record is not None else None
     for c in eligible[:N_HELD_OUT]:
         if check(c):
-            return _preferred(c, eligible, check)
+            return _preferred(c, eligible, check, per_number)
     return None
 
 
@@ -193,17 +194,25 @@ def chance_fall(c: Candidate, model, record: pd.DataFrame, cache: dict | None = 
 def _chance(c: Candidate, model, record: pd.DataFrame,
             cache: dict | None) -> tuple[float, str]:
     """:func:`chance_fall`, and what its memory was read from, in words."""
-    states = [s for s in getattr(model, "measured_states_", ()) if s in record.columns]
-    if TIME not in record.columns or not states or c.n_change <= 0:
+    per_number = _per_number(model, record)
+    if not per_number or c.n_change <= 0:
         return 0.0, ""
-    memory = max(reading.memory for reading in read_frame_noise(record, states).values())
     source = "this record's noise"
     if c.effect.acts_through == "time" or c.move == "open":
-        wander = _whole_record(model, record, cache)[1]
-        if wander > memory:
-            memory, source = wander, ("the slow wander the model leaves through the record "
-                                      "(a sensor's drift, a slow force)")
-    return CHANCE_Z * c.n_change * memory / (2.0 * len(record)), source
+        wander = CHANCE_Z * _whole_record(model, record, cache)[1] / (2.0 * len(record))
+        if wander > per_number:
+            per_number, source = wander, ("the slow wander the model leaves through the "
+                                          "record (a sensor's drift, a slow force)")
+    return c.n_change * per_number, source
+
+
+def _per_number(model, record: pd.DataFrame) -> float:
+    """:func:`chance_fall` of one number on the record's noise (0 without time or states)."""
+    states = [s for s in getattr(model, "measured_states_", ()) if s in record.columns]
+    if TIME not in record.columns or not states:
+        return 0.0
+    memory = max(reading.memory for reading in read_frame_noise(record, states).values())
+    return CHANCE_Z * memory / (2.0 * len(record))
 
 
 def _whole_record_gain(c: Candidate, model, record: pd.DataFrame, floor: float, *,
@@ -245,20 +254,25 @@ def _short_of_whole_record(c: Candidate, model, record: pd.DataFrame, cache: dic
     return True
 
 
-def _preferred(c: Candidate, eligible: list[Candidate], check) -> Candidate:
+def _preferred(c: Candidate, eligible: list[Candidate], check,
+               per_number: float | None = None) -> Candidate:
     """The candidate to name once held-out data confirmed ``c`` (``check`` judges others).
 
     ``c`` itself, the same effect beside the terms it would replace, a
     simpler effect that does as well, or a rival that does clearly better.
+    ``per_number`` (a model fitted by output error) is the fall of the whole
+    record's error one number takes out by chance (:func:`chance_fall`).
     """
     # a term the user wrote goes only where the data its fit did not see favour
     # dropping it: the same effect added beside it is checked too, and kept unless
     # the replacement does clearly better (a light viscous damping under a
-    # quadratic drag costs a noisy record little, and a fresh one much)
+    # quadratic drag costs a noisy record little, and a fresh one much), or the
+    # term earns nothing through the whole record
     beside = _beside(c, eligible)
     if beside is not None and check(beside):
         crit = c.held_out.criterion
-        if c.held_out.after[crit] > (1 - PARSIMONY) * beside.held_out.after[crit]:
+        if c.held_out.after[crit] > (1 - PARSIMONY) * beside.held_out.after[crit] \
+                and not _earns_nothing(beside, c, per_number):
             beside.note = "; ".join(filter(None, [beside.note, (
                 f"preferred to replacing '{' + '.join(c.replaces)}' (held-out {crit} "
                 f"error {c.held_out.after[crit]:.3g} without it against "
@@ -290,6 +304,34 @@ def _preferred(c: Candidate, eligible: list[Candidate], check) -> Candidate:
                                                  f"preferred to {c.effect.name} ({why})"]))
             return rival
     return c
+
+
+def _earns_nothing(beside: Candidate, replacement: Candidate,
+                   per_number: float | None) -> bool:
+    """Whether the user's terms ``beside`` keeps bring nothing the ``replacement`` lacks.
+
+    Both confirmed on held-out data, the replacement's held-out error no
+    higher, and its whole-record output error (the model fitted by output
+    error) within what the kept terms' numbers would take out by chance:
+    the larger model holds the smaller, so the terms it keeps earn that
+    much at least if they are real. Its note says so.
+    """
+    if per_number is None:
+        return False
+    crit = replacement.held_out.criterion
+    whole = replacement.whole_record, beside.whole_record
+    if not all(w is not None and math.isfinite(w) for w in whole) \
+            or replacement.held_out.after[crit] > beside.held_out.after[crit]:
+        return False
+    kept = max(beside.n_change - replacement.n_change, 1)
+    if whole[0] > (1 + kept * per_number) * whole[1]:
+        return False
+    replacement.note = "; ".join(filter(None, [replacement.note, (
+        f"preferred to keeping '{' + '.join(replacement.replaces)}' beside it: the whole "
+        f"record's output error is {whole[0]:.4g} without and {whole[1]:.4g} with, and the "
+        f"held-out {crit} error {replacement.held_out.after[crit]:.3g} against "
+        f"{beside.held_out.after[crit]:.3g}")]))
+    return True
 
 
 def _rival_wins(rival: Candidate, leader: Candidate) -> str:
