@@ -1,0 +1,322 @@
+"""The continuous-discrete extended Kalman filter of a skeleton, and its likelihood.
+
+A skeleton read as a stochastic differential equation,
+
+    dx = f(x, u, a) dt + diag(q) dW,    y_k = x_k[measured] + e_k,    e_k ~ N(0, diag(r^2)),
+
+is filtered over the segments of a shooting plan
+(:class:`~sklearn_pycc.fitting.output_error.shooting.ShootingPlan`): between
+samples the mean follows the right-hand side (fixed-step fourth-order
+Runge-Kutta, as the shooting fits integrate it) and the covariance the
+linearised flow, ``P <- F (P + Q h/2) F' + Q h/2`` with ``F`` the step's own
+Jacobian (every state bumped and integrated beside the mean); at each sample
+the measured states update both. Each segment starts from the plan's
+initial states with a broad covariance (the states' own spread), so the
+segments are filtered side by side, all in one pass of numpy calls, and the
+likelihood is the sum of theirs: the information that crosses a segment's
+boundary is all that is lost, little where the segments are far longer than
+the states' memory under the process noise.
+
+Many variants of the system (the bumps of a finite-difference gradient) are
+filtered in the same pass: the cost is in the calls, not in the rows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...skeleton.system import CompiledSystem, stack_systems
+
+__all__ = ["FilterPass", "fit_filter", "kalman_pass"]
+
+#: relative size of the state bumps that give each step's Jacobian
+BUMP = 1e-6
+LOG_2PI = float(np.log(2 * np.pi))
+
+
+@dataclass
+class FilterPass:
+    """What one pass of the filter gives, per variant of the system.
+
+    Attributes
+    ----------
+    nll : ndarray of shape (copies,)
+        Negative log-likelihood of the measured samples (inf where a
+        variant's filter diverged).
+    terms : ndarray of shape (copies, n_used)
+        Each used sample's share of ``nll``, in the plan's order.
+    innovations : ndarray of shape (copies, n_used, n_measured)
+        One-step prediction errors of the measured states.
+    variances : ndarray of shape (copies, n_used, n_measured)
+        Their predicted variances (the diagonal of ``S``).
+    means, covariances : ndarray or None
+        Filtered states ``(copies, K, L + 1, n)`` and their covariances
+        ``(copies, K, L + 1, n, n)``, when asked for.
+    """
+
+    nll: np.ndarray
+    terms: np.ndarray
+    innovations: np.ndarray
+    variances: np.ndarray
+    means: np.ndarray | None = None
+    covariances: np.ndarray | None = None
+
+
+def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
+                process_sd: np.ndarray, measurement_sd: np.ndarray, *,
+                keep: bool = False) -> FilterPass:
+    """Filter every segment of ``plan`` under each of ``systems``.
+
+    Parameters
+    ----------
+    plan : ShootingPlan
+        Segments, their measured samples (``own``) and their initial states.
+    systems : CompiledSystem or list of them
+        Variants that differ only in their numbers, filtered side by side.
+    process_sd : ndarray of shape (copies, n_states)
+        Each variant's process-noise intensity per state (standard deviation
+        of the state's increment over a unit of time; 0 for none).
+    measurement_sd : ndarray of shape (copies, n_measured)
+        Each variant's measurement-noise standard deviation per measured state.
+    keep : bool, default=False
+        Keep the filtered means and covariances.
+
+    Returns
+    -------
+    FilterPass
+    """
+    systems = [systems] if isinstance(systems, CompiledSystem) else list(systems)
+    copies, n = len(systems), len(plan.states)
+    K, L, m = plan.n_segments, plan.n_steps, plan.substeps
+    mi = np.asarray(plan.measured_index, dtype=int)
+    rows_per = (n + 1) * K  # a variant's rows: the mean and each state bumped, per segment
+    stacked = systems[0] if copies == 1 else stack_systems(systems, rows_per)
+    if stacked is None:
+        raise ValueError("the systems filtered side by side must differ only in their numbers")
+    fine = plan.fine_signals()
+    ends = plan.fine_signals(left=True)
+    signals = [name for name in fine if name in stacked.slots]
+    columns = [fine[name].T.copy() for name in signals]
+    lefts = columns if ends is fine else [ends[name].T.copy() for name in signals]
+    evaluate = stacked.batch_rhs(copies * rows_per, signals)
+    repeat = copies * (n + 1)
+
+    def rhs(x, column, source):
+        return evaluate(x, [np.tile(values[column], repeat) for values in source])
+
+    q = np.asarray(process_sd, dtype=float).reshape(copies, n) ** 2
+    Q = np.repeat(q[:, None, :], K, axis=1).reshape(copies * K, n)  # diagonal, per segment
+    r2 = np.repeat((np.asarray(measurement_sd, dtype=float).reshape(copies, -1) ** 2)[:, None],
+                   K, axis=1).reshape(copies * K, len(mi))
+    scale = np.asarray(plan.scale, dtype=float)
+    x = np.tile(np.asarray(plan.initial, dtype=float), (copies, 1))  # (copies K, n)
+    P = np.tile(np.diag(scale**2), (copies * K, 1, 1))
+    targets = np.tile(plan.targets, (copies, 1, 1))  # (copies K, L + 1, n_measured)
+    own = np.tile(plan.own, (copies, 1))
+    h_all = np.tile(plan.h, (copies, 1))
+    bound = np.asarray(plan.bound, dtype=float)
+    eye = np.eye(n)
+    used = np.flatnonzero(plan.own.ravel())
+    nll = np.zeros(copies * K)
+    terms = np.zeros((copies * K, L + 1))
+    innov = np.zeros((copies * K, L + 1, len(mi)))
+    var = np.ones((copies * K, L + 1, len(mi)))
+    failed = np.zeros(copies * K, dtype=bool)
+    means = np.zeros((copies * K, L + 1, n)) if keep else None
+    covs = np.zeros((copies * K, L + 1, n, n)) if keep else None
+
+    def update(i: int) -> None:
+        nonlocal x, P
+        on = own[:, i]
+        if not on.any() or not len(mi):
+            return
+        nu = targets[:, i] - x[:, mi]
+        S = P[:, mi][:, :, mi] + r2[:, :, None] * np.eye(len(mi))
+        chol = np.linalg.cholesky(S)
+        white = np.linalg.solve(chol, nu[:, :, None])[:, :, 0]
+        log_det = 2.0 * np.sum(np.log(np.abs(np.diagonal(chol, axis1=1, axis2=2))), axis=1)
+        gain = np.linalg.solve(S, P[:, mi, :]).transpose(0, 2, 1)  # P H' S^-1 (S symmetric)
+        term = 0.5 * (np.sum(white**2, axis=1) + log_det + len(mi) * LOG_2PI)
+        terms[:, i] = np.where(on, term, 0.0)
+        innov[:, i] = nu
+        var[:, i] = np.diagonal(S, axis1=1, axis2=2)
+        x = np.where(on[:, None], x + np.einsum("bij,bj->bi", gain, nu), x)
+        P = np.where(on[:, None, None], P - gain @ S @ gain.transpose(0, 2, 1), P)
+        P = 0.5 * (P + P.transpose(0, 2, 1))
+
+    with np.errstate(all="ignore"):
+        for i in range(L + 1):
+            update(i)
+            if keep:
+                means[:, i], covs[:, i] = x, P
+            if i == L:
+                break
+            h = h_all[:, i]
+            step = BUMP * np.maximum(np.abs(x), scale)  # (copies K, n)
+            points = np.repeat(x[:, None, :], n + 1, axis=1)  # (copies K, n + 1, n)
+            points[:, 1:] += step[:, :, None] * eye
+            # rows ordered (copy, point, segment): each variant's rows stay together
+            z = points.reshape(copies, K, n + 1, n).transpose(0, 2, 1, 3).reshape(-1, n)
+            hz = np.repeat(h.reshape(copies, K)[:, None, :], n + 1, axis=1).reshape(-1, 1)
+            sub = hz / m
+            for j in range(m):
+                c = 2 * (i * m + j)
+                k1 = rhs(z, c, columns)
+                k2 = rhs(z + 0.5 * sub * k1, c + 1, lefts)
+                k3 = rhs(z + 0.5 * sub * k2, c + 1, lefts)
+                k4 = rhs(z + sub * k3, c + 2, lefts)
+                z = z + sub / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            z = z.reshape(copies, n + 1, K, n).transpose(0, 2, 1, 3).reshape(copies * K, n + 1, n)
+            x = z[:, 0]
+            F = ((z[:, 1:] - x[:, None, :]) / step[:, :, None]).transpose(0, 2, 1)
+            half = Q * (h[:, None] / 2.0)
+            P = F @ (P + half[:, :, None] * eye) @ F.transpose(0, 2, 1) + half[:, :, None] * eye
+            bad = ~(np.isfinite(x).all(axis=1) & (np.abs(x) <= bound).all(axis=1)
+                    & np.isfinite(P).all(axis=(1, 2)))
+            if bad.any():
+                failed |= bad
+                x = np.where(bad[:, None], np.asarray(plan.initial, float)[
+                    np.arange(copies * K) % K], x)
+                P = np.where(bad[:, None, None], np.diag(scale**2), P)
+    nll = terms.sum(axis=1)
+    nll[failed] = np.inf
+    per_copy = nll.reshape(copies, K).sum(axis=1)
+    flat = terms.reshape(copies, K * (L + 1))[:, used]
+    out = FilterPass(per_copy, flat,
+                     innov.reshape(copies, K * (L + 1), -1)[:, used],
+                     var.reshape(copies, K * (L + 1), -1)[:, used])
+    if keep:
+        out.means = means.reshape(copies, K, L + 1, n)
+        out.covariances = covs.reshape(copies, K, L + 1, n, n)
+    return out
+
+
+def negative_log_likelihood(plan, system_for: Callable[[np.ndarray], CompiledSystem],
+                            theta: np.ndarray, process_sd: np.ndarray,
+                            measurement_sd: np.ndarray) -> float:
+    """The filter's negative log-likelihood of ``plan``'s measurements at one set of numbers."""
+    run = kalman_pass(plan, system_for(np.asarray(theta, dtype=float)),
+                      np.asarray(process_sd, dtype=float)[None],
+                      np.asarray(measurement_sd, dtype=float)[None])
+    return float(run.nll[0])
+
+
+def _numbers(z: np.ndarray, p: int, noisy: np.ndarray, n: int):
+    """``theta``, process and measurement standard deviations from the search vector."""
+    q = np.zeros(n)
+    q[noisy] = np.exp(z[p:p + len(noisy)])
+    return z[:p], q, np.exp(z[p + len(noisy):])
+
+
+def _variants(plan, system_for, points: np.ndarray, p: int, noisy: np.ndarray) -> FilterPass:
+    """One pass of the filter at every row of ``points`` (search vectors)."""
+    n = len(plan.states)
+    parts = [_numbers(z, p, noisy, n) for z in points]
+    return kalman_pass(plan, [system_for(theta) for theta, _, _ in parts],
+                       np.array([q for _, q, _ in parts]), np.array([r for _, _, r in parts]))
+
+
+def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0: np.ndarray,
+               process0: np.ndarray, measurement0: np.ndarray, *, noisy, bounds=None,
+               max_iterations: int = 100) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+    """Maximise the filter's likelihood over the parameters and the noise intensities.
+
+    Parameters
+    ----------
+    plan : ShootingPlan
+        Segments and measurements, substeps chosen.
+    system_for : callable
+        Parameter vector -> compiled system.
+    theta0 : ndarray
+        Starting parameters (an output-error or equation-error fit).
+    process0 : ndarray of shape (n_states,)
+        Starting process-noise intensities (those of ``noisy`` states are fitted,
+        the others are 0).
+    measurement0 : ndarray of shape (n_measured,)
+        Starting measurement-noise standard deviations.
+    noisy : sequence of int
+        The states the process noise enters.
+    bounds : (ndarray, ndarray), optional
+        Least and largest value of each parameter.
+    max_iterations : int, default=100
+        Most quasi-Newton iterations.
+
+    Returns
+    -------
+    theta, process_sd, measurement_sd : ndarray
+    info : dict
+        ``nll`` (negative log-likelihood), ``iterations``, ``converged``,
+        ``covariance`` (of the parameters, from the likelihood's curvature;
+        None where it is not positive definite) and ``search_covariance`` (of
+        every fitted number, the noise intensities' logarithms included).
+    """
+    from scipy.optimize import minimize
+
+    noisy = np.asarray(list(noisy), dtype=int)
+    p, n = len(theta0), len(plan.states)
+    z0 = np.concatenate([np.asarray(theta0, float),
+                         np.log(np.maximum(np.asarray(process0, float)[noisy], 1e-12)),
+                         np.log(np.maximum(np.asarray(measurement0, float), 1e-12))])
+    d = len(z0)
+    low = np.full(d, -np.inf)
+    high = np.full(d, np.inf)
+    if bounds is not None:
+        low[:p], high[:p] = bounds
+    low[p:], high[p:] = -30.0, 10.0  # noise intensities from 1e-13 to 2e4
+
+    def value_and_gradient(z):
+        s = 1e-6 * np.maximum(np.abs(z), 1.0)
+        points = np.vstack([z, z + np.diag(s), z - np.diag(s)])
+        nll = _variants(plan, system_for, points, p, noisy).nll
+        if not np.isfinite(nll[0]):
+            return 1e300, np.zeros(d)
+        grad = (nll[1:d + 1] - nll[d + 1:]) / (2 * s)
+        return float(nll[0]), np.where(np.isfinite(grad), grad, 0.0)
+
+    result = minimize(value_and_gradient, np.clip(z0, low, high), jac=True, method="L-BFGS-B",
+                      bounds=list(zip(low, high)),
+                      options={"maxiter": int(max_iterations), "ftol": 1e-10, "gtol": 1e-6})
+    z = result.x
+    search_cov = _curvature_covariance(plan, system_for, z, p, noisy)
+    theta, q, r = _numbers(z, p, noisy, n)
+    info = {"nll": float(result.fun), "iterations": int(result.nit),
+            "converged": bool(result.success),
+            "search_covariance": search_cov,
+            "covariance": None if search_cov is None else search_cov[:p, :p]}
+    return theta, q, r, info
+
+
+def _curvature_covariance(plan, system_for, z: np.ndarray, p: int,
+                          noisy: np.ndarray) -> np.ndarray | None:
+    """The inverse of the negative log-likelihood's Hessian at ``z`` (one pass of bumps)."""
+    d = len(z)
+    s = 1e-3 * np.maximum(np.abs(z), 1.0)
+    points, index = [z], {}
+    for i in range(d):
+        for sign in (1, -1):
+            index[(i, sign)] = len(points)
+            points.append(z + sign * s[i] * np.eye(d)[i])
+    for i in range(d):
+        for j in range(i + 1, d):
+            for si in (1, -1):
+                for sj in (1, -1):
+                    index[(i, si, j, sj)] = len(points)
+                    points.append(z + si * s[i] * np.eye(d)[i] + sj * s[j] * np.eye(d)[j])
+    f = _variants(plan, system_for, np.array(points), p, noisy).nll
+    if not np.isfinite(f).all():
+        return None
+    H = np.empty((d, d))
+    for i in range(d):
+        H[i, i] = (f[index[(i, 1)]] - 2 * f[0] + f[index[(i, -1)]]) / s[i] ** 2
+        for j in range(i + 1, d):
+            H[i, j] = H[j, i] = (f[index[(i, 1, j, 1)]] - f[index[(i, 1, j, -1)]]
+                                 - f[index[(i, -1, j, 1)]] + f[index[(i, -1, j, -1)]]) / (
+                4 * s[i] * s[j])
+    try:
+        np.linalg.cholesky(H)
+    except np.linalg.LinAlgError:
+        return None
+    return np.linalg.inv(H)

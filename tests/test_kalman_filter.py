@@ -1,0 +1,114 @@
+"""The extended Kalman filter of a skeleton: its likelihood, and the numbers that maximise it."""
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.linalg import expm
+
+from sklearn_pycc import PolyCCRegressor, Skeleton
+from sklearn_pycc.fitting.filter import fit_filter, kalman_pass
+from sklearn_pycc.fitting.output_error.shooting import ShootingPlan
+
+OSCILLATOR = ["x1_dot = x2", "x2_dot = -a1 x2 - a2 x1"]
+A1, A2, Q, R, STEP = 0.2, 1.0, 0.3, 0.05, 0.05
+
+
+def _pushed_oscillator(n: int, seed: int) -> pd.DataFrame:
+    """A damped oscillator pushed by white noise (Euler-Maruyama on a fine grid), x1 measured."""
+    rng = np.random.default_rng(seed)
+    A = np.array([[0.0, 1.0], [-A2, -A1]])
+    x, out, fine = np.array([1.0, 0.0]), [], 20
+    dt = STEP / fine
+    for _ in range(n):
+        out.append(x[0])
+        for _ in range(fine):
+            x = x + A @ x * dt + np.array([0.0, Q * np.sqrt(dt) * rng.standard_normal()])
+    return pd.DataFrame({"t": np.arange(n) * STEP,
+                         "x1": np.array(out) + R * rng.standard_normal(n)})
+
+
+def _plan(X: pd.DataFrame, window: int):
+    estimator = PolyCCRegressor(equations=OSCILLATOR, fit_mode="simulation")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        problem, _ = estimator._problem(X, None, estimator._make_backend())
+    plan = ShootingPlan(problem, window)
+    plan.choose_substeps(problem.skeleton.compile({}, {"a1": A1, "a2": A2}),
+                         dict(problem.data.columns))
+    return problem, plan
+
+
+@pytest.fixture(scope="module")
+def record():
+    return _pushed_oscillator(2000, seed=0)
+
+
+def test_the_likelihood_is_the_exact_kalman_filters_on_a_linear_skeleton(record):
+    problem, plan = _plan(record, len(record))  # one segment: the filter runs through
+    system = problem.skeleton.compile({}, {"a1": A1, "a2": A2})
+    run = kalman_pass(plan, system, np.array([[0.0, Q]]), np.array([[R]]))
+    # the same model discretised exactly (the transition matrix and Van Loan's noise)
+    A = np.array([[0.0, 1.0], [-A2, -A1]])
+    phi = expm(A * STEP)
+    block = expm(np.block([[-A, np.diag([0.0, Q**2])], [np.zeros((2, 2)), A.T]]) * STEP)
+    noise = block[2:, 2:].T @ block[:2, 2:]
+    mean, cov, nll = plan.initial[0].copy(), np.diag(plan.scale**2), 0.0
+    for y in record.x1:
+        s = cov[0, 0] + R**2
+        nu = y - mean[0]
+        nll += 0.5 * (nu**2 / s + np.log(s) + np.log(2 * np.pi))
+        gain = cov[:, 0] / s
+        mean, cov = mean + gain * nu, cov - np.outer(gain, cov[0])
+        mean, cov = phi @ mean, phi @ cov @ phi.T + noise
+    assert run.nll[0] == pytest.approx(nll, abs=0.05)
+    assert run.innovations.shape == (1, len(record), 1) and run.terms.sum() == \
+        pytest.approx(run.nll[0])
+    # white innovations of unit variance once scaled: the model is the one that made them
+    scaled = (run.innovations[0, 50:, 0] / np.sqrt(run.variances[0, 50:, 0]))
+    assert np.std(scaled) == pytest.approx(1.0, abs=0.1)
+    assert abs(np.corrcoef(scaled[:-1], scaled[1:])[0, 1]) < 0.1
+
+
+def test_variants_filtered_side_by_side_are_each_filtered_as_alone(record):
+    problem, plan = _plan(record, 200)
+    numbers = [(0.2, 1.0, 0.3, 0.05), (0.4, 0.8, 0.1, 0.1), (0.1, 1.2, 0.5, 0.02)]
+    systems = [problem.skeleton.compile({}, {"a1": a, "a2": b}) for a, b, _, _ in numbers]
+    together = kalman_pass(plan, systems, np.array([[0.0, q] for *_, q, _ in numbers]),
+                           np.array([[r] for *_, r in numbers]), keep=True)
+    for k, (system, (_, _, q, r)) in enumerate(zip(systems, numbers)):
+        alone = kalman_pass(plan, system, np.array([[0.0, q]]), np.array([[r]]))
+        assert together.nll[k] == pytest.approx(alone.nll[0], rel=1e-9)
+    assert together.means.shape == (3, plan.n_segments, plan.n_steps + 1, 2)
+    # the truth is the likeliest of the three
+    assert np.argmin(together.nll) == 0
+
+
+def test_a_filter_that_diverges_has_no_likelihood(record):
+    _, plan = _plan(record, 200)
+    # the velocity runs away within a step: no measurement of the position can hold it
+    exploding = Skeleton(["x1_dot = x2", "x2_dot = a1 x2^3"]).compile({}, {"a1": 1e6})
+    assert kalman_pass(plan, exploding, np.array([[0.0, Q]]), np.array([[R]])).nll[0] == np.inf
+    # an unstable system the measurements keep in check is only unlikely
+    skeleton = Skeleton(OSCILLATOR)
+    unstable = skeleton.compile({}, {"a1": -5.0, "a2": 1.0})
+    truth = skeleton.compile({}, {"a1": A1, "a2": A2})
+    both = kalman_pass(plan, [unstable, truth], np.array([[0.0, Q]] * 2), np.array([[R]] * 2))
+    assert np.isfinite(both.nll).all() and both.nll[0] > both.nll[1] + 100
+
+
+def test_the_parameters_and_noise_intensities_are_recovered_with_honest_errors(record):
+    problem, plan = _plan(record, 200)
+
+    def system_for(theta):
+        return problem.skeleton.compile({}, {"a1": theta[0], "a2": theta[1]})
+
+    theta, q, r, info = fit_filter(plan, system_for, np.array([0.5, 0.8]),
+                                   np.array([0.0, 0.05]), np.array([0.2]), noisy=[1])
+    assert info["converged"]
+    errors = np.sqrt(np.diag(info["covariance"]))
+    assert np.all(np.abs(theta - [A1, A2]) < 3 * errors)
+    assert np.all(errors < [0.1, 0.1])
+    assert q[0] == 0.0 and q[1] == pytest.approx(Q, rel=0.2)
+    assert r[0] == pytest.approx(R, rel=0.2)
