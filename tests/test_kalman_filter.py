@@ -112,3 +112,39 @@ def test_the_parameters_and_noise_intensities_are_recovered_with_honest_errors(r
     assert np.all(errors < [0.1, 0.1])
     assert q[0] == 0.0 and q[1] == pytest.approx(Q, rel=0.2)
     assert r[0] == pytest.approx(R, rel=0.2)
+
+
+def test_an_estimator_fitted_by_the_filter_says_what_pushed_it(record):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=OSCILLATOR, fit_mode="filter").fit(record)
+        output_error = PolyCCRegressor(equations=OSCILLATOR, fit_mode="simulation").fit(record)
+    assert model.fit_mode_ == "filter"
+    assert "extended Kalman filter" in model.derivative_source_
+    truth = {"a1": A1, "a2": A2}
+    for name, value in truth.items():
+        assert abs(model.params_[name] - value) < 3 * model.params_std_[name]
+    # x1_dot = x2 is exact: only the force's equation is pushed
+    assert model.process_noise_["x1"] == 0.0
+    assert model.process_noise_["x2"] == pytest.approx(Q, rel=0.2)
+    assert model.measurement_noise_["x1"] == pytest.approx(R, rel=0.2)
+    assert model.filter_["converged"] and model.filter_["segments"] == 10
+    # the output-error fit chases the wander: its damping is further from the truth
+    assert abs(output_error.params_["a1"] - A1) > abs(model.params_["a1"] - A1)
+    lows, highs = zip(*model.params_interval(0.95).values())
+    assert all(low < value < high for low, high, value in zip(lows, highs, truth.values()))
+
+
+@pytest.mark.parametrize("settings, match", [
+    ({"equations": ["x1_dot = x2", "x2_dot = -f1(x2) - a2 x1"]}, "f1 is a curve"),
+    ({"equations": OSCILLATOR, "noise_model": "ar"}, "noise_model is for output-error"),
+    ({"equations": OSCILLATOR, "n_bootstrap": 5}, "n_bootstrap is for output-error"),
+])
+def test_the_filter_refuses_what_it_cannot_fit_yet_naming_it(record, settings, match):
+    with pytest.raises(ValueError, match=match):
+        PolyCCRegressor(fit_mode="filter", **settings).fit(record.iloc[:300])
+
+
+def test_the_filter_needs_time(record):
+    with pytest.raises(ValueError, match="X has no time column 't'"):
+        PolyCCRegressor(equations=OSCILLATOR, fit_mode="filter").fit(record[["x1"]])

@@ -17,7 +17,9 @@ from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
 from .._utils.randomness import seeds
+from .._utils.threads import blas_threads
 from ..exceptions import DomainWarning
+from ..fitting.filter.stage import check_filterable, filter_stage
 from ..fitting.fingerprint import fit_fingerprint
 from ..fitting.output_error.hidden import check_visible
 from ..fitting.output_error.noise_model import NOISE_MODELS, fit_noise_model
@@ -57,7 +59,7 @@ from .backend import Backend
 __all__ = ["FIT_MODES", "OUTPUT_ERROR_SETTINGS", "RANDOM_STATES", "RESAMPLING", "CCRegressor",
            "adopt", "backend_of", "check_equation_weights", "make_problem", "set_fitted"]
 
-FIT_MODES = ("auto", "equation", "simulation")
+FIT_MODES = ("auto", "equation", "simulation", "filter")
 #: the hyperparameters of the output-error stage, left out by estimators that have none
 OUTPUT_ERROR_SETTINGS = ("fit_mode", "shooting_window", "shooting_iterations", "input_hold",
                          "noise_model")
@@ -162,7 +164,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
     smooth_states : bool, default=True
         When derivatives are estimated, fit on the smoothed states rather
         than the raw measurements.
-    fit_mode : {"auto", "equation", "simulation"}, default="auto"
+    fit_mode : {"auto", "equation", "simulation", "filter"}, default="auto"
         ``"equation"`` fits the derivatives (equation error). ``"simulation"``
         then refines the fit so that the simulated states match the
         measured ones (output error), by multiple shooting over short
@@ -171,7 +173,16 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
         to be estimated from states the ``"auto"`` differentiation found
         noisier than ``AUTO_SIMULATION_SNR_DB`` (45 dB), and the backend and
         skeleton can be simulated; it says so in ``derivative_source_``, and
-        ``fit_mode_`` holds the mode used.
+        ``fit_mode_`` holds the mode used. ``"filter"`` reads the skeleton as
+        a stochastic differential equation, every state but a kinematic
+        identity pushed by its own white noise (a disturbance nobody
+        measured), and refines the output-error fit by the extended Kalman
+        filter's likelihood: the parameters, the noises' intensities
+        (``process_noise_``) and the measurement noise
+        (``measurement_noise_``), the parameters' covariance from the
+        likelihood's curvature. So far for skeletons of parameters (no
+        curves) whose states are all measured or reconstructed, without
+        ``noise_model`` or ``n_bootstrap``.
     shooting_window : int, default=40
         Samples per shooting segment in ``fit_mode="simulation"``.
     shooting_iterations : int, default=30
@@ -242,7 +253,13 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
         record showed (sampling rate, noise level, quantisation, dropped
         samples) that led to it.
     fit_mode_ : str
-        The mode the fit used: ``"equation"`` or ``"simulation"``.
+        The mode the fit used: ``"equation"``, ``"simulation"`` or ``"filter"``.
+    process_noise_, measurement_noise_ : dict
+        Only with ``fit_mode="filter"``: each state's process-noise
+        intensity (the standard deviation of its random increment over one
+        unit of time; 0 for a kinematic identity) and each measured state's
+        measurement-noise standard deviation. ``filter_`` holds the fit's
+        negative log-likelihood, iterations and segments.
     noise_model_ : NoiseModel or None
         With ``noise_model``, after an output-error fit: each measured
         state's noise model (AR coefficients and poles, MA coefficient,
@@ -358,12 +375,13 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
                                  f"{', '.join(skeleton.delay_params)} are fitted by fit")
             skeleton = skeleton.with_delays(delays)
         state_quantities(skeleton, self.quantities)  # names a state or quantity it lacks
-        if self.fit_mode == "simulation":
+        if self.fit_mode in ("simulation", "filter"):
             _check_simulable(skeleton, outputs_ok=True)
         constraints, fixed, zeroed, gauge = gauge_skeleton(skeleton, self.gauge)
         record = read_record(skeleton, X, y, differentiation=self.differentiation,
                              smooth=bool(self.smooth_states), estimator=self, reset=True,
-                             need_time=(_NEEDS_TIME if self.fit_mode == "simulation" else None),
+                             need_time=(_NEEDS_TIME.replace("'simulation'", repr(self.fit_mode))
+                                        if self.fit_mode in ("simulation", "filter") else None),
                              who=type(self).__name__, trim=False,
                              hidden_ok=self.fit_mode != "equation")
         _warn_crossed_limits(skeleton, record)
@@ -371,13 +389,14 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
             _check_hidden(skeleton, record.hidden)
         else:
             fixed = {**fixed, **_measured_limits(skeleton, record)}
-            if self.fit_mode == "simulation":
+            if self.fit_mode in ("simulation", "filter"):
                 _check_simulable(skeleton)
         weights = check_equation_weights(self.equation_weights, skeleton)
         mode, why = self._resolve_mode(skeleton, record, backend)
         if profile and not record.hidden:
             mode, why = "equation", ""
-        facts = {"fit_mode_": mode, "derivative_source_": record.source + why,
+        facts = {"fit_mode_": "filter" if self.fit_mode == "filter" and not profile else mode,
+                 "derivative_source_": record.source + why,
                  "input_hold_": given_hold(self),
                  "measured_states_": list(record.measured),
                  "_y_1d": record.y_ndim == 1 and len(skeleton.targets) == 1}
@@ -404,6 +423,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
             return "simulation", (
                 f"; {hidden} not measured: fitted by output error on {seen}, the value of "
                 f"{hidden} at the start of each experiment a fitted number (initial_states_)")
+        if self.fit_mode == "filter":  # the output-error fit is where the filter starts
+            return "simulation", "; refined by the extended Kalman filter's likelihood"
         if self.fit_mode != "auto":
             return self.fit_mode, ""
         noisy = record.estimated and record.snr_db is not None \
@@ -454,6 +475,11 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
         if n_bootstrap == 1:
             raise ValueError("n_bootstrap must be 0 (no resampling) or at least 2, got 1")
         resolve_differentiation(self.differentiation)
+        if self.fit_mode == "filter" and (self.noise_model is not None or n_bootstrap):
+            setting = "noise_model" if self.noise_model is not None else "n_bootstrap"
+            raise ValueError(f"fit_mode='filter' models the measurement noise as white and "
+                             f"gives its own covariance; {setting} is for output-error fits "
+                             f"(fit_mode='simulation')")
         backend = self._make_backend()
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
         delays = self._fit_delays(X, y, skeleton, backend) if skeleton.delay_params else {}
@@ -461,8 +487,13 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
         if delays:
             facts = {**facts, "delays_": delays}
         problem.check_enough_rows()
+        if self.fit_mode == "filter":
+            check_filterable(problem)
         result = backend.estimate(problem, shooting_window=self.shooting_window,
                                   shooting_iterations=self.shooting_iterations)
+        if self.fit_mode == "filter":
+            with blas_threads(1):
+                result = filter_stage(problem, result)
         noise = None
         if self.noise_model is not None:
             if problem.fit_mode == "simulation" and not problem.hidden:

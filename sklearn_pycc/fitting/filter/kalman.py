@@ -135,6 +135,13 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
             return
         nu = targets[:, i] - x[:, mi]
         S = P[:, mi][:, :, mi] + r2[:, :, None] * np.eye(len(mi))
+        # a variant whose covariance lost its meaning (a bump too far) fails alone
+        broken = ~(np.isfinite(S).all(axis=(1, 2)) & np.isfinite(nu).all(axis=1))
+        broken[~broken] |= np.linalg.eigvalsh(S[~broken]).min(axis=1) <= 0
+        if broken.any():
+            failed[:] |= broken & on
+            S[broken] = np.eye(len(mi))
+            nu[broken] = 0.0
         chol = np.linalg.cholesky(S)
         white = np.linalg.solve(chol, nu[:, :, None])[:, :, 0]
         log_det = 2.0 * np.sum(np.log(np.abs(np.diagonal(chol, axis1=1, axis2=2))), axis=1)

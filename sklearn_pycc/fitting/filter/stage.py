@@ -1,0 +1,113 @@
+"""``fit_mode="filter"``: an output-error fit refined by the extended Kalman filter's likelihood.
+
+The skeleton is read as a stochastic differential equation: every state whose
+equation is more than a kinematic identity (``x1_dot = x2`` is exact) is
+pushed by its own white noise, whose intensity is fitted with the
+parameters and the measurement noise of each measured state. The
+output-error fit gives the start; a few starts of the intensities are tried
+and the likeliest kept. The parameters' covariance comes from the
+likelihood's curvature.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+
+from ...skeleton.nodes import Symbol
+from ..problem import FitResult, Problem
+from .kalman import fit_filter
+
+__all__ = ["WINDOW", "check_filterable", "filter_stage", "noisy_states"]
+
+#: samples per filtered segment: long against the states' memory under the process noise
+WINDOW = 200
+#: starting process-noise intensities, in units of each state's RMS per unit of time
+STARTS = (0.01, 0.3)
+
+
+def noisy_states(problem: Problem) -> list[int]:
+    """Positions of the states a process noise enters: all but kinematic identities."""
+    states = list(problem.skeleton.states)
+    out = []
+    for eq in problem.skeleton.parsed:
+        if not eq.dynamic:
+            continue
+        identity = isinstance(eq.rhs, Symbol) and eq.rhs.name in states
+        if not identity:
+            out.append(states.index(eq.state))
+    return out
+
+
+def check_filterable(problem: Problem) -> None:
+    """Refuse, naming the culprit, what the filter stage cannot fit yet."""
+    if problem.free_functions:
+        raise ValueError(
+            f"fit_mode='filter' fits a skeleton's parameters; {problem.free_functions[0]} "
+            "is a curve. Write it as a law of parameters (a1 x2 + a2 x2^3), or fit it by "
+            "fit_mode='simulation'")
+    if problem.hidden:
+        raise ValueError(
+            f"fit_mode='filter' needs every state measured or reconstructed from a measured "
+            f"one; {', '.join(problem.hidden)} is not: fit by fit_mode='simulation'")
+
+
+def filter_stage(problem: Problem, result: FitResult, *,
+                 iterations: int = 100) -> FitResult:
+    """Refine ``result`` (an output-error fit) by the filter's likelihood.
+
+    Returns the result with the parameters moved, and the attributes
+    ``process_noise_`` (state -> intensity: the standard deviation of the
+    state's random increment over one unit of time), ``measurement_noise_``
+    (measured state -> standard deviation), ``covariance_`` (of the free
+    parameters, from the likelihood's curvature; absent where it is not
+    positive definite) and ``filter_`` (``nll``, ``iterations``,
+    ``converged``, ``window``, ``segments``, ``starts``).
+    """
+    from ..output_error.shooting import ShootingPlan
+
+    check_filterable(problem)
+    free = problem.free_params
+    fixed = dict(problem.fixed_params)
+    functions = dict(result.functions)
+
+    def system_for(theta):
+        return problem.skeleton.compile(functions, {**fixed, **dict(zip(free, theta))})
+
+    theta0 = np.array([result.params[a] for a in free], dtype=float)
+    window = int(min(WINDOW, max(e.n_samples for e in problem.experiments) - 1))
+    plan = ShootingPlan(problem, max(window, 2))
+    plan.choose_substeps(system_for(theta0), dict(problem.data.columns))
+    noisy = noisy_states(problem)
+    mi = plan.measured_index
+    # the measurement noise starts at what the differentiation's smoothing took off the
+    # record (the output error would also hold the disturbances' wander: another basin)
+    measurement0 = np.array([
+        max(float(np.std(problem.measured[s] - problem.smoothed[s])), 1e-6 * plan.scale[j])
+        for s, j in zip(plan.measured, mi)])
+    bounds = problem.bounds
+    low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in free], dtype=float)
+    high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in free], dtype=float)
+    best = None
+    for start in STARTS:
+        fitted = fit_filter(plan, system_for, np.clip(theta0, low, high), start * plan.scale,
+                            measurement0, noisy=noisy, bounds=(low, high),
+                            max_iterations=iterations)
+        if best is None or fitted[3]["nll"] < best[3]["nll"]:
+            best = fitted
+    theta, q, r, info = best
+    states = list(plan.states)
+    attributes = {k: v for k, v in result.attributes.items() if k != "covariance_"}
+    attributes.update({
+        "process_noise_": {states[j]: float(q[j]) for j in range(len(states))},
+        "measurement_noise_": {plan.measured[j]: float(r[j]) for j in range(len(mi))},
+        "filter_": {"nll": info["nll"], "iterations": info["iterations"],
+                    "converged": info["converged"], "window": plan.window,
+                    "segments": plan.n_segments, "starts": len(STARTS)},
+    })
+    if info["covariance"] is not None and free:
+        attributes["covariance_"] = pd.DataFrame(info["covariance"], index=free, columns=free)
+    params = {**result.params, **{a: float(v) for a, v in zip(free, theta)}}
+    return replace(result, params=params, attributes=attributes)
