@@ -15,18 +15,22 @@ OSCILLATOR = ["x1_dot = x2", "x2_dot = -a1 x2 - a2 x1"]
 A1, A2, Q, R, STEP = 0.2, 1.0, 0.3, 0.05, 0.05
 
 
-def _pushed_oscillator(n: int, seed: int) -> pd.DataFrame:
-    """A damped oscillator pushed by white noise (Euler-Maruyama on a fine grid), x1 measured."""
+def _pushed_oscillator(n: int, seed: int, *, truth: bool = False):
+    """A damped oscillator pushed by white noise (Euler-Maruyama on a fine grid), x1 measured.
+
+    With ``truth``, the true states ``(n, 2)`` too.
+    """
     rng = np.random.default_rng(seed)
     A = np.array([[0.0, 1.0], [-A2, -A1]])
     x, out, fine = np.array([1.0, 0.0]), [], 20
     dt = STEP / fine
     for _ in range(n):
-        out.append(x[0])
+        out.append(x.copy())
         for _ in range(fine):
             x = x + A @ x * dt + np.array([0.0, Q * np.sqrt(dt) * rng.standard_normal()])
-    return pd.DataFrame({"t": np.arange(n) * STEP,
-                         "x1": np.array(out) + R * rng.standard_normal(n)})
+    states = np.array(out)
+    X = pd.DataFrame({"t": np.arange(n) * STEP, "x1": states[:, 0] + R * rng.standard_normal(n)})
+    return (X, states) if truth else X
 
 
 def _plan(X: pd.DataFrame, window: int):
@@ -148,3 +152,31 @@ def test_the_filter_refuses_what_it_cannot_fit_yet_naming_it(record, settings, m
 def test_the_filter_needs_time(record):
     with pytest.raises(ValueError, match="X has no time column 't'"):
         PolyCCRegressor(equations=OSCILLATOR, fit_mode="filter").fit(record[["x1"]])
+
+
+def test_the_states_are_smoothed_with_bands_that_hold_them():
+    X, states = _pushed_oscillator(2000, seed=5, truth=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=OSCILLATOR, fit_mode="filter").fit(X)
+    smooth = model.smooth(X)
+    assert list(smooth.columns) == ["t", "x1", "x1_lower", "x1_upper", "x2", "x2_lower",
+                                    "x2_upper"]
+    assert len(smooth) == len(X) and np.allclose(smooth.t, X.t)
+    # the position read closer than the sensor reads it; the velocity nobody measured read too
+    assert np.sqrt(np.mean((smooth.x1 - states[:, 0]) ** 2)) < 0.7 * R
+    for j, name in enumerate(["x1", "x2"]):
+        inside = np.mean((smooth[f"{name}_lower"] <= states[:, j])
+                         & (states[:, j] <= smooth[f"{name}_upper"]))
+        assert 0.9 <= inside <= 0.99
+    narrower = model.smooth(X, level=0.5)
+    assert (narrower.x2_upper - narrower.x2_lower).mean() < \
+        0.5 * (smooth.x2_upper - smooth.x2_lower).mean()
+
+
+def test_only_a_model_fitted_by_the_filter_smooths(record):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=OSCILLATOR, fit_mode="simulation").fit(record)
+    with pytest.raises(ValueError, match="smooth needs a model fitted with fit_mode='filter'"):
+        model.smooth(record)

@@ -11,7 +11,7 @@ from numbers import Integral
 
 import numpy as np
 import pandas as pd
-from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
+from sklearn.base import BaseEstimator, RegressorMixin, _fit_context, clone
 from sklearn.metrics import r2_score
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
@@ -52,6 +52,7 @@ from ..skeleton.nodes import sum_terms
 from ..skeleton.printer import to_text
 from ..skeleton.system import CompiledSystem
 from ._delays import fit_delays, fit_error, refine_delays
+from ._filtering import FilteringMixin
 from ._reading import ReadingMixin
 from ._simulating import SimulationMixin
 from .backend import Backend
@@ -119,8 +120,8 @@ class _EquationsParameter:
         obj.__dict__["equations"] = value
 
 
-class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin, BaseEstimator,
-                  metaclass=ABCMeta):
+class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin, RegressorMixin,
+                  BaseEstimator, metaclass=ABCMeta):
     """Abstract base class of the characteristic-curve estimators.
 
     It cannot be fitted itself: use :class:`PolyCCRegressor`,
@@ -414,6 +415,10 @@ class CCRegressor(ReadingMixin, SimulationMixin, IntervalsMixin, RegressorMixin,
                           observed=({o: record.data[o] for o in skeleton.outputs}
                                     if record.hidden else {}))
         return problem, facts
+
+    def _problem_of(self, X) -> Problem:
+        """The fitting problem ``X`` makes, read by a clone (this model learns nothing)."""
+        return clone(self)._problem(X, None)[0]
 
     def _resolve_mode(self, skeleton, record, backend: Backend) -> tuple[str, str]:
         """The fit mode to use, and why ``"auto"`` chose output error (else "")."""

@@ -30,7 +30,7 @@ import numpy as np
 
 from ...skeleton.system import CompiledSystem, stack_systems
 
-__all__ = ["FilterPass", "fit_filter", "kalman_pass"]
+__all__ = ["FilterPass", "fit_filter", "kalman_pass", "smoothed"]
 
 #: relative size of the state bumps that give each step's Jacobian
 BUMP = 1e-6
@@ -55,6 +55,11 @@ class FilterPass:
     means, covariances : ndarray or None
         Filtered states ``(copies, K, L + 1, n)`` and their covariances
         ``(copies, K, L + 1, n, n)``, when asked for.
+    predicted, predicted_covariances, transitions : ndarray or None
+        When asked for: the states predicted at each sample from the one
+        before (and their covariances; at sample 0, the segment's start) and
+        each step's Jacobian ``F`` ``(copies, K, L, n, n)``, which
+        :func:`smoothed` runs back over.
     """
 
     nll: np.ndarray
@@ -63,6 +68,9 @@ class FilterPass:
     variances: np.ndarray
     means: np.ndarray | None = None
     covariances: np.ndarray | None = None
+    predicted: np.ndarray | None = None
+    predicted_covariances: np.ndarray | None = None
+    transitions: np.ndarray | None = None
 
 
 def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
@@ -127,6 +135,9 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     failed = np.zeros(copies * K, dtype=bool)
     means = np.zeros((copies * K, L + 1, n)) if keep else None
     covs = np.zeros((copies * K, L + 1, n, n)) if keep else None
+    ahead = np.zeros((copies * K, L + 1, n)) if keep else None
+    ahead_covs = np.zeros((copies * K, L + 1, n, n)) if keep else None
+    steps_F = np.zeros((copies * K, L, n, n)) if keep else None
 
     def update(i: int) -> None:
         nonlocal x, P
@@ -156,6 +167,8 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
 
     with np.errstate(all="ignore"):
         for i in range(L + 1):
+            if keep:
+                ahead[:, i], ahead_covs[:, i] = x, P
             update(i)
             if keep:
                 means[:, i], covs[:, i] = x, P
@@ -181,6 +194,8 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
             F = ((z[:, 1:] - x[:, None, :]) / step[:, :, None]).transpose(0, 2, 1)
             half = Q * (h[:, None] / 2.0)
             P = F @ (P + half[:, :, None] * eye) @ F.transpose(0, 2, 1) + half[:, :, None] * eye
+            if keep:
+                steps_F[:, i] = F
             bad = ~(np.isfinite(x).all(axis=1) & (np.abs(x) <= bound).all(axis=1)
                     & np.isfinite(P).all(axis=(1, 2)))
             if bad.any():
@@ -198,7 +213,38 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     if keep:
         out.means = means.reshape(copies, K, L + 1, n)
         out.covariances = covs.reshape(copies, K, L + 1, n, n)
+        out.predicted = ahead.reshape(copies, K, L + 1, n)
+        out.predicted_covariances = ahead_covs.reshape(copies, K, L + 1, n, n)
+        out.transitions = steps_F.reshape(copies, K, L, n, n)
     return out
+
+
+def smoothed(run: FilterPass) -> tuple[np.ndarray, np.ndarray]:
+    """The states given every sample of their segment, and their covariances (Rauch-Tung-Striebel).
+
+    ``run`` must come from :func:`kalman_pass` with ``keep=True``. Returns
+    means ``(copies, K, L + 1, n)`` and covariances ``(copies, K, L + 1, n, n)``:
+    the filter's, carried back from each segment's end through the steps'
+    Jacobians. Where the filter could not tell a state (a padding step, a
+    covariance that is not invertible) the filtered value stands.
+    """
+    if run.means is None:
+        raise ValueError("smoothing needs a filter pass that kept its states (keep=True)")
+    means, covs = run.means.copy(), run.covariances.copy()
+    L = run.transitions.shape[2]
+    for i in range(L - 1, -1, -1):
+        F = run.transitions[:, :, i]
+        P_next = run.predicted_covariances[:, :, i + 1]
+        cross = covs[:, :, i] @ np.swapaxes(F, -1, -2)  # P_f F'
+        try:
+            gain = np.swapaxes(np.linalg.solve(P_next, np.swapaxes(cross, -1, -2)), -1, -2)
+        except np.linalg.LinAlgError:
+            gain = cross @ np.linalg.pinv(P_next)
+        means[:, :, i] = run.means[:, :, i] + np.einsum(
+            "...ij,...j->...i", gain, means[:, :, i + 1] - run.predicted[:, :, i + 1])
+        covs[:, :, i] = run.covariances[:, :, i] + gain @ (
+            covs[:, :, i + 1] - P_next) @ np.swapaxes(gain, -1, -2)
+    return means, covs
 
 
 def negative_log_likelihood(plan, system_for: Callable[[np.ndarray], CompiledSystem],
