@@ -180,3 +180,19 @@ def test_only_a_model_fitted_by_the_filter_smooths(record):
         model = PolyCCRegressor(equations=OSCILLATOR, fit_mode="simulation").fit(record)
     with pytest.raises(ValueError, match="smooth needs a model fitted with fit_mode='filter'"):
         model.smooth(record)
+
+
+def test_predictions_ahead_come_from_the_filtered_states(record):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=OSCILLATOR, fit_mode="filter").fit(record)
+    one, ten = model.predict_ahead(record), model.predict_ahead(record, steps=10)
+    assert list(one.columns) == ["t", "x1", "x2"] and len(one) == len(record)
+    assert one.x1.isna().sum() == 1 and ten.x1.iloc[:10].isna().all()
+    errors = {k: (p.x1 - record.x1).to_numpy()[10:] for k, p in (("one", one), ("ten", ten))}
+    # one step ahead: the innovations, white and about the measurement noise and one
+    # step's push; ten steps ahead the random force has had time to act
+    assert abs(np.corrcoef(errors["one"][:-1], errors["one"][1:])[0, 1]) < 0.2
+    assert np.std(errors["one"]) < 2 * R < np.std(errors["ten"])
+    with pytest.raises(ValueError, match="steps must be a positive integer"):
+        model.predict_ahead(record, steps=0)

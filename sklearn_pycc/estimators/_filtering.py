@@ -11,6 +11,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from ..fitting.filter import kalman_pass, smoothed
 from ..fitting.uncertainty.intervals import check_level
+from ..measurements.columns import TIME
 
 __all__ = ["FilteringMixin"]
 
@@ -23,6 +24,28 @@ class FilteringMixin:
     ``_problem_of(X)`` (the fitting problem a record makes, read by a
     clone: the model itself learns nothing).
     """
+
+    def _filtered(self, X, what: str):
+        """The plan of ``X`` (one segment per experiment) and the filter's pass through it."""
+        from ..fitting.output_error.shooting import ShootingPlan
+
+        check_is_fitted(self, "params_")
+        if getattr(self, "fit_mode_", None) != "filter":
+            raise ValueError(f"{what} needs a model fitted with fit_mode='filter' (its process "
+                             f"noise); this one was fitted with "
+                             f"fit_mode={getattr(self, 'fit_mode_', None)!r}")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            problem = self._problem_of(X)
+        longest = max(e.n_samples for e in problem.experiments)
+        plan = ShootingPlan(problem, max(longest - 1, 2))  # one segment per experiment
+        system = self._system()
+        plan.choose_substeps(system, dict(problem.data.columns))
+        run = kalman_pass(plan, system,
+                          np.array([[self.process_noise_[s] for s in plan.states]]),
+                          np.array([[self.measurement_noise_[s] for s in plan.measured]]),
+                          keep=True)
+        return plan, run
 
     def smooth(self, X, *, level: float = 0.95) -> pd.DataFrame:
         """The states given the whole record, measured or not, with bands.
@@ -51,31 +74,14 @@ class FilteringMixin:
         ValueError
             When the model was not fitted with ``fit_mode="filter"``.
         """
-        check_is_fitted(self, "params_")
-        if getattr(self, "fit_mode_", None) != "filter":
-            raise ValueError(f"smooth needs a model fitted with fit_mode='filter' (its process "
-                             f"noise); this one was fitted with "
-                             f"fit_mode={getattr(self, 'fit_mode_', None)!r}")
         z = float(norm.ppf(0.5 + check_level(level) / 2))
-        from ..fitting.output_error.shooting import ShootingPlan
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            problem = self._problem_of(X)
-        longest = max(e.n_samples for e in problem.experiments)
-        plan = ShootingPlan(problem, max(longest - 1, 2))  # one segment per experiment
-        system = self._system()
-        plan.choose_substeps(system, dict(problem.data.columns))
+        plan, run = self._filtered(X, "smooth")
         states = list(plan.states)
-        run = kalman_pass(plan, system, np.array([[self.process_noise_[s] for s in states]]),
-                          np.array([[self.measurement_noise_[s] for s in plan.measured]]),
-                          keep=True)
         means, covs = smoothed(run)
-        n_rows = len(next(iter(problem.smoothed.values())))  # every row of X
-        out = {"t": np.full(n_rows, np.nan)}
+        n_rows = len(plan.columns()[states[0]])  # every row of X
+        out = {TIME: plan.columns()[TIME]}
         valid = plan.valid
         rows = plan.rows[valid]
-        out["t"][rows] = plan.times[valid]
         for j, s in enumerate(states):
             mean = np.full(n_rows, np.nan)
             sd = np.full(n_rows, np.nan)
@@ -84,3 +90,73 @@ class FilteringMixin:
             out[s], out[f"{s}_lower"], out[f"{s}_upper"] = mean, mean - z * sd, mean + z * sd
         index = X.index if isinstance(X, pd.DataFrame) and len(X.index) == n_rows else None
         return pd.DataFrame(out, index=index)
+
+    def predict_ahead(self, X, *, steps: int = 1) -> pd.DataFrame:
+        """Each sample's states predicted ``steps`` samples earlier by the filtered model.
+
+        The fitted skeleton's extended Kalman filter runs through each
+        experiment of ``X``; from its estimate at each sample the model is
+        integrated ``steps`` samples ahead with the measured inputs. One step
+        ahead, the measured states' errors are the filter's innovations,
+        white where the model is right; further ahead they show how far the
+        model can be trusted to forecast.
+
+        Parameters
+        ----------
+        X : DataFrame
+            The record, with ``t`` and the inputs, as in ``fit``.
+        steps : int, default=1
+            How many samples ahead.
+
+        Returns
+        -------
+        DataFrame
+            ``t`` and each state: one row per row of ``X``, in its order; NaN
+            for the first ``steps`` samples of each experiment (nothing
+            predicted them).
+
+        Raises
+        ------
+        ValueError
+            When the model was not fitted with ``fit_mode="filter"``, or
+            ``steps`` is not a positive integer.
+        """
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+            raise ValueError(f"steps must be a positive integer, got {steps!r}")
+        plan, run = self._filtered(X, "predict_ahead")
+        system = self._system()
+        states = list(plan.states)
+        m = plan.substeps
+        fine, ends = plan.fine_signals(), plan.fine_signals(left=True)
+        signals = [name for name in fine if name in system.slots]
+        n_rows = len(plan.columns()[states[0]])  # every row of X
+        predicted = np.full((n_rows, len(states)), np.nan)
+        for k in range(plan.n_segments):
+            starts = np.arange(0, plan.steps[k] + 1 - steps)
+            if not len(starts):
+                continue
+            z = run.means[0, k, starts].copy()
+            evaluate = system.batch_rhs(len(starts), signals)
+
+            def rhs(x, column, source, k=k, evaluate=evaluate):
+                return evaluate(x, [source[name][k, column] for name in signals])
+
+            with np.errstate(all="ignore"):
+                for j in range(steps):
+                    i = starts + j
+                    h = plan.h[k, i][:, None] / m
+                    for sub in range(m):
+                        c = 2 * (i * m + sub)
+                        k1 = rhs(z, c, fine)
+                        k2 = rhs(z + 0.5 * h * k1, c + 1, ends)
+                        k3 = rhs(z + 0.5 * h * k2, c + 1, ends)
+                        k4 = rhs(z + h * k3, c + 2, ends)
+                        z = z + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+                        if system.limits:
+                            system.clip(z)
+            predicted[plan.rows[k, starts + steps]] = z
+        out = pd.DataFrame(predicted, columns=states)
+        out.insert(0, TIME, plan.columns()[TIME])
+        if isinstance(X, pd.DataFrame) and len(X.index) == n_rows:
+            out.index = X.index
+        return out
