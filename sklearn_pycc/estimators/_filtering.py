@@ -9,7 +9,7 @@ import pandas as pd
 from scipy.stats import norm
 from sklearn.utils.validation import check_is_fitted
 
-from ..fitting.filter import kalman_pass, smoothed
+from ..fitting.filter.kalman import kalman_pass, rk4_step, smoothed
 from ..fitting.uncertainty.intervals import check_level
 from ..measurements.columns import TIME
 
@@ -146,12 +146,7 @@ class FilteringMixin:
                     i = starts + j
                     h = plan.h[k, i][:, None] / m
                     for sub in range(m):
-                        c = 2 * (i * m + sub)
-                        k1 = rhs(z, c, fine)
-                        k2 = rhs(z + 0.5 * h * k1, c + 1, ends)
-                        k3 = rhs(z + 0.5 * h * k2, c + 1, ends)
-                        k4 = rhs(z + h * k3, c + 2, ends)
-                        z = z + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+                        z = rk4_step(rhs, z, h, 2 * (i * m + sub), fine, ends)
                         if system.limits:
                             system.clip(z)
             predicted[plan.rows[k, starts + steps]] = z

@@ -30,7 +30,7 @@ import numpy as np
 
 from ...skeleton.system import CompiledSystem, stack_systems
 
-__all__ = ["FilterPass", "fit_filter", "kalman_pass", "smoothed"]
+__all__ = ["FilterPass", "fit_filter", "kalman_pass", "rk4_step", "smoothed"]
 
 #: relative size of the state bumps that give each step's Jacobian
 BUMP = 1e-6
@@ -183,12 +183,7 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
             hz = np.repeat(h.reshape(copies, K)[:, None, :], n + 1, axis=1).reshape(-1, 1)
             sub = hz / m
             for j in range(m):
-                c = 2 * (i * m + j)
-                k1 = rhs(z, c, columns)
-                k2 = rhs(z + 0.5 * sub * k1, c + 1, lefts)
-                k3 = rhs(z + 0.5 * sub * k2, c + 1, lefts)
-                k4 = rhs(z + sub * k3, c + 2, lefts)
-                z = z + sub / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+                z = rk4_step(rhs, z, sub, 2 * (i * m + j), columns, lefts)
             z = z.reshape(copies, n + 1, K, n).transpose(0, 2, 1, 3).reshape(copies * K, n + 1, n)
             x = z[:, 0]
             F = ((z[:, 1:] - x[:, None, :]) / step[:, :, None]).transpose(0, 2, 1)
@@ -217,6 +212,21 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
         out.predicted_covariances = ahead_covs.reshape(copies, K, L + 1, n, n)
         out.transitions = steps_F.reshape(copies, K, L, n, n)
     return out
+
+
+def rk4_step(rhs, z: np.ndarray, h, column, right, left) -> np.ndarray:
+    """One fourth-order Runge-Kutta step of ``z`` over ``h``.
+
+    ``rhs(z, column, source)`` reads the inputs at the step's stage
+    ``column`` (start), ``column + 1`` (middle) and ``column + 2`` (end)
+    of ``right`` at the start and of ``left`` after it (a held input's value
+    before it steps); ``column`` may be one per row.
+    """
+    k1 = rhs(z, column, right)
+    k2 = rhs(z + 0.5 * h * k1, column + 1, left)
+    k3 = rhs(z + 0.5 * h * k2, column + 1, left)
+    k4 = rhs(z + h * k3, column + 2, left)
+    return z + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
 def smoothed(run: FilterPass) -> tuple[np.ndarray, np.ndarray]:
