@@ -146,7 +146,7 @@ class FilteringMixin:
                     i = starts + j
                     h = plan.h[k, i][:, None] / m
                     for sub in range(m):
-                        z = rk4_step(rhs, z, h, 2 * (i * m + sub), fine, ends)
+                        z = rk4_step(rhs, z, h, 2 * (i * m + sub), right=fine, left=ends)
                         if system.limits:
                             system.clip(z)
             predicted[plan.rows[k, starts + steps]] = z

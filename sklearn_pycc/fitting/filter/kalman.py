@@ -183,7 +183,7 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
             hz = np.repeat(h.reshape(copies, K)[:, None, :], n + 1, axis=1).reshape(-1, 1)
             sub = hz / m
             for j in range(m):
-                z = rk4_step(rhs, z, sub, 2 * (i * m + j), columns, lefts)
+                z = rk4_step(rhs, z, sub, 2 * (i * m + j), right=columns, left=lefts)
             z = z.reshape(copies, n + 1, K, n).transpose(0, 2, 1, 3).reshape(copies * K, n + 1, n)
             x = z[:, 0]
             F = ((z[:, 1:] - x[:, None, :]) / step[:, :, None]).transpose(0, 2, 1)
@@ -214,7 +214,7 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     return out
 
 
-def rk4_step(rhs, z: np.ndarray, h, column, right, left) -> np.ndarray:
+def rk4_step(rhs, z: np.ndarray, h, column, *, right, left) -> np.ndarray:
     """One fourth-order Runge-Kutta step of ``z`` over ``h``.
 
     ``rhs(z, column, source)`` reads the inputs at the step's stage
