@@ -330,19 +330,29 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
         low[:p], high[:p] = bounds
     low[p:], high[p:] = -30.0, 10.0  # noise intensities from 1e-13 to 2e4
 
-    def value_and_gradient(z):
+    z0 = np.clip(z0, low, high)
+    # searched in units of a tenth of each parameter (half a factor e of each noise): the
+    # quasi-Newton search's first step is then one of that size, not one that leaves the
+    # states' range
+    unit = np.concatenate([0.1 * np.maximum(np.abs(z0[:p]), 1e-3), np.full(d - p, 0.5)])
+    failure = {"value": None}
+
+    def value_and_gradient(u):
+        z = z0 + unit * u
         s = 1e-6 * np.maximum(np.abs(z), 1.0)
         points = np.vstack([z, z + np.diag(s), z - np.diag(s)])
         nll = _variants(plan, system_for, points, p, noisy).nll
-        if not np.isfinite(nll[0]):
-            return 1e300, np.zeros(d)
-        grad = (nll[1:d + 1] - nll[d + 1:]) / (2 * s)
+        if not np.isfinite(nll[0]):  # worse than anything seen: the line search steps back
+            return failure["value"] or 1e300, np.zeros(d)
+        if failure["value"] is None:
+            failure["value"] = abs(float(nll[0])) * 10.0 + 1e6
+        grad = (nll[1:d + 1] - nll[d + 1:]) / (2 * s) * unit
         return float(nll[0]), np.where(np.isfinite(grad), grad, 0.0)
 
-    result = minimize(value_and_gradient, np.clip(z0, low, high), jac=True, method="L-BFGS-B",
-                      bounds=list(zip(low, high)),
+    result = minimize(value_and_gradient, np.zeros(d), jac=True, method="L-BFGS-B",
+                      bounds=list(zip((low - z0) / unit, (high - z0) / unit)),
                       options={"maxiter": int(max_iterations), "ftol": 1e-10, "gtol": 1e-6})
-    z = result.x
+    z = z0 + unit * result.x
     search_cov = _curvature_covariance(plan, system_for, z, p, noisy)
     theta, q, r = _numbers(z, p, noisy, n)
     info = {"nll": float(result.fun), "iterations": int(result.nit),
