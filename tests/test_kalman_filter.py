@@ -5,6 +5,7 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
+from benchmark_scripts import load
 from scipy.linalg import expm
 
 from sklearn_pycc import PolyCCRegressor, Skeleton
@@ -196,3 +197,18 @@ def test_predictions_ahead_come_from_the_filtered_states(record):
     assert np.std(errors["one"]) < 2 * R < np.std(errors["ten"])
     with pytest.raises(ValueError, match="steps must be a positive integer"):
         model.predict_ahead(record, steps=0)
+
+
+@pytest.mark.slow
+def test_the_filters_standard_errors_cover_the_truth_over_draws():
+    # the record: a forced oscillator a random force also pushes (its simulation
+    # from the true start wanders by 17-33 % of the spread), position with 1 % noise
+    study = load("filter_study")
+    truth = np.array(list(study.TRUTH.values()))
+    inside = []
+    for seed in range(20):
+        X, wander = study.pushed_oscillator(2000, seed)
+        assert 0.1 <= wander <= 0.4
+        theta, errors, _ = study.fit(X, "filter")
+        inside.extend(np.abs(theta - truth) <= 2 * errors)
+    assert 0.85 <= np.mean(inside) <= 0.99
