@@ -212,3 +212,35 @@ def test_the_filters_standard_errors_cover_the_truth_over_draws():
         theta, errors, _ = study.fit(X, "filter")
         inside.extend(np.abs(theta - truth) <= 2 * errors)
     assert 0.85 <= np.mean(inside) <= 0.99
+
+
+@pytest.mark.slow
+def test_an_upper_tank_nobody_measures_is_smoothed_inside_its_band():
+    # two tanks in cascade, the inflow disturbed (a random push on the upper level), only
+    # the lower level measured; the pump steps and holds
+    rng = np.random.default_rng(1)
+    a1, a2, a3, push, step, n, fine = 0.5, 0.4, 0.3, 0.02, 2.0, 1500, 40
+    u = np.repeat(rng.uniform(0.3, 1.0, n // 100 + 1), 100)[:n]
+    x, levels, dt = np.array([1.0, 1.0]), [], step / fine
+    for k in range(n):
+        levels.append(x.copy())
+        for _ in range(fine):
+            flow = a2 * np.sqrt(max(x[0], 0.0))
+            x = x + np.array([a1 * u[k] - flow, flow - a3 * np.sqrt(max(x[1], 0.0))]) * dt \
+                + np.array([push * np.sqrt(dt) * rng.standard_normal(), 0.0])
+    levels = np.array(levels)
+    X = pd.DataFrame({"t": np.arange(n) * step, "u": u,
+                      "x2": levels[:, 1] + 0.01 * np.std(levels[:, 1]) * rng.standard_normal(n)})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=["x1_dot = a1 u - a2 sqrt(x1)",
+                                           "x2_dot = a2 sqrt(x1) - a3 sqrt(x2)"],
+                                fit_mode="filter", input_hold="zoh").fit(X)
+    for name, value in {"a1": a1, "a2": a2, "a3": a3}.items():
+        assert abs(model.params_[name] - value) < 3 * model.params_std_[name]
+    assert model.process_noise_["x1"] == pytest.approx(push, rel=0.3)
+    smooth = model.smooth(X)
+    for j, name in enumerate(["x1", "x2"]):
+        inside = np.mean((smooth[f"{name}_lower"] <= levels[:, j])
+                         & (levels[:, j] <= smooth[f"{name}_upper"]))
+        assert inside >= 0.9

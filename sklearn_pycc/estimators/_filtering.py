@@ -15,6 +15,11 @@ from ..measurements.columns import TIME
 
 __all__ = ["FilteringMixin"]
 
+#: parameter draws the smoothed states are pooled over, and their seed (the same bands on
+#: every call)
+PARAMETER_DRAWS = 30
+PARAMETER_SEED = 0
+
 
 class FilteringMixin:
     """What a model fitted with ``fit_mode="filter"`` reads from a record.
@@ -25,8 +30,9 @@ class FilteringMixin:
     clone: the model itself learns nothing).
     """
 
-    def _filtered(self, X, what: str):
+    def _filtered(self, X, what: str, draws: list | None = None):
         """The plan of ``X`` (one segment per experiment) and the filter's pass through it."""
+        from ..fitting.output_error.hidden import hidden_trajectories
         from ..fitting.output_error.shooting import ShootingPlan
 
         check_is_fitted(self, "params_")
@@ -38,14 +44,36 @@ class FilteringMixin:
             warnings.simplefilter("ignore")
             problem = self._problem_of(X)
         longest = max(e.n_samples for e in problem.experiments)
-        plan = ShootingPlan(problem, max(longest - 1, 2))  # one segment per experiment
         system = self._system()
-        plan.choose_substeps(system, dict(problem.data.columns))
-        run = kalman_pass(plan, system,
-                          np.array([[self.process_noise_[s] for s in plan.states]]),
-                          np.array([[self.measurement_noise_[s] for s in plan.measured]]),
+        hidden = hidden_trajectories(problem, system) if problem.hidden else None
+        plan = ShootingPlan(problem, max(longest - 1, 2), hidden=hidden)  # one per experiment
+        plan.choose_substeps(system, plan.columns())
+        systems = [system, *(draws or [])]
+        run = kalman_pass(plan, systems,
+                          np.tile([self.process_noise_[s] for s in plan.states],
+                                  (len(systems), 1)),
+                          np.tile([self.measurement_noise_[s] for s in plan.measured],
+                                  (len(systems), 1)),
                           keep=True)
         return plan, run
+
+    def _parameter_draws(self) -> list:
+        """Systems of parameters drawn from ``covariance_`` (the same on every call)."""
+        cov = getattr(self, "covariance_", None)
+        if cov is None or not len(cov):
+            return []
+        names = list(cov.index)
+        rng = np.random.default_rng(PARAMETER_SEED)
+        values, vectors = np.linalg.eigh(cov.to_numpy())
+        root = vectors * np.sqrt(np.clip(values, 0.0, None))
+        centre = np.array([self.params_[a] for a in names])
+        bounds = self.skeleton_.bounds
+        low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in names])
+        high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in names])
+        draws = np.clip(centre + rng.standard_normal((PARAMETER_DRAWS, len(names))) @ root.T,
+                        low, high)
+        return [self.skeleton_.compile(self.functions_, {**self.params_, **dict(zip(names, d))})
+                for d in draws]
 
     def smooth(self, X, *, level: float = 0.95) -> pd.DataFrame:
         """The states given the whole record, measured or not, with bands.
@@ -54,7 +82,10 @@ class FilteringMixin:
         experiment of ``X`` and back (Rauch-Tung-Striebel), under the fitted
         process and measurement noises: each state is estimated from every
         sample, before and after it. A state nobody measured (a velocity
-        from a position) is read as well as the record and the model allow.
+        from a position, an upper tank's level) is read as well as the record
+        and the model allow. The bands hold the parameters' uncertainty too:
+        the states are smoothed under parameters drawn from ``covariance_``,
+        all filtered side by side, and pooled.
 
         Parameters
         ----------
@@ -75,9 +106,13 @@ class FilteringMixin:
             When the model was not fitted with ``fit_mode="filter"``.
         """
         z = float(norm.ppf(0.5 + check_level(level) / 2))
-        plan, run = self._filtered(X, "smooth")
+        plan, run = self._filtered(X, "smooth", self._parameter_draws())
         states = list(plan.states)
         means, covs = smoothed(run)
+        # pooled over the parameters' draws: the states' spread given each, and theirs
+        variances = np.diagonal(covs, axis1=-2, axis2=-1)
+        pooled_mean = means.mean(axis=0)
+        pooled_var = variances.mean(axis=0) + (means.var(axis=0) if len(means) > 1 else 0.0)
         n_rows = len(plan.columns()[states[0]])  # every row of X
         out = {TIME: plan.columns()[TIME]}
         valid = plan.valid
@@ -85,8 +120,8 @@ class FilteringMixin:
         for j, s in enumerate(states):
             mean = np.full(n_rows, np.nan)
             sd = np.full(n_rows, np.nan)
-            mean[rows] = means[0][valid][:, j]
-            sd[rows] = np.sqrt(np.maximum(covs[0][valid][:, j, j], 0.0))
+            mean[rows] = pooled_mean[valid][:, j]
+            sd[rows] = np.sqrt(np.maximum(pooled_var[valid][:, j], 0.0))
             out[s], out[f"{s}_lower"], out[f"{s}_upper"] = mean, mean - z * sd, mean + z * sd
         index = X.index if isinstance(X, pd.DataFrame) and len(X.index) == n_rows else None
         return pd.DataFrame(out, index=index)

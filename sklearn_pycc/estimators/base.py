@@ -182,8 +182,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         (``process_noise_``) and the measurement noise
         (``measurement_noise_``), the parameters' covariance from the
         likelihood's curvature. So far for skeletons of parameters (no
-        curves) whose states are all measured or reconstructed, without
-        ``noise_model`` or ``n_bootstrap``.
+        curves), without ``noise_model`` or ``n_bootstrap``; a state nobody
+        measured is filtered through each whole experiment.
     shooting_window : int, default=40
         Samples per shooting segment in ``fit_mode="simulation"``.
     shooting_iterations : int, default=30

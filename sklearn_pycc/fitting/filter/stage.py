@@ -1,5 +1,10 @@
 """``fit_mode="filter"``: an output-error fit refined by the extended Kalman filter's likelihood.
 
+A state nobody measured starts where the output-error model simulates it,
+and each experiment is then filtered whole (one segment): restarted at
+every segment, its scale would drift, a direction the measured states
+barely see.
+
 The skeleton is read as a stochastic differential equation: every state whose
 equation is more than a kinematic identity (``x1_dot = x2`` is exact) is
 pushed by its own white noise, whose intensity is fitted with the
@@ -48,10 +53,6 @@ def check_filterable(problem: Problem) -> None:
             f"fit_mode='filter' fits a skeleton's parameters; {problem.free_functions[0]} "
             "is a curve. Write it as a law of parameters (a1 x2 + a2 x2^3), or fit it by "
             "fit_mode='simulation'")
-    if problem.hidden:
-        raise ValueError(
-            f"fit_mode='filter' needs every state measured or reconstructed from a measured "
-            f"one; {', '.join(problem.hidden)} is not: fit by fit_mode='simulation'")
 
 
 def filter_stage(problem: Problem, result: FitResult, *,
@@ -66,6 +67,7 @@ def filter_stage(problem: Problem, result: FitResult, *,
     positive definite) and ``filter_`` (``nll``, ``iterations``,
     ``converged``, ``window``, ``segments``, ``starts``).
     """
+    from ..output_error.hidden import hidden_trajectories
     from ..output_error.shooting import ShootingPlan
 
     check_filterable(problem)
@@ -77,15 +79,18 @@ def filter_stage(problem: Problem, result: FitResult, *,
         return problem.skeleton.compile(functions, {**fixed, **dict(zip(free, theta))})
 
     theta0 = np.array([result.params[a] for a in free], dtype=float)
-    window = int(min(WINDOW, max(e.n_samples for e in problem.experiments) - 1))
-    plan = ShootingPlan(problem, max(window, 2))
-    plan.choose_substeps(system_for(theta0), dict(problem.data.columns))
+    longest = max(e.n_samples for e in problem.experiments) - 1
+    window = longest if problem.hidden else int(min(WINDOW, longest))
+    hidden = hidden_trajectories(problem, system_for(theta0)) if problem.hidden else None
+    plan = ShootingPlan(problem, max(window, 2), hidden=hidden)
+    plan.choose_substeps(system_for(theta0), plan.columns())
     noisy = noisy_states(problem)
     mi = plan.measured_index
     # the measurement noise starts at what the differentiation's smoothing took off the
     # record (the output error would also hold the disturbances' wander: another basin)
     measurement0 = np.array([
-        max(float(np.std(problem.measured[s] - problem.smoothed[s])), 1e-6 * plan.scale[j])
+        max(float(np.std(problem.measured[s] - problem.smoothed.get(s, problem.measured[s]))),
+            1e-3 * plan.scale[j])
         for s, j in zip(plan.measured, mi)])
     bounds = problem.bounds
     low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in free], dtype=float)
