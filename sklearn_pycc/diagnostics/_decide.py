@@ -199,7 +199,7 @@ def _chance(c: Candidate, model, record: pd.DataFrame,
         return 0.0, ""
     source = "this record's noise"
     if c.effect.acts_through == "time" or c.move == "open":
-        wander = CHANCE_Z * _whole_record(model, record, cache)[1] / (2.0 * len(record))
+        wander = _chance_share(_whole_record(model, record, cache)[1], record)
         if wander > per_number:
             per_number, source = wander, ("the slow wander the model leaves through the "
                                           "record (a sensor's drift, a slow force)")
@@ -212,6 +212,11 @@ def _per_number(model, record: pd.DataFrame) -> float:
     if TIME not in record.columns or not states:
         return 0.0
     memory = max(reading.memory for reading in read_frame_noise(record, states).values())
+    return _chance_share(memory, record)
+
+
+def _chance_share(memory: float, record: pd.DataFrame) -> float:
+    """:data:`CHANCE_Z` times what one number takes out of the root error of such noise."""
     return CHANCE_Z * memory / (2.0 * len(record))
 
 

@@ -10,6 +10,7 @@ from scipy.stats import norm
 from sklearn.utils.validation import check_is_fitted
 
 from ..fitting.filter.kalman import kalman_pass, rk4_step, smoothed
+from ..fitting.filter.stage import filter_plan
 from ..fitting.uncertainty.intervals import check_level
 from ..measurements.columns import TIME
 
@@ -32,9 +33,6 @@ class FilteringMixin:
 
     def _filtered(self, X, what: str, draws: list | None = None):
         """The plan of ``X`` (one segment per experiment) and the filter's pass through it."""
-        from ..fitting.output_error.hidden import hidden_trajectories
-        from ..fitting.output_error.shooting import ShootingPlan
-
         check_is_fitted(self, "params_")
         if getattr(self, "fit_mode_", None) != "filter":
             raise ValueError(f"{what} needs a model fitted with fit_mode='filter' (its process "
@@ -43,11 +41,8 @@ class FilteringMixin:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             problem = self._problem_of(X)
-        longest = max(e.n_samples for e in problem.experiments)
         system = self._system()
-        hidden = hidden_trajectories(problem, system) if problem.hidden else None
-        plan = ShootingPlan(problem, max(longest - 1, 2), hidden=hidden)  # one per experiment
-        plan.choose_substeps(system, plan.columns())
+        plan = filter_plan(problem, system, whole=True)  # one segment per experiment
         systems = [system, *(draws or [])]
         run = kalman_pass(plan, systems,
                           np.tile([self.process_noise_[s] for s in plan.states],

@@ -128,7 +128,6 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     bound = np.asarray(plan.bound, dtype=float)
     eye = np.eye(n)
     used = np.flatnonzero(plan.own.ravel())
-    nll = np.zeros(copies * K)
     terms = np.zeros((copies * K, L + 1))
     innov = np.zeros((copies * K, L + 1, len(mi)))
     var = np.ones((copies * K, L + 1, len(mi)))
@@ -255,16 +254,6 @@ def smoothed(run: FilterPass) -> tuple[np.ndarray, np.ndarray]:
         covs[:, :, i] = run.covariances[:, :, i] + gain @ (
             covs[:, :, i + 1] - P_next) @ np.swapaxes(gain, -1, -2)
     return means, covs
-
-
-def negative_log_likelihood(plan, system_for: Callable[[np.ndarray], CompiledSystem],
-                            theta: np.ndarray, process_sd: np.ndarray,
-                            measurement_sd: np.ndarray) -> float:
-    """The filter's negative log-likelihood of ``plan``'s measurements at one set of numbers."""
-    run = kalman_pass(plan, system_for(np.asarray(theta, dtype=float)),
-                      np.asarray(process_sd, dtype=float)[None],
-                      np.asarray(measurement_sd, dtype=float)[None])
-    return float(run.nll[0])
 
 
 def _numbers(z: np.ndarray, p: int, noisy: np.ndarray, n: int):

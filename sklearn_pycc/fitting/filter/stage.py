@@ -1,10 +1,5 @@
 """``fit_mode="filter"``: an output-error fit refined by the extended Kalman filter's likelihood.
 
-A state nobody measured starts where the output-error model simulates it,
-and each experiment is then filtered whole (one segment): restarted at
-every segment, its scale would drift, a direction the measured states
-barely see.
-
 The skeleton is read as a stochastic differential equation: every state whose
 equation is more than a kinematic identity (``x1_dot = x2`` is exact) is
 pushed by its own white noise, whose intensity is fitted with the
@@ -12,6 +7,11 @@ parameters and the measurement noise of each measured state. The
 output-error fit gives the start; a few starts of the intensities are tried
 and the likeliest kept. The parameters' covariance comes from the
 likelihood's curvature.
+
+A state nobody measured starts where the output-error model simulates it,
+and each experiment is then filtered whole (one segment): restarted at
+every segment, its scale would drift, a direction the measured states
+barely see.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from ...skeleton.nodes import Symbol
 from ..problem import FitResult, Problem
 from .kalman import fit_filter
 
-__all__ = ["WINDOW", "check_filterable", "filter_stage", "noisy_states"]
+__all__ = ["WINDOW", "check_filterable", "filter_plan", "filter_stage", "noisy_states"]
 
 #: samples per filtered segment: long against the states' memory under the process noise
 WINDOW = 200
@@ -55,6 +55,24 @@ def check_filterable(problem: Problem) -> None:
             "fit_mode='simulation'")
 
 
+def filter_plan(problem: Problem, system, *, whole: bool):
+    """The segments the filter runs over, substeps chosen for ``system``.
+
+    Segments of :data:`WINDOW` samples, or each experiment whole (``whole``).
+    A state nobody measured starts where ``system`` simulates it through
+    the record.
+    """
+    from ..output_error.hidden import hidden_trajectories
+    from ..output_error.shooting import ShootingPlan
+
+    longest = max(e.n_samples for e in problem.experiments) - 1
+    window = longest if whole else int(min(WINDOW, longest))
+    hidden = hidden_trajectories(problem, system) if problem.hidden else None
+    plan = ShootingPlan(problem, max(window, 2), hidden=hidden)
+    plan.choose_substeps(system, plan.columns())
+    return plan
+
+
 def filter_stage(problem: Problem, result: FitResult, *,
                  iterations: int = 100) -> FitResult:
     """Refine ``result`` (an output-error fit) by the filter's likelihood.
@@ -67,9 +85,6 @@ def filter_stage(problem: Problem, result: FitResult, *,
     positive definite) and ``filter_`` (``nll``, ``iterations``,
     ``converged``, ``window``, ``segments``, ``starts``).
     """
-    from ..output_error.hidden import hidden_trajectories
-    from ..output_error.shooting import ShootingPlan
-
     check_filterable(problem)
     free = problem.free_params
     fixed = dict(problem.fixed_params)
@@ -79,11 +94,7 @@ def filter_stage(problem: Problem, result: FitResult, *,
         return problem.skeleton.compile(functions, {**fixed, **dict(zip(free, theta))})
 
     theta0 = np.array([result.params[a] for a in free], dtype=float)
-    longest = max(e.n_samples for e in problem.experiments) - 1
-    window = longest if problem.hidden else int(min(WINDOW, longest))
-    hidden = hidden_trajectories(problem, system_for(theta0)) if problem.hidden else None
-    plan = ShootingPlan(problem, max(window, 2), hidden=hidden)
-    plan.choose_substeps(system_for(theta0), plan.columns())
+    plan = filter_plan(problem, system_for(theta0), whole=bool(problem.hidden))
     noisy = noisy_states(problem)
     mi = plan.measured_index
     # the measurement noise starts at what the differentiation's smoothing took off the
