@@ -18,6 +18,8 @@ Where to look next:
 - ``PolyCCRegressor``, ``NeuralCCRegressor``, ``SymbolicCCRegressor``: the
   backends (``help(PolyCCRegressor)`` for the hyperparameters);
 - ``diagnose(model, X)``: one comparison with its suggestion, ``report.summary()``;
+- ``check_innovations(model, X)``: whether a model fitted by its Kalman filter
+  predicts one step ahead as well as its noises allow;
 - ``compare_skeletons``: candidate skeletons side by side;
 - ``sklearn_pycc.datasets``: generated records to try things on;
 - ``sklearn_pycc.pycc``: the published PyCC package's functions and ``params``.
@@ -26,7 +28,7 @@ The documentation's getting-started page walks through all of it.
 """
 
 from . import datasets, effects, pycc, quantities
-from .diagnostics import HypothesisLoop, compare_skeletons, diagnose
+from .diagnostics import HypothesisLoop, check_innovations, compare_skeletons, diagnose
 from .estimators import (
     CCRegressor,
     InterpolatedCCRegressor,
@@ -65,6 +67,7 @@ __all__ = [
     "Skeleton",
     "SkeletonError",
     "SymbolicCCRegressor",
+    "check_innovations",
     "compare_skeletons",
     "datasets",
     "diagnose",

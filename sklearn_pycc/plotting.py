@@ -15,7 +15,8 @@ from ._utils.figures import pyplot
 from .skeleton.compiler import compile_expression
 from .skeleton.parser import parse_expression
 
-__all__ = ["plot_comparison", "plot_curves", "plot_diagnosis", "plot_loop", "plot_noise"]
+__all__ = ["plot_comparison", "plot_curves", "plot_diagnosis", "plot_innovations", "plot_loop",
+           "plot_noise"]
 
 
 def label_axis(ax, axis: str, name: str, units: Mapping | None = None) -> None:
@@ -569,3 +570,74 @@ def plot_noise(noise, *, signals=None):
     label_axis(axes[-1, 0], "x", "frequency (cycles per time unit)", None)
     fig.tight_layout()
     return fig
+
+
+def plot_innovations(check):
+    """The innovations of a filtered model: autocorrelation, cumulative periodogram, dependence.
+
+    Parameters
+    ----------
+    check : InnovationCheck
+        From :func:`~sklearn_pycc.diagnostics.check_innovations`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One row per measured state: the autocorrelation of its standardised
+        innovations by lag with the band white noise stays in; their
+        cumulative periodogram with the band about the straight line of
+        white noise; and the innovations against the variable they depend
+        on most, with their mean in bins of it.
+    """
+    names = list(check.tests.index)
+    plt = pyplot()
+    fig, axes = plt.subplots(len(names), 3, figsize=(11, 3.0 * len(names)), squeeze=False)
+    for row, name in zip(axes, names):
+        acf = check.autocorrelation[name]
+        row[0].vlines(acf.index, 0, acf.to_numpy(), color="C0")
+        row[0].axhspan(-check.band, check.band, color="0.85", zorder=0,
+                       label=f"{100 * check.level:g} % band of white noise")
+        row[0].axhline(0, color="0.4", lw=0.8)
+        label_axis(row[0], "x", "lag (samples)")
+        label_axis(row[0], "y", f"autocorrelation of {name}'s innovations")
+        row[0].legend(fontsize=7, loc="upper right")
+        frequency, share = check.periodogram[name]
+        line = np.arange(1, len(share) + 1) / max(len(share), 1)
+        row[1].fill_between(frequency, line - check.periodogram_band,
+                            line + check.periodogram_band, color="0.85", label="band")
+        row[1].plot(frequency, share, color="C0", lw=1, label="innovations")
+        label_axis(row[1], "x", "frequency (cycles per time unit)")
+        label_axis(row[1], "y", "cumulative periodogram")
+        verdict = "white" if check.tests.loc[name, "white"] else "not white"
+        row[1].set_title(f"{name}: {verdict}", fontsize=9, loc="left")
+        row[1].legend(fontsize=7, loc="lower right")
+        _dependence_panel(row[2], check, name)
+    fig.tight_layout()
+    return fig
+
+
+def _dependence_panel(ax, check, name: str) -> None:
+    """The innovations of ``name`` against the variable they depend on most, binned."""
+    rows = check.dependence[check.dependence["measured"] == name]
+    if not len(rows):
+        ax.set_axis_off()
+        return
+    top = rows.iloc[0]
+    v = check.variables[top["variable"]].to_numpy()
+    e = check.innovations[name].to_numpy()
+    ok = np.isfinite(v) & np.isfinite(e)
+    ax.plot(v[ok], e[ok], ".", ms=1.5, color="0.6", alpha=0.4)
+    edges = np.quantile(v[ok], np.linspace(0, 1, 21))
+    which = np.clip(np.searchsorted(edges, v[ok], side="right") - 1, 0, 19)
+    centres = [v[ok][which == b].mean() for b in range(20) if np.any(which == b)]
+    means = [e[ok][which == b].mean() for b in range(20) if np.any(which == b)]
+    ax.plot(centres, means, "o-", color="C3", ms=3,
+            label=f"mean in bins ({100 * top['explained']:.1f} % explained, "
+                  f"p = {top['p_value']:.1g})")
+    ax.axhline(0, color="0.4", lw=0.8)
+    reach = max(0.5, 3 * float(np.max(np.abs(means))))  # zoomed on the means: a small shift
+    ax.set_ylim(-reach, reach)
+    ax.set_title("zoomed on the bins' means", fontsize=8, loc="left")
+    label_axis(ax, "x", f"{top['variable']} (predicted)")
+    label_axis(ax, "y", f"{name}'s innovations (standardised)")
+    ax.legend(fontsize=7, loc="upper right")

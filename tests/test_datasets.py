@@ -601,3 +601,21 @@ def test_two_tanks_settings_are_checked_and_seeded():
         datasets.make_two_tanks(y0=(-1.0, 2.0))
     with pytest.raises(ValueError, match="pump must be"):
         datasets.make_two_tanks(pump=(5.0, 1.0))
+
+
+def test_an_oscillator_pushed_by_an_unmeasured_random_force():
+    options = dict(hidden=[], n_samples=1500, t_span=(0.0, 30.0), random_state=3)
+    calm = datasets.make_oscillator(**options)
+    frame, truth = datasets.make_oscillator(disturbance=0.05, return_truth=True, **options)
+    again = datasets.make_oscillator(disturbance=0.05, **options)
+    pd.testing.assert_frame_equal(frame, again)
+    # the measured force is the cosine alone; the push moved the states
+    np.testing.assert_allclose(frame.F_ext, calm.F_ext)
+    assert len(truth.disturbance) == len(frame)
+    wander = np.sqrt(np.mean((frame.x1 - calm.x1) ** 2)) / np.std(calm.x1)
+    assert 0.05 < wander < 0.5
+    # the derivative columns hold the pushed acceleration
+    np.testing.assert_allclose(frame.x2_dot, frame.F_ext + truth.disturbance
+                               - 0.1 * frame.x2 - frame.x1, atol=1e-8)
+    with pytest.raises(ValueError, match="disturbance must be non-negative"):
+        datasets.make_oscillator(disturbance=-1.0, **options)

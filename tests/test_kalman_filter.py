@@ -141,13 +141,51 @@ def test_an_estimator_fitted_by_the_filter_says_what_pushed_it(record):
 
 
 @pytest.mark.parametrize("settings, match", [
-    ({"equations": ["x1_dot = x2", "x2_dot = -f1(x2) - a2 x1"]}, "f1 is a curve"),
     ({"equations": OSCILLATOR, "noise_model": "ar"}, "noise_model is for output-error"),
     ({"equations": OSCILLATOR, "n_bootstrap": 5}, "n_bootstrap is for output-error"),
 ])
 def test_the_filter_refuses_what_it_cannot_fit_yet_naming_it(record, settings, match):
     with pytest.raises(ValueError, match=match):
         PolyCCRegressor(fit_mode="filter", **settings).fit(record.iloc[:300])
+
+
+def _pushed_cubic_friction(n: int, seed: int):
+    """An oscillator with friction 0.2 v + 0.3 v^3, pushed by white noise; x1 measured."""
+    rng = np.random.default_rng(seed)
+    x, out, fine = np.array([1.5, 0.0]), [], 20
+    dt = STEP / fine
+    for _ in range(n):
+        out.append(x.copy())
+        for _ in range(fine):
+            friction = 0.2 * x[1] + 0.3 * x[1] ** 3
+            x = x + np.array([x[1], -friction - x[0]]) * dt + np.array(
+                [0.0, Q * np.sqrt(dt) * rng.standard_normal()])
+    states = np.array(out)
+    return pd.DataFrame({"t": np.arange(n) * STEP,
+                         "x1": states[:, 0] + R * rng.standard_normal(n)}), states
+
+
+def test_a_polynomial_curve_is_fitted_by_the_filter_with_its_band():
+    X, states = _pushed_cubic_friction(2000, seed=1)
+    settings = {"equations": ["x1_dot = x2", "x2_dot = -f1(x2) - a2 x1"],
+                "constraints": ["f1 odd"], "degree": 3}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(fit_mode="filter", **settings).fit(X)
+        output_error = PolyCCRegressor(fit_mode="simulation", **settings).fit(X)
+    assert model.filter_["held"] == [] and model.filter_["converged"]
+    assert {"a2", "f1[1]", "f1[3]"} <= set(model.covariance_.index)
+    v = np.array([-1.0, -0.5, 0.5, 1.0])
+    truth = 0.2 * v + 0.3 * v**3
+    sd = model.backend_.curve_sd(model, "f1", v)
+    assert np.all(np.abs(model.functions_["f1"](v) - truth) < 3 * sd)
+    # the output-error fit chases the wander; the filter's curve is nearer the truth
+    assert np.abs(model.functions_["f1"](v) - truth).sum() < \
+        np.abs(output_error.functions_["f1"](v) - truth).sum()
+    assert abs(model.params_["a2"] - 1.0) < 3 * model.params_std_["a2"]
+    smooth = model.smooth(X)
+    inside = np.mean((smooth.x2_lower <= states[:, 1]) & (states[:, 1] <= smooth.x2_upper))
+    assert 0.9 <= inside <= 0.99
 
 
 def test_the_filter_needs_time(record):

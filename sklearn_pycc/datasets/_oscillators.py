@@ -93,11 +93,14 @@ def _generate(
     base_equations: list[str] | None = None,
     hidden: Sequence[str] = (),
     simulate_parametric: bool = False,
+    push: tuple[str, float] | None = None,
 ):
     """Validate, simulate, add noise and package the result of a ``make_*`` function.
 
     With ``simulate_parametric`` the data come from ``parametric_equations``
-    and ``params`` rather than from ``equations`` and ``functions``.
+    and ``params`` rather than from ``equations`` and ``functions``. With
+    ``push = (input, intensity)`` an unmeasured random force is added to
+    that input (:func:`_pushed`); the input's column holds it without.
     """
     n_samples = check_n_samples(n_samples)
     start, end = check_t_span(t_span)
@@ -118,9 +121,15 @@ def _generate(
         raise ValueError(f"y0 must hold finite values, got {y0!r}")
 
     t = np.linspace(start, end, n_samples)
-    frame = skeleton.simulate(t, y0, functions=None if simulate_parametric else functions,
-                              params=params if simulate_parametric else None, inputs=inputs,
-                              rtol=_RTOL, atol=_ATOL, return_derivatives=True)
+    settings = dict(functions=None if simulate_parametric else functions,
+                    params=params if simulate_parametric else None,
+                    rtol=_RTOL, atol=_ATOL, return_derivatives=True)
+    disturbance = None
+    if push is None:
+        frame = skeleton.simulate(t, y0, inputs=inputs, **settings)
+    else:
+        frame, disturbance = _pushed(skeleton, t, y0, inputs, push=push,
+                                     random_state=random_state, settings=settings)
     frame = frame[columns].reset_index(drop=True)
     if noise is not None and chosen:
         frame = add_noise(frame, noise, chosen, rng)
@@ -137,7 +146,42 @@ def _generate(
         base_equations=list(base_equations) if base_equations is not None else None,
         hidden=list(hidden),
     )
+    if push is not None:
+        truth.disturbance = disturbance
     return frame, truth
+
+
+#: the random force's grid: this many points per sample interval, joined linearly
+_PUSH_GRID = 4
+
+
+def _pushed(skeleton: Skeleton, t: np.ndarray, y0, inputs: Mapping, *, push: tuple[str, float],
+            random_state, settings: dict) -> tuple[pd.DataFrame, np.ndarray]:
+    """Simulate with an unmeasured random force added to an input; the force at each sample.
+
+    The force is white noise of the given intensity (its integral over one
+    unit of time has that standard deviation) on a grid :data:`_PUSH_GRID`
+    times finer than the samples, joined linearly; the simulation runs on
+    that grid (every input read there, linearly between its points) and is
+    sampled back. Its own stream of ``random_state``: an integer seed gives
+    one apart from the measurement noise's.
+    """
+    name, intensity = push
+    if isinstance(random_state, np.random.Generator):
+        rng = random_state
+    elif random_state is None:
+        rng = np.random.default_rng()
+    else:
+        rng = np.random.default_rng(np.random.SeedSequence([int(random_state), 1]))
+    fine = np.linspace(t[0], t[-1], _PUSH_GRID * (len(t) - 1) + 1)
+    force = intensity / np.sqrt(fine[1] - fine[0]) * rng.standard_normal(fine.size)
+    sampled = {k: np.broadcast_to(np.asarray(v(fine) if callable(v) else v, dtype=float),
+                                  fine.shape).copy() for k, v in inputs.items()}
+    sampled[name] = sampled[name] + force
+    frame = skeleton.simulate(fine, y0, inputs=sampled, input_hold="foh", **settings)
+    frame = frame.iloc[::_PUSH_GRID].reset_index(drop=True)
+    frame[name] = frame[name] - force[::_PUSH_GRID]
+    return frame, force[::_PUSH_GRID]
 
 
 _SECOND_ORDER = ["x1_dot = x2", "x2_dot = F_ext - f1(x2) - f2(x1)"]
@@ -669,6 +713,7 @@ def make_oscillator(
     amplitude: float = 0.3,
     omega: float = 0.8,
     y0: Sequence[float] = (3.0, 0.0),
+    disturbance: float | None = None,
     return_truth: bool = False,
 ) -> pd.DataFrame | tuple[pd.DataFrame, Bunch]:
     """Forced linear oscillator with hidden physical effects from the catalogue.
@@ -713,6 +758,12 @@ def make_oscillator(
         Amplitude and angular frequency of the forcing.
     y0 : tuple of float, default=(3.0, 0.0)
         Initial position and velocity.
+    disturbance : float, optional
+        Intensity of an unmeasured random force added to ``F_ext`` (process
+        noise): white noise whose integral over one unit of time has this
+        standard deviation, drawn on a grid four times finer than the
+        samples and joined linearly (``random_state`` seeds it). The
+        ``F_ext`` column holds the measured force alone.
     return_truth : bool, default=False
         Also return the ground truth.
 
@@ -725,7 +776,8 @@ def make_oscillator(
         ``parametric_equations`` (the true skeleton, linear terms ``a1 x2``
         and ``a2 x1`` first, hidden terms after them with fresh indices),
         ``params``, ``functions`` (empty), ``inputs``, ``y0``,
-        ``base_equations`` (the linear skeleton) and ``hidden`` (the names).
+        ``base_equations`` (the linear skeleton), ``hidden`` (the names) and,
+        with a ``disturbance``, ``disturbance`` (the random force at each sample).
 
     Raises
     ------
@@ -777,6 +829,11 @@ def make_oscillator(
         for a, value in zip(new, own):
             params[a] = check_real(f"hidden: {name!r} {value}", values[value])
         skeleton = extended
+    intensity = None
+    if disturbance is not None:
+        intensity = check_real("disturbance", disturbance)
+        if intensity < 0:
+            raise ValueError(f"disturbance must be non-negative, got {disturbance!r}")
     return _generate(
         equations=list(skeleton.equations),
         functions={},
@@ -785,6 +842,7 @@ def make_oscillator(
         base_equations=list(_LINEAR), hidden=list(chosen), simulate_parametric=True,
         y0=y0, n_samples=n_samples, t_span=t_span, noise=noise, noise_columns=noise_columns,
         random_state=random_state, return_truth=return_truth,
+        push=None if intensity is None else ("F_ext", intensity),
     )
 
 

@@ -6,9 +6,10 @@ from ._open_curves import OpenCurve
 from ._trajectories import Divergence
 from .compare import compare_skeletons
 from .diagnose import diagnose
+from .innovations import InnovationCheck, check_innovations
 from .loop import HypothesisLoop, Refinement, Round
 from .report import Diagnosis, Suggestion
 
-__all__ = ["Diagnosis", "Divergence", "HypothesisLoop", "OpenCurve", "Refinement", "ResidualMap",
-           "Round", "Suggestion",
-           "compare_skeletons", "diagnose", "effects"]
+__all__ = ["Diagnosis", "Divergence", "HypothesisLoop", "InnovationCheck", "OpenCurve",
+           "Refinement", "ResidualMap", "Round", "Suggestion",
+           "check_innovations", "compare_skeletons", "diagnose", "effects"]

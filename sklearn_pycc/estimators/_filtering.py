@@ -31,7 +31,7 @@ class FilteringMixin:
     clone: the model itself learns nothing).
     """
 
-    def _filtered(self, X, what: str, draws: list | None = None):
+    def _filtered(self, X, what: str, draws: list | None = None, *, keep: bool = True):
         """The plan of ``X`` (one segment per experiment) and the filter's pass through it."""
         check_is_fitted(self, "params_")
         if getattr(self, "fit_mode_", None) != "filter":
@@ -49,16 +49,19 @@ class FilteringMixin:
                                   (len(systems), 1)),
                           np.tile([self.measurement_noise_[s] for s in plan.measured],
                                   (len(systems), 1)),
-                          keep=True)
+                          keep=keep)
         return plan, run
 
     def _parameter_draws(self) -> list:
-        """Systems of parameters drawn from ``covariance_`` (the same on every call)."""
+        """Systems of numbers drawn from ``covariance_`` (the same on every call)."""
         cov = getattr(self, "covariance_", None)
         if cov is None or not len(cov):
             return []
         names = list(cov.index)
         rng = np.random.default_rng(PARAMETER_SEED)
+        if any(name not in self.params_ for name in names):  # a curve's numbers: its backend's
+            drawn = self.backend_.draws(self, PARAMETER_DRAWS, rng) or []
+            return [self.skeleton_.compile(functions, params) for functions, params in drawn]
         values, vectors = np.linalg.eigh(cov.to_numpy())
         root = vectors * np.sqrt(np.clip(values, 0.0, None))
         centre = np.array([self.params_[a] for a in names])
@@ -120,6 +123,78 @@ class FilteringMixin:
             out[s], out[f"{s}_lower"], out[f"{s}_upper"] = mean, mean - z * sd, mean + z * sd
         index = X.index if isinstance(X, pd.DataFrame) and len(X.index) == n_rows else None
         return pd.DataFrame(out, index=index)
+
+    def innovations(self, X) -> pd.DataFrame:
+        """The filter's one-step prediction errors of each measured state, and their spread.
+
+        The fitted skeleton's extended Kalman filter runs through each
+        experiment of ``X``; at each sample the measured states are compared
+        with what the filter predicted from the samples before. Where the
+        model and its noises are right, these errors divided by their
+        predicted standard deviations are white with unit variance, and
+        unrelated to the states and inputs
+        (:func:`~sklearn_pycc.diagnostics.check_innovations` tests that).
+
+        Parameters
+        ----------
+        X : DataFrame
+            The record, with ``t`` and the inputs, as in ``fit``.
+
+        Returns
+        -------
+        DataFrame
+            ``t``, ``trajectory`` (the experiment, from 0) and, per measured
+            state, the error ``<state>`` (measured minus predicted) and its
+            predicted standard deviation ``<state>_sd``; one row per sample
+            the filter used, in the order of ``X``.
+
+        Raises
+        ------
+        ValueError
+            When the model was not fitted with ``fit_mode="filter"``.
+        """
+        plan, run = self._filtered(X, "innovations", keep=False)
+        used = np.flatnonzero(plan.own.ravel())
+        rows = plan.rows.ravel()[used]
+        order = np.argsort(rows, kind="stable")
+        segment = np.broadcast_to(np.arange(plan.n_segments)[:, None], plan.own.shape)
+        out = {TIME: plan.columns()[TIME][rows[order]],
+               "trajectory": segment.ravel()[used][order]}
+        for j, name in enumerate(plan.measured):
+            out[name] = run.innovations[0, order, j]
+            out[f"{name}_sd"] = np.sqrt(run.variances[0, order, j])
+        frame = pd.DataFrame(out)
+        if isinstance(X, pd.DataFrame) and len(X.index) == len(plan.columns()[TIME]):
+            frame.index = X.index[rows[order]]
+        return frame
+
+    def log_likelihood(self, X) -> float:
+        """The log-likelihood of the measured samples of ``X`` under the fitted model and noises.
+
+        The fitted skeleton's extended Kalman filter runs through each
+        experiment of ``X``; its one-step predictions give each sample's
+        probability. On a record the model was not fitted on, the larger
+        the better: it judges candidate skeletons where disturbances make
+        their simulations wander.
+
+        Parameters
+        ----------
+        X : DataFrame
+            The record, with ``t`` and the inputs, as in ``fit``.
+
+        Returns
+        -------
+        float
+            The sum over the measured samples (``-inf`` where the filter
+            diverged).
+
+        Raises
+        ------
+        ValueError
+            When the model was not fitted with ``fit_mode="filter"``.
+        """
+        _, run = self._filtered(X, "log_likelihood", keep=False)
+        return -float(run.nll[0])
 
     def predict_ahead(self, X, *, steps: int = 1) -> pd.DataFrame:
         """Each sample's states predicted ``steps`` samples earlier by the filtered model.

@@ -30,6 +30,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..fitting.numbers import Numbers, parameters_only
 from ..fitting.problem import FitResult, Problem
 from ..skeleton.curves import as_curve
 
@@ -113,6 +114,14 @@ class Backend(ABC):
         result carries the stage's summary as the attribute ``shooting_``.
         """
         raise ValueError(f"{type(self).__name__} does not support fit_mode='simulation'")
+
+    def numbers(self, problem: Problem, result: FitResult) -> Numbers:
+        """``result`` as one vector of numbers, for a stage that moves them (the filter's).
+
+        By default the free parameters, every curve held as ``result`` drew
+        it; a backend whose curves are a few numbers each adds them.
+        """
+        return parameters_only(problem, result)
 
     def estimate(self, problem: Problem, *, shooting_window: int = 40,
                  shooting_iterations: int = 30) -> FitResult:

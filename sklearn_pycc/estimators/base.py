@@ -19,7 +19,7 @@ from sklearn.utils.validation import check_is_fitted
 from .._utils.randomness import seeds
 from .._utils.threads import blas_threads
 from ..exceptions import DomainWarning
-from ..fitting.filter.stage import check_filterable, filter_stage
+from ..fitting.filter.stage import filter_stage
 from ..fitting.fingerprint import fit_fingerprint
 from ..fitting.output_error.hidden import check_visible
 from ..fitting.output_error.noise_model import NOISE_MODELS, fit_noise_model
@@ -178,12 +178,14 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         a stochastic differential equation, every state but a kinematic
         identity pushed by its own white noise (a disturbance nobody
         measured), and refines the output-error fit by the extended Kalman
-        filter's likelihood: the parameters, the noises' intensities
-        (``process_noise_``) and the measurement noise
-        (``measurement_noise_``), the parameters' covariance from the
-        likelihood's curvature. So far for skeletons of parameters (no
-        curves), without ``noise_model`` or ``n_bootstrap``; a state nobody
-        measured is filtered through each whole experiment.
+        filter's likelihood (the equation-error fit, for a backend without an
+        output-error stage): the parameters, the polynomial curves'
+        coefficients, the noises' intensities (``process_noise_``) and the
+        measurement noise (``measurement_noise_``), their covariance from
+        the likelihood's curvature. Other backends' curves are held as the
+        start drew them (``filter_["held"]``). Not with ``noise_model`` or
+        ``n_bootstrap``; a state nobody measured is filtered through each
+        whole experiment.
     shooting_window : int, default=40
         Samples per shooting segment in ``fit_mode="simulation"``.
     shooting_iterations : int, default=30
@@ -429,7 +431,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                 f"; {hidden} not measured: fitted by output error on {seen}, the value of "
                 f"{hidden} at the start of each experiment a fitted number (initial_states_)")
         if self.fit_mode == "filter":  # the output-error fit is where the filter starts
-            return "simulation", "; refined by the extended Kalman filter's likelihood"
+            start = "simulation" if backend.output_error else "equation"
+            return start, "; refined by the extended Kalman filter's likelihood"
         if self.fit_mode != "auto":
             return self.fit_mode, ""
         noisy = record.estimated and record.snr_db is not None \
@@ -492,13 +495,11 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         if delays:
             facts = {**facts, "delays_": delays}
         problem.check_enough_rows()
-        if self.fit_mode == "filter":
-            check_filterable(problem)
         result = backend.estimate(problem, shooting_window=self.shooting_window,
                                   shooting_iterations=self.shooting_iterations)
         if self.fit_mode == "filter":
             with blas_threads(1):
-                result = filter_stage(problem, result)
+                result = filter_stage(problem, backend.numbers(problem, result))
         noise = None
         if self.noise_model is not None:
             if problem.fit_mode == "simulation" and not problem.hidden:

@@ -18,6 +18,7 @@ from ..backends.poly.basis import BASES, PolyBasis, PolyCurve
 from ..backends.poly.linear import curve_arguments, linearize, split_parameters
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
 from ..fitting.lstsq import LstsqResult, bounded_lstsq, constrained_lstsq
+from ..fitting.numbers import Numbers
 from ..fitting.output_error.shooting import ShootingPlan, fit_shooting
 from ..fitting.problem import FitResult, Problem, residual_scale, thinned
 from ..fitting.uncertainty.covariance import DeferredCovariance, sandwich
@@ -310,13 +311,14 @@ class PolyBackend(Backend):
                                              "covariance_": covariance})
 
     # -- output error ----------------------------------------------------------
-    def refine(self, problem: Problem, result: FitResult, plan: ShootingPlan) -> FitResult:
-        """Refine the coefficients and parameters so that simulations match the states.
+    def numbers(self, problem: Problem, result: FitResult) -> Numbers:
+        """The free parameters and the curves' coefficients as one vector.
 
-        The curves keep their bases; coefficients move in the null space of
-        their point constraints, so constraints still hold exactly; bounded
-        parameters stay within their bounds, and monotone curves keep the
-        shape the equation fit gave them.
+        The curves keep their bases; their coefficients move in the null
+        space of their point constraints (which then hold exactly), from
+        where ``result`` left them; a monotone curve is held as the equation
+        fit shaped it. The labelled numbers are the parameters and each
+        curve's power series (``f1[k]``), as ``covariance_`` names them.
         """
         functions, params = result.functions, result.params
         coefficients_at_start = result.attributes["coefficients_"]
@@ -335,44 +337,68 @@ class PolyBackend(Backend):
                 directions = np.eye(basis.size)
             pieces.append((name, basis, coefficients_at_start[name], directions))
         sizes = [d.shape[1] for *_, d in pieces]
-        theta0 = np.concatenate([[params[a] for a in free_params], np.zeros(sum(sizes))])
         fixed = dict(problem.fixed_params)
+        p = len(free_params)
 
         def unpack(theta):
-            values = {**fixed, **dict(zip(free_params, theta[:len(free_params)]))}
-            curves, offset = {}, len(free_params)
+            values = {**fixed, **dict(zip(free_params, (float(v) for v in theta[:p])))}
+            curves, offset = dict(functions), p
+            coefficients = dict(coefficients_at_start)
             for (name, basis, c0, directions), size in zip(pieces, sizes):
-                coefficients = c0 + directions @ theta[offset:offset + size]
-                curves[name] = (basis, coefficients)
+                coefficients[name] = c0 + directions @ theta[offset:offset + size]
+                curves[name] = basis.curve(coefficients[name], self._beyond)
                 offset += size
-            return values, curves
+            return values, curves, coefficients
 
         def system_for(theta):
-            values, curves = unpack(theta)
-            current = dict(functions)
-            for name, (basis, coefficients) in curves.items():
-                current[name] = basis.curve(coefficients, self._beyond)
-            return problem.skeleton.compile(current, values)
+            values, curves, _ = unpack(theta)
+            return problem.skeleton.compile(curves, values)
+
+        def result_for(theta) -> FitResult:
+            values, curves, coefficients = unpack(theta)
+            kept = {k: v for k, v in result.attributes.items() if k != "covariance_"}
+            return FitResult(curves, {**params, **{a: values[a] for a in free_params}},
+                             {**kept, "coefficients_": coefficients})
 
         bounds = problem.bounds
-        low = np.concatenate([[bounds.get(a, (-np.inf, np.inf))[0] for a in free_params],
-                              np.full(sum(sizes), -np.inf)])
-        high = np.concatenate([[bounds.get(a, (-np.inf, np.inf))[1] for a in free_params],
-                               np.full(sum(sizes), np.inf)])
+        # the labelled numbers: the parameters, and each curve's power series
+        labels = list(free_params)
+        blocks = [np.eye(p)]
+        for (name, basis, _, directions), _size in zip(pieces, sizes):
+            to_series = basis.to_power() @ directions
+            labels += [f"{name}[{k}]" for k in range(to_series.shape[0])]
+            blocks.append(to_series)
+        # a coefficient's typical size: the root mean square of its curve's at the start
+        typical = np.concatenate([np.abs([params[a] for a in free_params])] + [
+            np.full(size, np.sqrt(np.mean(np.square(c0))) if len(c0) else 0.0)
+            for (_, _, c0, _), size in zip(pieces, sizes)])
+        return Numbers(
+            theta0=np.concatenate([[params[a] for a in free_params], np.zeros(sum(sizes))]),
+            low=np.concatenate([[bounds.get(a, (-np.inf, np.inf))[0] for a in free_params],
+                                np.full(sum(sizes), -np.inf)]),
+            high=np.concatenate([[bounds.get(a, (-np.inf, np.inf))[1] for a in free_params],
+                                 np.full(sum(sizes), np.inf)]),
+            system_for=system_for,
+            result_for=result_for, labels=labels, to_labels=block_diag(*blocks),
+            typical=typical)
+
+    def refine(self, problem: Problem, result: FitResult, plan: ShootingPlan) -> FitResult:
+        """Refine the coefficients and parameters so that simulations match the states.
+
+        The curves keep their bases; coefficients move in the null space of
+        their point constraints, so constraints still hold exactly; bounded
+        parameters stay within their bounds, and monotone curves keep the
+        shape the equation fit gave them.
+        """
+        numbers = self.numbers(problem, result)
         with blas_threads(1):
-            theta, info = fit_shooting(plan, system_for, np.clip(theta0, low, high),
-                                       plan.iterations, bounds=(low, high))
-        values, curves = unpack(theta)
-        functions = dict(functions)
-        refined = dict(coefficients_at_start)
-        for name, (basis, coefficients) in curves.items():
-            functions[name] = basis.curve(coefficients, self._beyond)
-            refined[name] = coefficients
-        params = {**params, **{a: float(values[a]) for a in free_params}}
+            theta, info = fit_shooting(plan, numbers.system_for,
+                                       np.clip(numbers.theta0, numbers.low, numbers.high),
+                                       plan.iterations, bounds=(numbers.low, numbers.high))
+        refined = numbers.result_for(theta)
         # the covariance was of the equation-error estimate, which this stage moved
-        kept = {k: v for k, v in result.attributes.items() if k != "covariance_"}
-        return FitResult(functions, params, {**kept, "coefficients_": refined,
-                                             "shooting_": info})
+        return FitResult(refined.functions, refined.params,
+                         {**refined.attributes, "shooting_": info})
 
     # -- uncertainty (the covariance of the equation-error estimate) ------------------------
     @staticmethod

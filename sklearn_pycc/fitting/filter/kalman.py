@@ -273,6 +273,7 @@ def _variants(plan, system_for, points: np.ndarray, p: int, noisy: np.ndarray) -
 
 def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0: np.ndarray,
                process0: np.ndarray, measurement0: np.ndarray, *, noisy, bounds=None,
+               typical: np.ndarray | None = None,
                max_iterations: int = 100) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """Maximise the filter's likelihood over the parameters and the noise intensities.
 
@@ -293,6 +294,9 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
         The states the process noise enters.
     bounds : (ndarray, ndarray), optional
         Least and largest value of each parameter.
+    typical : ndarray, optional
+        Each parameter's typical size (default: its start's), a tenth of
+        which is the search's unit.
     max_iterations : int, default=100
         Most quasi-Newton iterations.
 
@@ -323,7 +327,8 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
     # searched in units of a tenth of each parameter (half a factor e of each noise): the
     # quasi-Newton search's first step is then one of that size, not one that leaves the
     # states' range
-    unit = np.concatenate([0.1 * np.maximum(np.abs(z0[:p]), 1e-3), np.full(d - p, 0.5)])
+    size = np.abs(z0[:p]) if typical is None else np.asarray(typical, dtype=float)
+    unit = np.concatenate([0.1 * np.maximum(size, 1e-3), np.full(d - p, 0.5)])
     failure = {"value": None}
 
     def value_and_gradient(u):

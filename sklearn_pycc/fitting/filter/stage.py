@@ -3,10 +3,11 @@
 The skeleton is read as a stochastic differential equation: every state whose
 equation is more than a kinematic identity (``x1_dot = x2`` is exact) is
 pushed by its own white noise, whose intensity is fitted with the
-parameters and the measurement noise of each measured state. The
-output-error fit gives the start; a few starts of the intensities are tried
-and the likeliest kept. The parameters' covariance comes from the
-likelihood's curvature.
+numbers the backend writes the fit as (:meth:`Backend.numbers`: the
+parameters, and a polynomial curve's coefficients) and the measurement noise
+of each measured state. The output-error fit gives the start; a few starts
+of the intensities are tried and the likeliest kept. The numbers' covariance
+comes from the likelihood's curvature.
 
 A state nobody measured starts where the output-error model simulates it,
 and each experiment is then filtered whole (one segment): restarted at
@@ -19,13 +20,13 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-import pandas as pd
 
 from ...skeleton.nodes import Symbol
+from ..numbers import Numbers
 from ..problem import FitResult, Problem
 from .kalman import fit_filter
 
-__all__ = ["WINDOW", "check_filterable", "filter_plan", "filter_stage", "noisy_states"]
+__all__ = ["WINDOW", "filter_plan", "filter_stage", "noisy_states"]
 
 #: samples per filtered segment: long against the states' memory under the process noise
 WINDOW = 200
@@ -46,15 +47,6 @@ def noisy_states(problem: Problem) -> list[int]:
     return out
 
 
-def check_filterable(problem: Problem) -> None:
-    """Refuse, naming the culprit, what the filter stage cannot fit yet."""
-    if problem.free_functions:
-        raise ValueError(
-            f"fit_mode='filter' fits a skeleton's parameters; {problem.free_functions[0]} "
-            "is a curve. Write it as a law of parameters (a1 x2 + a2 x2^3), or fit it by "
-            "fit_mode='simulation'")
-
-
 def filter_plan(problem: Problem, system, *, whole: bool):
     """The segments the filter runs over, substeps chosen for ``system``.
 
@@ -73,28 +65,20 @@ def filter_plan(problem: Problem, system, *, whole: bool):
     return plan
 
 
-def filter_stage(problem: Problem, result: FitResult, *,
-                 iterations: int = 100) -> FitResult:
-    """Refine ``result`` (an output-error fit) by the filter's likelihood.
+def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -> FitResult:
+    """Refine a fit, written as ``numbers``, by the filter's likelihood.
 
-    Returns the result with the parameters moved, and the attributes
+    Returns the fit the refined numbers make, with the attributes
     ``process_noise_`` (state -> intensity: the standard deviation of the
     state's random increment over one unit of time), ``measurement_noise_``
-    (measured state -> standard deviation), ``covariance_`` (of the free
-    parameters, from the likelihood's curvature; absent where it is not
+    (measured state -> standard deviation), ``covariance_`` (of the labelled
+    numbers, from the likelihood's curvature; absent where it is not
     positive definite) and ``filter_`` (``nll``, ``iterations``,
-    ``converged``, ``window``, ``segments``, ``starts``).
+    ``converged``, ``window``, ``segments``, ``starts``, ``held``: the
+    curves kept as the start drew them).
     """
-    check_filterable(problem)
-    free = problem.free_params
-    fixed = dict(problem.fixed_params)
-    functions = dict(result.functions)
-
-    def system_for(theta):
-        return problem.skeleton.compile(functions, {**fixed, **dict(zip(free, theta))})
-
-    theta0 = np.array([result.params[a] for a in free], dtype=float)
-    plan = filter_plan(problem, system_for(theta0), whole=bool(problem.hidden))
+    theta0 = np.clip(numbers.theta0, numbers.low, numbers.high)
+    plan = filter_plan(problem, numbers.system_for(theta0), whole=bool(problem.hidden))
     noisy = noisy_states(problem)
     mi = plan.measured_index
     # the measurement noise starts at what the differentiation's smoothing took off the
@@ -103,27 +87,26 @@ def filter_stage(problem: Problem, result: FitResult, *,
         max(float(np.std(problem.measured[s] - problem.smoothed.get(s, problem.measured[s]))),
             1e-3 * plan.scale[j])
         for s, j in zip(plan.measured, mi)])
-    bounds = problem.bounds
-    low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in free], dtype=float)
-    high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in free], dtype=float)
     best = None
     for start in STARTS:
-        fitted = fit_filter(plan, system_for, np.clip(theta0, low, high), start * plan.scale,
-                            measurement0, noisy=noisy, bounds=(low, high),
-                            max_iterations=iterations)
+        fitted = fit_filter(plan, numbers.system_for, theta0, start * plan.scale,
+                            measurement0, noisy=noisy, bounds=(numbers.low, numbers.high),
+                            typical=numbers.typical, max_iterations=iterations)
         if best is None or fitted[3]["nll"] < best[3]["nll"]:
             best = fitted
     theta, q, r, info = best
     states = list(plan.states)
+    result = numbers.result_for(theta)
     attributes = {k: v for k, v in result.attributes.items() if k != "covariance_"}
     attributes.update({
         "process_noise_": {states[j]: float(q[j]) for j in range(len(states))},
         "measurement_noise_": {plan.measured[j]: float(r[j]) for j in range(len(mi))},
         "filter_": {"nll": info["nll"], "iterations": info["iterations"],
                     "converged": info["converged"], "window": plan.window,
-                    "segments": plan.n_segments, "starts": len(STARTS)},
+                    "segments": plan.n_segments, "starts": len(STARTS),
+                    "held": list(numbers.held)},
     })
-    if info["covariance"] is not None and free:
-        attributes["covariance_"] = pd.DataFrame(info["covariance"], index=free, columns=free)
-    params = {**result.params, **{a: float(v) for a, v in zip(free, theta)}}
-    return replace(result, params=params, attributes=attributes)
+    covariance = numbers.covariance(info["covariance"])
+    if covariance is not None:
+        attributes["covariance_"] = covariance
+    return replace(result, attributes=attributes)
