@@ -27,7 +27,7 @@ from ._data import thin
 from ._refit import fit_rows, prepared
 from ._trajectories import Horizon, simulate_against
 
-__all__ = ["HeldOut", "held_out_check", "make_folds"]
+__all__ = ["HeldOut", "fold_labels", "held_out_blocks", "held_out_check", "make_folds"]
 
 #: folds of a single-experiment record
 FOLDS = 3
@@ -144,7 +144,7 @@ def make_folds(data: Record) -> tuple[str, list[np.ndarray]]:
     return f"{FOLDS} folds of {per_fold} interleaved blocks in time", folds
 
 
-def _labels(data: Record, held: np.ndarray) -> np.ndarray:
+def fold_labels(data: Record, held: np.ndarray) -> np.ndarray:
     """Experiment labels that keep the training rows on either side of a held-out block apart."""
     base = np.empty(data.n_samples, dtype=object)
     for label, rows in data.experiment_rows:
@@ -153,6 +153,17 @@ def _labels(data: Record, held: np.ndarray) -> np.ndarray:
     gap[held] = 1
     piece = np.cumsum(gap)  # changes across every held-out row
     return np.array([f"{b}#{p}" for b, p in zip(base, piece)], dtype=object)
+
+
+def held_out_blocks(data: Record, held: np.ndarray) -> np.ndarray:
+    """Experiment labels of the rows ``held`` (in order): one per block of consecutive rows."""
+    base = np.empty(data.n_samples, dtype=object)
+    for label, rows in data.experiment_rows:
+        base[rows] = "" if label is None else str(label)
+    held = np.asarray(held)
+    starts = np.ones(len(held), dtype=int)
+    starts[1:] = (np.diff(held) != 1) | (base[held[1:]] != base[held[:-1]])
+    return np.array([f"{b}#{k}" for b, k in zip(base[held], np.cumsum(starts))], dtype=object)
 
 
 def _fit(estimator, data: Record, train: np.ndarray, labels: np.ndarray,
@@ -191,7 +202,7 @@ def _fold_errors(base, extended, data: Record, held: np.ndarray, spreads, *,
     Either is None when it was not asked for (``base`` None) or failed.
     """
     train = np.setdiff1d(np.arange(data.n_samples), held)
-    labels = _labels(data, held)
+    labels = fold_labels(data, held)
     test = data.subset(held)
     out = []
     for model in (base, extended):
@@ -327,7 +338,7 @@ def pooled_errors(model, data, equations: list[int], horizon, max_steps: int):
     for held in folds:
         train = np.setdiff1d(everything, held)
         try:
-            fitted = _fit(model, data, train, _labels(data, held), output_error)
+            fitted = _fit(model, data, train, fold_labels(data, held), output_error)
             errors = _errors(fitted, data.subset(held), spreads, horizon, max_steps,
                              equations=equations)
         except Exception:  # a fold the skeleton cannot be fitted on counts as a failure

@@ -26,9 +26,9 @@ from numbers import Integral, Real
 import numpy as np
 import pandas as pd
 from scipy.stats import chi2, kstwobign, norm
-from scipy.stats import f as f_law
 from sklearn.utils._param_validation import Interval, validate_params
 
+from ..fitting.filter.evidence import dependence
 from ..skeleton.nodes import Symbol
 from ._data import TIME
 
@@ -247,29 +247,9 @@ def _dependence(model, variables: pd.DataFrame, frame: pd.DataFrame,
         for variable in variables.columns:
             v = variables[variable].to_numpy()
             ok = np.isfinite(v) & np.isfinite(e)
-            explained, p = _explained(e[ok], v[ok])
+            explained, p = dependence(e[ok], v[ok], DEPENDENCE_DEGREE)
             out.append({"measured": name, "variable": variable, "explained": explained,
                         "p_value": p, "equation": _equation_of(model, name)})
     table = pd.DataFrame(out, columns=["measured", "variable", "explained", "p_value",
                                        "equation"])
     return table.sort_values("explained", ascending=False, kind="stable").reset_index(drop=True)
-
-
-def _explained(e: np.ndarray, v: np.ndarray) -> tuple[float, float]:
-    """The share of ``e``'s variance a polynomial of ``v`` explains, and its F test's p-value."""
-    n = len(e)
-    spread = float(np.ptp(v)) if n else 0.0
-    if n <= DEPENDENCE_DEGREE + 2 or spread == 0.0:
-        return 0.0, 1.0
-    u = 2 * (v - v.min()) / spread - 1
-    design = np.polynomial.legendre.legvander(u, DEPENDENCE_DEGREE)
-    coef, *_ = np.linalg.lstsq(design, e, rcond=None)
-    residual = e - design @ coef
-    centred = e - e.mean()
-    total = float(centred @ centred)
-    if total <= 0:
-        return 0.0, 1.0
-    explained = max(0.0, 1.0 - float(residual @ residual) / total)
-    df1, df2 = DEPENDENCE_DEGREE, n - DEPENDENCE_DEGREE - 1
-    statistic = (explained / df1) / max((1 - explained) / df2, 1e-300)
-    return explained, float(f_law.sf(statistic, df1, df2))

@@ -16,6 +16,7 @@ from ..simulation.integration import judged_step_limit
 from ..skeleton import Skeleton
 from ..skeleton.nodes import Param, product_factors, rename, signed_terms, walk
 from ..skeleton.printer import to_text
+from ._likelihood_judge import LikelihoodJudgement, likelihood_check
 from ._refit import KEEP, prepared
 from .diagnose import diagnose
 from .report import Diagnosis, Suggestion
@@ -44,6 +45,15 @@ class Round:
         This round's diagnosis's suggestion, which the next round adds (its
         model ``adds`` it in :meth:`HypothesisLoop.table`); None when the
         loop stops here.
+    judge : str
+        What decided: ``"held-out simulation"`` (the diagnosis's judge where
+        the record has time), ``"held-out derivatives"``, or ``"held-out
+        likelihood"`` where the round's model was fitted by its Kalman filter
+        (process noise recognised, ``fit_mode_ == "filter"``): the
+        suggestion then stands only if it raises the filter's likelihood of
+        held-out samples (:attr:`likelihood`).
+    likelihood : LikelihoodJudgement or None
+        That judgement, where it was made.
     """
 
     index: int
@@ -52,6 +62,8 @@ class Round:
     diagnosis: Diagnosis
     decision: str
     added: Suggestion | None
+    judge: str = "held-out simulation"
+    likelihood: LikelihoodJudgement | None = None
 
     def __repr__(self) -> str:
         return f"<Round {self.index}: {self.decision}>"
@@ -259,6 +271,17 @@ class HypothesisLoop:
             # the same windows every round, so that their errors compare: say where they came from
             report.horizon = replace(report.horizon, why=f"round 0's: {first.why}")
         best = report.best
+        judge = "held-out simulation" if report.horizon is not None else "held-out derivatives"
+        likelihood = None
+        if getattr(model, "fit_mode_", None) == "filter":
+            judge = "held-out likelihood"
+            if best is not None:
+                likelihood = self._likelihood_of(model, best, report)
+                if not likelihood.confirmed:
+                    report.notes.append(
+                        f"process noise pushes this record: the suggestion ({best.action()}) "
+                        f"is judged by the filter's likelihood of held-out samples, and "
+                        f"{likelihood}")
         seen = None if best is None else next(
             (r.index for r in self.rounds
              if _structure(r.skeleton) == _structure(best.equations)), None)
@@ -266,6 +289,10 @@ class HypothesisLoop:
             report.notes.append(f"the suggestion ({best.action()}) returns to the skeleton of "
                                 f"round {seen}: the loop stops rather than go round")
             decision = f"stop: the suggestion returns to round {seen}'s skeleton"
+            best = None
+        elif likelihood is not None and not likelihood.confirmed:
+            decision = (f"stop: {best.label} does not raise the held-out likelihood (process "
+                        "noise: judged by the filter)")
             best = None
         elif best is None:
             decision = "stop: nothing is missing"
@@ -275,9 +302,17 @@ class HypothesisLoop:
             decision = f"outside the catalogue ({best.effect}): {best.action()}"
         else:  # the action names the move: "add '- a3*x1^3' to x2_dot"
             decision = f"{best.label}: {best.action()}"
-        current = Round(len(self.rounds), model.skeleton_, model, report, decision, best)
+        current = Round(len(self.rounds), model.skeleton_, model, report, decision, best,
+                        judge, likelihood)
         self.rounds.append(current)
         return current
+
+    def _likelihood_of(self, model, best: Suggestion, report: Diagnosis):
+        """The suggestion judged by the filter's likelihood of held-out samples."""
+        init = {**(model.get_params().get("param_init") or {}), **best.param_init}
+        extended = prepared(model, equations=best.equations, param_init=init, **best.settings)
+        added = len(best.equations.params) - len(model.skeleton_.params)
+        return likelihood_check(model, extended, report.record, n_added=max(added, 1))
 
     def run(self, max_rounds: int = 5, refine: bool = True) -> HypothesisLoop:
         """Step until nothing is missing or ``max_rounds`` rounds are recorded.
@@ -323,7 +358,8 @@ class HypothesisLoop:
         without each held-out fold and simulated over the first round's
         horizon; the output-error fit becomes the loop's answer, :attr:`model`, when it
         lowers that error by at least 1 %. A model already fitted by output
-        error is left as it is (None is returned).
+        error, or by its Kalman filter (process noise recognised), is left as
+        it is (None is returned).
 
         Returns
         -------
@@ -336,7 +372,7 @@ class HypothesisLoop:
             raise ValueError("the loop has not run yet: call step() or run() first")
         last = self.rounds[-1]
         model = last.model
-        if getattr(model, "fit_mode_", "equation") == "simulation" \
+        if getattr(model, "fit_mode_", "equation") in ("simulation", "filter") \
                 or "fit_mode" not in model.get_params():
             self.refinement = None
             return None

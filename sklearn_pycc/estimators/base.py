@@ -19,6 +19,8 @@ from sklearn.utils.validation import check_is_fitted
 from .._utils.randomness import seeds
 from .._utils.threads import blas_threads
 from ..exceptions import DomainWarning
+from ..fitting.filter.evidence import LAGS as PROCESS_NOISE_LAGS
+from ..fitting.filter.evidence import process_noise_evidence
 from ..fitting.filter.stage import filter_stage
 from ..fitting.fingerprint import fit_fingerprint
 from ..fitting.output_error.hidden import check_visible
@@ -42,7 +44,7 @@ from ..measurements.differentiation import (
 from ..measurements.experiments import TIME
 from ..measurements.measurement import Measurement, unwrap
 from ..measurements.reconstruct import kinematic_chains
-from ..measurements.record import targets_in_y
+from ..measurements.record import MEASURED, STATIC, targets_in_y
 from ..quantities import state_quantities
 from ..simulation.integration import INPUT_HOLDS, given_hold
 from ..skeleton import Skeleton
@@ -174,7 +176,11 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         to be estimated from states the ``"auto"`` differentiation found
         noisier than ``AUTO_SIMULATION_SNR_DB`` (45 dB), and the backend and
         skeleton can be simulated; it says so in ``derivative_source_``, and
-        ``fit_mode_`` holds the mode used. ``"filter"`` reads the skeleton as
+        ``fit_mode_`` holds the mode used. Where that output-error model then
+        shows process noise (it cannot follow the record without a random
+        push, and the one-step errors the push leaves are white and depend on
+        no state: a disturbance, not a missing effect), ``"auto"`` goes on as
+        ``"filter"`` does and says so. ``"filter"`` reads the skeleton as
         a stochastic differential equation, every state but a kinematic
         identity pushed by its own white noise (a disturbance nobody
         measured), and refines the output-error fit by the extended Kalman
@@ -500,6 +506,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         if self.fit_mode == "filter":
             with blas_threads(1):
                 result = filter_stage(problem, backend.numbers(problem, result))
+        elif self.fit_mode == "auto" and self.noise_model is None and not n_bootstrap:
+            result, facts = self._recognised(problem, result, facts, backend)
         noise = None
         if self.noise_model is not None:
             if problem.fit_mode == "simulation" and not problem.hidden:
@@ -520,6 +528,38 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                 "measured"):
             _warn_coarse_sampling(problem, self._system())
         return self
+
+    def _recognised(self, problem: Problem, result, facts: dict, backend: Backend):
+        """``fit_mode="auto"``: the fit refined by the filter where the record shows process noise.
+
+        Looked for after an output-error fit (``"auto"`` chose it: the
+        derivatives were estimated from noisy states) of states a simulation
+        can follow (:func:`process_noise_evidence`: the filter over a grid of
+        noises); where it is recognised, ``derivative_source_`` says so.
+        """
+        # after an equation fit, a little bias of its parameters reads as a push: looked for
+        # where the output error fitted them (a noisy record, where the filter pays)
+        simulable = (problem.fit_mode == "simulation"
+                     and problem.experiments is not None and not problem.hidden
+                     and problem.measured
+                     and not facts["derivative_source_"].startswith((MEASURED, STATIC))
+                     and all(eq.explicit for eq in problem.skeleton.parsed)
+                     and not problem.skeleton.algebraic
+                     and all(s in problem.smoothed for s in problem.skeleton.states)
+                     and all(e.n_samples > 2 * PROCESS_NOISE_LAGS
+                             for e in problem.experiments))
+        if not simulable:
+            return result, facts
+        system = problem.skeleton.compile(result.functions,
+                                          {**problem.fixed_params, **result.params})
+        with blas_threads(1), np.errstate(all="ignore"):
+            evidence = process_noise_evidence(problem, system)
+            if not evidence.recognised:
+                return result, facts
+            refined = filter_stage(problem, backend.numbers(problem, result))
+        source = (f"{facts['derivative_source_']}; {evidence.describe()} (fit_mode='auto'): "
+                  "refined by the extended Kalman filter's likelihood")
+        return refined, {**facts, "fit_mode_": "filter", "derivative_source_": source}
 
     def _delay_searcher(self) -> CCRegressor:
         """The estimator whose many fits compare the delays of inputs read late.

@@ -30,7 +30,7 @@ import numpy as np
 
 from ...skeleton.system import CompiledSystem, stack_systems
 
-__all__ = ["FilterPass", "fit_filter", "kalman_pass", "rk4_step", "smoothed"]
+__all__ = ["FilterPass", "fit_filter", "kalman_pass", "likeliest_noises", "rk4_step", "smoothed"]
 
 #: relative size of the state bumps that give each step's Jacobian
 BUMP = 1e-6
@@ -138,10 +138,36 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     ahead_covs = np.zeros((copies * K, L + 1, n, n)) if keep else None
     steps_F = np.zeros((copies * K, L, n, n)) if keep else None
 
+    def update_one(i: int) -> None:
+        """The update for a single measured state: every matrix of the measurement a number."""
+        nonlocal x, P
+        on = own[:, i]
+        if not on.any():
+            return
+        j = int(mi[0])
+        nu = targets[:, i, 0] - x[:, j]
+        S = P[:, j, j] + r2[:, 0]
+        broken = ~(np.isfinite(S) & np.isfinite(nu) & (S > 0))
+        if broken.any():
+            failed[:] |= broken & on
+            S = np.where(broken, 1.0, S)
+            nu = np.where(broken, 0.0, nu)
+        gain = P[:, :, j] / S[:, None]
+        terms[:, i] = np.where(on, 0.5 * (nu * nu / S + np.log(S) + LOG_2PI), 0.0)
+        innov[:, i, 0] = nu
+        var[:, i, 0] = S
+        x = np.where(on[:, None], x + gain * nu[:, None], x)
+        # P - K S K' with K = P h / S: P - (P h)(P h)' / S
+        P = np.where(on[:, None, None], P - gain[:, :, None] * P[:, None, j, :], P)
+        P = 0.5 * (P + P.transpose(0, 2, 1))
+
     def update(i: int) -> None:
         nonlocal x, P
         on = own[:, i]
         if not on.any() or not len(mi):
+            return
+        if len(mi) == 1:
+            update_one(i)
             return
         nu = targets[:, i] - x[:, mi]
         S = P[:, mi][:, :, mi] + r2[:, :, None] * np.eye(len(mi))
@@ -254,6 +280,44 @@ def smoothed(run: FilterPass) -> tuple[np.ndarray, np.ndarray]:
         covs[:, :, i] = run.covariances[:, :, i] + gain @ (
             covs[:, :, i + 1] - P_next) @ np.swapaxes(gain, -1, -2)
     return means, covs
+
+
+#: process-noise intensities :func:`likeliest_noises` tries, in units of each state's RMS per
+#: unit of time
+INTENSITIES = (0.0, *np.logspace(-3, 0, 13))
+#: measurement-noise levels it tries, in units of the given level
+MEASUREMENT_FACTORS = (0.7, 1.0, 1.4)
+
+
+def likeliest_noises(plan, system: CompiledSystem, noisy, measurement: np.ndarray):
+    """The likeliest of a grid of noises under ``system``, all filtered in one pass.
+
+    The process noise of the ``noisy`` states over :data:`INTENSITIES`
+    (times each state's scale), the measurement noise over
+    :data:`MEASUREMENT_FACTORS` times ``measurement``.
+
+    Returns
+    -------
+    process_sd : ndarray of shape (n_states,)
+    measurement_sd : ndarray of shape (n_measured,)
+    gain : float
+        Log-likelihood per measured sample that the likeliest process noise
+        adds to the likeliest without one.
+    """
+    noisy = np.asarray(list(noisy), dtype=int)
+    n = len(plan.states)
+    grid = [(c, f) for c in INTENSITIES for f in MEASUREMENT_FACTORS]
+    q = np.zeros((len(grid), n))
+    for row, (c, _) in enumerate(grid):
+        q[row, noisy] = c * np.asarray(plan.scale, dtype=float)[noisy]
+    r = np.array([f * np.asarray(measurement, dtype=float) for _, f in grid])
+    run = kalman_pass(plan, [system] * len(grid), q, r)
+    nll = np.where(np.isfinite(run.nll), run.nll, np.inf)
+    best = int(np.argmin(nll))
+    calm = min(nll[i] for i, (c, _) in enumerate(grid) if c == 0.0)
+    samples = max(run.terms.shape[1], 1)
+    gain = float((calm - nll[best]) / samples) if np.isfinite(nll[best]) else 0.0
+    return q[best], r[best], gain
 
 
 def _numbers(z: np.ndarray, p: int, noisy: np.ndarray, n: int):

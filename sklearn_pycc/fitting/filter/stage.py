@@ -5,9 +5,9 @@ equation is more than a kinematic identity (``x1_dot = x2`` is exact) is
 pushed by its own white noise, whose intensity is fitted with the
 numbers the backend writes the fit as (:meth:`Backend.numbers`: the
 parameters, and a polynomial curve's coefficients) and the measurement noise
-of each measured state. The output-error fit gives the start; a few starts
-of the intensities are tried and the likeliest kept. The numbers' covariance
-comes from the likelihood's curvature.
+of each measured state. The output-error fit gives the start, and the
+noises start at the likeliest of a grid filtered in one pass. The numbers'
+covariance comes from the likelihood's curvature.
 
 A state nobody measured starts where the output-error model simulates it,
 and each experiment is then filtered whole (one segment): restarted at
@@ -24,14 +24,12 @@ import numpy as np
 from ...skeleton.nodes import Symbol
 from ..numbers import Numbers
 from ..problem import FitResult, Problem
-from .kalman import fit_filter
+from .kalman import fit_filter, likeliest_noises
 
-__all__ = ["WINDOW", "filter_plan", "filter_stage", "noisy_states"]
+__all__ = ["WINDOW", "filter_plan", "filter_stage", "noisy_states", "smoothing_level"]
 
 #: samples per filtered segment: long against the states' memory under the process noise
 WINDOW = 200
-#: starting process-noise intensities, in units of each state's RMS per unit of time
-STARTS = (0.01, 0.3)
 
 
 def noisy_states(problem: Problem) -> list[int]:
@@ -65,6 +63,17 @@ def filter_plan(problem: Problem, system, *, whole: bool):
     return plan
 
 
+def smoothing_level(problem: Problem, plan) -> np.ndarray:
+    """Per measured state, what the differentiation's smoothing took off the record.
+
+    The measurement noise's first guess: at least a thousandth of the state's scale.
+    """
+    return np.array([
+        max(float(np.std(problem.measured[s] - problem.smoothed.get(s, problem.measured[s]))),
+            1e-3 * plan.scale[j])
+        for s, j in zip(plan.measured, plan.measured_index)])
+
+
 def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -> FitResult:
     """Refine a fit, written as ``numbers``, by the filter's likelihood.
 
@@ -74,27 +83,22 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -
     (measured state -> standard deviation), ``covariance_`` (of the labelled
     numbers, from the likelihood's curvature; absent where it is not
     positive definite) and ``filter_`` (``nll``, ``iterations``,
-    ``converged``, ``window``, ``segments``, ``starts``, ``held``: the
+    ``converged``, ``window``, ``segments``, ``held``: the
     curves kept as the start drew them).
     """
     theta0 = np.clip(numbers.theta0, numbers.low, numbers.high)
-    plan = filter_plan(problem, numbers.system_for(theta0), whole=bool(problem.hidden))
+    start = numbers.system_for(theta0)
+    plan = filter_plan(problem, start, whole=bool(problem.hidden))
     noisy = noisy_states(problem)
     mi = plan.measured_index
-    # the measurement noise starts at what the differentiation's smoothing took off the
-    # record (the output error would also hold the disturbances' wander: another basin)
-    measurement0 = np.array([
-        max(float(np.std(problem.measured[s] - problem.smoothed.get(s, problem.measured[s]))),
-            1e-3 * plan.scale[j])
-        for s, j in zip(plan.measured, mi)])
-    best = None
-    for start in STARTS:
-        fitted = fit_filter(plan, numbers.system_for, theta0, start * plan.scale,
-                            measurement0, noisy=noisy, bounds=(numbers.low, numbers.high),
-                            typical=numbers.typical, max_iterations=iterations)
-        if best is None or fitted[3]["nll"] < best[3]["nll"]:
-            best = fitted
-    theta, q, r, info = best
+    # the noises start at the likeliest of a grid about the level the differentiation's
+    # smoothing took off the record (the output error would also hold the disturbances'
+    # wander: another basin)
+    process0, measurement0, _ = likeliest_noises(plan, start, noisy,
+                                                 smoothing_level(problem, plan))
+    theta, q, r, info = fit_filter(plan, numbers.system_for, theta0, process0, measurement0,
+                                   noisy=noisy, bounds=(numbers.low, numbers.high),
+                                   typical=numbers.typical, max_iterations=iterations)
     states = list(plan.states)
     result = numbers.result_for(theta)
     attributes = {k: v for k, v in result.attributes.items() if k != "covariance_"}
@@ -103,7 +107,7 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -
         "measurement_noise_": {plan.measured[j]: float(r[j]) for j in range(len(mi))},
         "filter_": {"nll": info["nll"], "iterations": info["iterations"],
                     "converged": info["converged"], "window": plan.window,
-                    "segments": plan.n_segments, "starts": len(STARTS),
+                    "segments": plan.n_segments,
                     "held": list(numbers.held)},
     })
     covariance = numbers.covariance(info["covariance"])

@@ -1,0 +1,114 @@
+"""Held-out likelihood: the judge of an effect on a record that process noise pushes.
+
+Where disturbances nobody measured push the dynamics, a simulation wanders
+away from the record for reasons no skeleton can fix, and a held-out
+simulation error says more about the wander than about the effect. The
+filter's likelihood does not wander: each held-out sample is judged by the
+one-step prediction the filter makes from the samples before it. The record
+is split into folds as for the simulation judge
+(:func:`~._held_out.make_folds`); the model with and without the effect is
+fitted by the filter (``fit_mode="filter"``) without each fold and scores
+that fold's samples, each held-out block filtered on its own.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import SimulationError
+from ..measurements.experiments import TRAJECTORY
+from ..measurements.record import Record
+from ._held_out import fold_labels, held_out_blocks, make_folds
+from ._refit import prepared
+
+__all__ = ["LikelihoodJudgement", "likelihood_check"]
+
+#: least held-out log-likelihood an effect must add, per held-out sample and per number it
+#: adds, beside a win in most folds (chance adds about half a number's worth per sample set)
+LEAST_GAIN = 2e-3
+
+
+@dataclass
+class LikelihoodJudgement:
+    """The held-out likelihood of a model with and without an effect.
+
+    Attributes
+    ----------
+    folds : str
+        How the record was split, in words.
+    before, after : float
+        Held-out log-likelihood per sample without and with the effect
+        (``-inf`` where a fold could not be fitted).
+    wins : int
+        Folds in which the effect raised it.
+    n_folds : int
+    confirmed : bool
+        Whether the effect raised it by :data:`LEAST_GAIN` per added number
+        and won in most folds.
+    """
+
+    folds: str
+    before: float
+    after: float
+    wins: int
+    n_folds: int
+    confirmed: bool
+
+    def __str__(self) -> str:
+        verdict = "confirmed" if self.confirmed else "not confirmed"
+        return (f"held out by the filter's likelihood ({self.folds}): log-likelihood per sample "
+                f"{self.before:.4g} -> {self.after:.4g}; higher in {self.wins} of "
+                f"{self.n_folds} folds: {verdict}")
+
+
+def likelihood_check(base, extended, data: Record, *, n_added: int,
+                     cache: dict | None = None) -> LikelihoodJudgement:
+    """Fit ``base`` and ``extended`` by the filter without each fold and score them on it.
+
+    Parameters
+    ----------
+    base, extended : CCRegressor
+        Models without and with the effect (cloned, never modified).
+    data : Record
+        The record (its frame ``X`` is what the folds are cut from).
+    n_added : int
+        How many numbers the effect adds.
+    cache : dict, optional
+        ``base``'s held-out log-likelihood by fold, filled and reused.
+    """
+    description, folds = make_folds(data)
+    cache = {} if cache is None else cache
+    totals = {"before": 0.0, "after": 0.0}
+    wins, count = 0, 0
+    for i, held in enumerate(folds):
+        if i not in cache:
+            cache[i] = _held_out_likelihood(base, data, held)
+        before, after = cache[i], _held_out_likelihood(extended, data, held)
+        totals["before"] += before
+        totals["after"] += after
+        wins += int(after > before)
+        count += len(held)
+    before, after = totals["before"] / count, totals["after"] / count
+    confirmed = bool(math.isfinite(after) and after - before >= LEAST_GAIN * max(n_added, 1)
+                     and 2 * wins > len(folds))
+    return LikelihoodJudgement(description, before, after, wins, len(folds), confirmed)
+
+
+def _held_out_likelihood(model, data: Record, held: np.ndarray) -> float:
+    """The log-likelihood of the rows ``held``, ``model`` fitted by the filter without them."""
+    X = data.X
+    train = np.setdiff1d(np.arange(data.n_samples), held)
+    fit_on = X.assign(**{TRAJECTORY: fold_labels(data, held)}).iloc[train]
+    judged = X.iloc[held].assign(**{TRAJECTORY: held_out_blocks(data, held)})
+    estimator = prepared(model, fit_mode="filter")
+    try:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            fitted = estimator.fit(fit_on.reset_index(drop=True))
+            return float(fitted.log_likelihood(judged.reset_index(drop=True)))
+    except (SimulationError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return -math.inf

@@ -1,0 +1,153 @@
+"""Does a record show process noise? The filter under a grid of noises: process_noise_evidence.
+
+A model that cannot follow a record without a random push (its likelihood
+rises far when the filter may push it) either misses an effect or is pushed
+by disturbances nobody measured. The two part where the filter's one-step
+prediction errors are read: a missing effect is a function of the state,
+so the errors it leaves last from one sample to the next and depend on the
+predicted states; a random push leaves them white and unrelated to them.
+
+The evidence costs two passes of the filter, not a fit: the process noise
+tried over a grid of intensities (and the measurement noise about the level
+the differentiation's smoothing took off the record), side by side, and the
+likeliest pass read again for its predicted states.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import chi2
+from scipy.stats import f as f_law
+
+from ...skeleton.system import CompiledSystem
+from ..problem import Problem
+from .kalman import kalman_pass, likeliest_noises
+from .stage import filter_plan, noisy_states, smoothing_level
+
+__all__ = ["ProcessNoiseEvidence", "dependence", "ljung_box", "process_noise_evidence"]
+
+#: least log-likelihood the push must add, per measured sample, for the record to need one
+#: (parameters a little off, a model right otherwise, gain up to a few hundredths)
+LEAST_GAIN = 0.02
+#: lags of the Ljung-Box test of whiteness
+LAGS = 20
+#: significance of the whiteness test: strict, since a fit pushed by disturbances leaves its
+#: parameters a little off, and that little is not a missing effect (which leaves p-values
+#: far below it)
+ALPHA = 1e-3
+#: significance of the dependence tests, shared among them (as strict, for the same reason)
+ALPHA_DEPENDENCE = 1e-4
+#: degree of the polynomial of a predicted state the errors are regressed on
+DEGREE = 5
+
+
+@dataclass(frozen=True)
+class ProcessNoiseEvidence:
+    """What one look through the filter says about a record's process noise.
+
+    Attributes
+    ----------
+    recognised : bool
+        The record needs a random push (:attr:`gain`) and the errors it then
+        leaves are white (:attr:`white_p`) and depend on no predicted state
+        (:attr:`dependence_p`).
+    gain : float
+        Log-likelihood per measured sample the likeliest push adds to the
+        filter without one.
+    white_p : float
+        The smallest Ljung-Box p-value of the measured states' standardised
+        one-step errors at the likeliest push.
+    dependence_p : float
+        The smallest p-value of their dependence on a predicted state.
+    depends_on : str or None
+        The state of that smallest p-value, where it is below
+        :data:`ALPHA_DEPENDENCE` shared among the tests.
+    """
+
+    recognised: bool
+    gain: float
+    white_p: float
+    dependence_p: float
+    depends_on: str | None
+
+    def describe(self) -> str:
+        """The evidence in words."""
+        push = f"a random push adds {self.gain:.3f} to the log-likelihood per sample"
+        if self.recognised:
+            return (f"process noise recognised: {push}, and the one-step errors it leaves are "
+                    f"white (Ljung-Box p = {self.white_p:.2g}) and depend on no state")
+        if self.gain < LEAST_GAIN:
+            return f"no process noise: {push}"
+        why = [f"not white (Ljung-Box p = {self.white_p:.2g})"] if self.white_p < ALPHA else []
+        if self.depends_on is not None:
+            why.append(f"depend on {self.depends_on} (p = {self.dependence_p:.1g})")
+        return (f"not process noise alone: {push}, but the one-step errors it leaves "
+                f"{' and '.join(why)}: the skeleton misses something")
+
+
+def process_noise_evidence(problem: Problem, system: CompiledSystem) -> ProcessNoiseEvidence:
+    """Whether ``problem``'s record shows process noise under the fitted ``system``.
+
+    Parameters
+    ----------
+    problem : Problem
+        A problem with a time column, measured states and experiments.
+    system : CompiledSystem
+        The fitted right-hand side.
+
+    Returns
+    -------
+    ProcessNoiseEvidence
+    """
+    plan = filter_plan(problem, system, whole=bool(problem.hidden))
+    n = len(plan.states)
+    q, r, gain = likeliest_noises(plan, system, noisy_states(problem),
+                                  smoothing_level(problem, plan))
+    kept = kalman_pass(plan, system, q[None], r[None], keep=True)
+    errors = kept.innovations[0] / np.sqrt(kept.variances[0])
+    used = np.flatnonzero(plan.own.ravel())
+    predicted = kept.predicted[0].reshape(-1, n)[used]
+    white_p = min(ljung_box(e, LAGS) for e in errors.T) if errors.size else 1.0
+    tests = [(dependence(e, predicted[:, j], DEGREE)[1], plan.states[j])
+             for e in errors.T for j in range(n)]
+    dependence_p, state = min(tests) if tests else (1.0, None)
+    depends = dependence_p < ALPHA_DEPENDENCE / max(len(tests), 1)
+    return ProcessNoiseEvidence(
+        recognised=bool(gain >= LEAST_GAIN and white_p >= ALPHA and not depends),
+        gain=gain, white_p=float(white_p), dependence_p=float(dependence_p),
+        depends_on=state if depends else None)
+
+
+def ljung_box(e: np.ndarray, lags: int) -> float:
+    """The Ljung-Box p-value of ``e`` (finite values, centred) over ``lags`` lags."""
+    e = e[np.isfinite(e)]
+    e = e - e.mean()
+    n, total = len(e), float(e @ e)
+    lags = min(int(lags), n - 2)
+    if lags < 1 or total <= 0:
+        return 1.0
+    r = np.array([float(e[:-k] @ e[k:]) / total for k in range(1, lags + 1)])
+    q = n * (n + 2) * float(np.sum(r**2 / (n - np.arange(1, lags + 1))))
+    return float(chi2.sf(q, lags))
+
+
+def dependence(e: np.ndarray, v: np.ndarray, degree: int) -> tuple[float, float]:
+    """The share of ``e``'s variance a polynomial of ``v`` explains, and its F test's p-value."""
+    ok = np.isfinite(e) & np.isfinite(v)
+    e, v = e[ok], v[ok]
+    spread = float(np.ptp(v)) if len(v) else 0.0
+    if len(e) <= degree + 2 or spread == 0.0:
+        return 0.0, 1.0
+    design = np.polynomial.legendre.legvander(2 * (v - v.min()) / spread - 1, degree)
+    coef, *_ = np.linalg.lstsq(design, e, rcond=None)
+    residual = e - design @ coef
+    centred = e - e.mean()
+    total = float(centred @ centred)
+    if total <= 0:
+        return 0.0, 1.0
+    explained = max(0.0, 1.0 - float(residual @ residual) / total)
+    df2 = len(e) - degree - 1
+    statistic = (explained / degree) / max((1 - explained) / df2, 1e-300)
+    return explained, float(f_law.sf(statistic, degree, df2))
