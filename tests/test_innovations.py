@@ -1,4 +1,4 @@
-"""The innovations of a model fitted by its Kalman filter: white where it is right, telling where not."""
+"""The innovations of a filtered model: white where it is right, telling where it is not."""
 
 import warnings
 

@@ -95,6 +95,8 @@ def loop_page(loop, title: str = "Hypothesis loop") -> str:
     body.append(preformatted(loop.summary()))
     for r in loop.rounds:
         body.append(f"<h2>Round {r.index}: {html.escape(r.decision)}</h2>")
+        body.append(f"<p>Judged by {html.escape(r.judge)}"
+                    + (f": {html.escape(str(r.likelihood))}" if r.likelihood else "") + ".</p>")
         body.append("<p>The fitted model:</p>")
         body.append(equations_html(r.model))
         body.append(diagnosis_html(r.diagnosis))

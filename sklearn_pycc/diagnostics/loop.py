@@ -421,10 +421,11 @@ class HypothesisLoop:
         round's lacked (None for round 0); ``suggests`` and ``move`` what this
         round's diagnosis found missing (the next round ``adds`` it), with
         ``held_out_change``, its change of the held-out error; ``decision``
-        says it in words; ``answer`` marks the round whose skeleton gives the
-        loop's answer, :attr:`model` (and whether that was refitted by output
-        error). Besides ``simulation_rmse`` (every state pooled,
-        whatever their units), each measured state has its own
+        says it in words and ``judge`` what decided; ``answer`` marks the
+        round whose skeleton gives the loop's answer, :attr:`model` (and
+        whether that was refitted by output error). Besides
+        ``simulation_rmse`` (every state pooled, whatever their units), each
+        measured state has its own
         ``NAME_rmse`` and ``NAME_nrmse`` (simulated over the common horizon);
         ``table.attrs["units"]`` gives their units.
         """
@@ -452,6 +453,7 @@ class HypothesisLoop:
                 "held_out_change": math.nan if held is None else held.change(),
                 "implausible": len(d.implausible),
                 "decision": r.decision,
+                "judge": r.judge,
                 "answer": self._answer_mark(r.index),
             })
             rows.append(row)
@@ -521,9 +523,11 @@ class HypothesisLoop:
                          + (f"; simulation {', '.join(errors)}" if errors else "") + "):")
             lines.extend(f"    {text}" for text in r.model.equations())
             lines.extend(f"    IMPLAUSIBLE: {item}" for item in d.implausible)
-            lines.append(f"    -> {r.decision}")
+            lines.append(f"    -> {r.decision} [judged by {r.judge}]")
             if r.added is not None and r.added.held_out is not None:
                 lines.append(f"       ({r.added.held_out})")
+            if r.likelihood is not None:
+                lines.append(f"       ({r.likelihood})")
         lines.append(f"The loop's answer (loop.model): {self.answer()}.")
         if self.refinement is not None and self.refinement.adopted:
             lines.extend(f"    {text}" for text in self.refinement.model.equations())
