@@ -24,6 +24,17 @@ white noise, run just before it)::
     python asv_benchmarks/loop_study.py [--seeds 0 1] [--snr 40 30] [--cases pendulum ...]
     python asv_benchmarks/loop_study.py --poles 0.8 0.9 0.95 --bits 12 [--drift 0.02]
 
+Process noise: ``--pushes`` pushes every record, the fresh one too, by an
+unmeasured random force (``make_oscillator(disturbance=...)``; by default
+the intensities 0.02 and 0.05, whose simulation from the true start wanders
+by about 10 and 25 % of the spread). Complete is then judged by the filter:
+the loop's final skeleton and the true one are each fitted with
+``fit_mode="filter"`` on the record, and the fresh record's log-likelihood
+per sample must be within :data:`LIKELIHOOD_TOLERANCE` of the true
+skeleton's (the ratio column prints the difference)::
+
+    python asv_benchmarks/loop_study.py --pushes --jobs 2
+
 ``--acceptance`` runs every noise set of the coloured-noise study (white;
 AR(1) poles 0.8, 0.9 and 0.95 rounded to 12 bits; pole 0.9 with a drift of
 2 % of the RMS) and prints the figures of each set and of the coloured

@@ -18,7 +18,7 @@ from ..backends.poly.basis import BASES, PolyBasis, PolyCurve
 from ..backends.poly.linear import curve_arguments, linearize, split_parameters
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
 from ..fitting.lstsq import LstsqResult, bounded_lstsq, constrained_lstsq
-from ..fitting.numbers import Numbers
+from ..fitting.numbers import Numbers, parameters_only
 from ..fitting.output_error.shooting import ShootingPlan, fit_shooting
 from ..fitting.problem import FitResult, Problem, residual_scale, thinned
 from ..fitting.uncertainty.covariance import DeferredCovariance, sandwich
@@ -320,6 +320,8 @@ class PolyBackend(Backend):
         fit shaped it. The labelled numbers are the parameters and each
         curve's power series (``f1[k]``), as ``covariance_`` names them.
         """
+        if not problem.free_functions:  # parameters alone (a fit with unmeasured states)
+            return parameters_only(problem, result)
         functions, params = result.functions, result.params
         coefficients_at_start = result.attributes["coefficients_"]
         degrees = self._degrees(problem.free_functions)

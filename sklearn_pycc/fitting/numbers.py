@@ -28,7 +28,7 @@ class Numbers:
         Vector -> compiled right-hand side.
     result_for : callable
         Vector -> :class:`FitResult` (the curves and parameters it makes,
-        the backend's attributes updated).
+        the backend's attributes updated; a covariance of the start dropped).
     labels : list of str
         The names of the numbers a covariance of the vector is given in
         (``a1``, ``f1[k]``).
@@ -70,8 +70,10 @@ def parameters_only(problem: Problem, result: FitResult) -> Numbers:
         return {**fixed, **dict(zip(free, (float(v) for v in theta)))}
 
     def result_for(theta) -> FitResult:
+        # the covariance was of the numbers at the start, which the stage moved
+        kept = {k: v for k, v in result.attributes.items() if k != "covariance_"}
         return FitResult(functions, {**result.params, **{a: values(theta)[a] for a in free}},
-                         dict(result.attributes))
+                         kept)
 
     return Numbers(
         theta0=np.array([result.params[a] for a in free], dtype=float),
