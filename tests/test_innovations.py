@@ -38,7 +38,7 @@ def _fit(equations, X):
 
 @pytest.fixture(scope="module")
 def records():
-    return _pushed_duffing(3000, seed=2), _pushed_duffing(3000, seed=3)
+    return _pushed_duffing(2000, seed=2), _pushed_duffing(2000, seed=3)
 
 
 @pytest.fixture(scope="module")
