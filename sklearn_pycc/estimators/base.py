@@ -18,7 +18,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from .._utils.randomness import seeds
 from .._utils.threads import blas_threads
-from ..exceptions import DomainWarning
+from ..exceptions import DomainWarning, SimulationError
 from ..fitting.filter.evidence import LAGS as PROCESS_NOISE_LAGS
 from ..fitting.filter.evidence import process_noise_evidence
 from ..fitting.filter.stage import filter_stage
@@ -553,7 +553,10 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         system = problem.skeleton.compile(result.functions,
                                           {**problem.fixed_params, **result.params})
         with blas_threads(1), np.errstate(all="ignore"):
-            evidence = process_noise_evidence(problem, system)
+            try:
+                evidence = process_noise_evidence(problem, system)
+            except (ValueError, ArithmeticError, np.linalg.LinAlgError, SimulationError):
+                return result, facts  # a look that fails says nothing: the fit stands
             if not evidence.recognised:
                 return result, facts
             refined = filter_stage(problem, backend.numbers(problem, result))
