@@ -638,6 +638,7 @@ def _dependence_panel(ax, check, name: str) -> None:
     reach = max(0.5, 3 * float(np.max(np.abs(means))))  # zoomed on the means: a small shift
     ax.set_ylim(-reach, reach)
     ax.set_title("zoomed on the bins' means", fontsize=8, loc="left")
-    label_axis(ax, "x", f"{top['variable']} (predicted)")
+    predicted = " (predicted)" if top["variable"] in check.states else ""
+    label_axis(ax, "x", f"{top['variable']}{predicted}")
     label_axis(ax, "y", f"{name}'s innovations (standardised)")
     ax.legend(fontsize=7, loc="upper right")

@@ -25,10 +25,10 @@ from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
-from scipy.stats import chi2, kstwobign, norm
+from scipy.stats import kstwobign, norm
 from sklearn.utils._param_validation import Interval, validate_params
 
-from ..fitting.filter.evidence import dependence
+from ..fitting.filter.evidence import dependence, portmanteau
 from ..skeleton.nodes import Symbol
 from ._data import TIME
 
@@ -63,6 +63,8 @@ class InnovationCheck:
     variables : DataFrame
         At each row of :attr:`innovations`, the states the filter predicted
         it from and the inputs.
+    states : list of str
+        Which of :attr:`variables` are states (the others are inputs).
     dependence : DataFrame
         Per measured state and variable: ``explained`` (share of the
         variance), ``p_value`` and ``equation`` (where an effect of it would
@@ -78,6 +80,7 @@ class InnovationCheck:
     periodogram_band: float
     tests: pd.DataFrame
     variables: pd.DataFrame
+    states: list
     dependence: pd.DataFrame
     level: float
 
@@ -175,11 +178,10 @@ def check_innovations(model, X, *, max_lag: int | None = None,
     for name in measured:
         e = frame[name].to_numpy()
         acf[name] = _autocorrelation(e - e.mean(), groups, lags)
-        q = n * (n + 2) * np.sum(acf[name] ** 2 / (n - np.arange(1, lags + 1)))
         frequency, share = _cumulative_periodogram(e - e.mean(), step)
         expected = np.arange(1, len(share) + 1) / len(share)
         distance = float(np.max(np.abs(share - expected))) if len(share) else 0.0
-        p = float(chi2.sf(q, lags))
+        p = portmanteau(acf[name], n)
         periodograms[name] = (frequency, share)
         tests[name] = {"variance": float(np.mean(e**2)), "ljung_box_p": p,
                        "periodogram_distance": distance,
@@ -191,7 +193,8 @@ def check_innovations(model, X, *, max_lag: int | None = None,
         band=band, periodogram=periodograms, periodogram_band=cp_band,
         tests=pd.DataFrame(tests).T.astype({"variance": float, "ljung_box_p": float,
                                             "periodogram_distance": float, "white": bool}),
-        variables=variables, dependence=_dependence(model, variables, frame, measured),
+        variables=variables, states=list(model.skeleton_.states),
+        dependence=_dependence(model, variables, frame, measured),
         level=float(level))
 
 

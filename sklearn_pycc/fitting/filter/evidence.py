@@ -26,7 +26,8 @@ from ..problem import Problem
 from .kalman import kalman_pass, likeliest_noises
 from .stage import filter_plan, noisy_states, smoothing_level
 
-__all__ = ["ProcessNoiseEvidence", "dependence", "ljung_box", "process_noise_evidence"]
+__all__ = ["ProcessNoiseEvidence", "dependence", "ljung_box", "portmanteau",
+           "process_noise_evidence"]
 
 #: least log-likelihood the push must add, per measured sample, for the record to need one
 #: (parameters a little off, a model right otherwise, gain up to a few hundredths)
@@ -129,7 +130,13 @@ def ljung_box(e: np.ndarray, lags: int) -> float:
     if lags < 1 or total <= 0:
         return 1.0
     r = np.array([float(e[:-k] @ e[k:]) / total for k in range(1, lags + 1)])
-    q = n * (n + 2) * float(np.sum(r**2 / (n - np.arange(1, lags + 1))))
+    return portmanteau(r, n)
+
+
+def portmanteau(autocorrelation: np.ndarray, n: int) -> float:
+    """The Ljung-Box p-value of the autocorrelations at lags 1, 2, ... of ``n`` samples."""
+    lags = len(autocorrelation)
+    q = n * (n + 2) * float(np.sum(np.square(autocorrelation) / (n - np.arange(1, lags + 1))))
     return float(chi2.sf(q, lags))
 
 
