@@ -140,6 +140,24 @@ def test_an_estimator_fitted_by_the_filter_says_what_pushed_it(record):
     assert all(low < value < high for low, high, value in zip(lows, highs, truth.values()))
 
 
+def test_several_experiments_are_filtered_each_on_its_own():
+    first, second = _pushed_oscillator(1000, seed=3), _pushed_oscillator(1000, seed=4)
+    both = pd.concat([first.assign(trajectory=0), second.assign(trajectory=1)],
+                     ignore_index=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=OSCILLATOR, fit_mode="filter").fit(both)
+    assert model.fit_mode_ == "filter" and model.filter_["segments"] == 10
+    for name, value in {"a1": A1, "a2": A2}.items():
+        assert abs(model.params_[name] - value) < 3 * model.params_std_[name]
+    # no information crosses from one experiment to the next: the likelihood is the sum (but
+    # for each one's broad start, the states' spread over the record it is read from)
+    alone = model.log_likelihood(first) + model.log_likelihood(second)
+    assert model.log_likelihood(both) == pytest.approx(alone, rel=1e-3)
+    errors = model.innovations(both)
+    assert sorted(set(errors["trajectory"])) == [0, 1] and len(errors) == len(both)
+
+
 @pytest.mark.parametrize("settings, match", [
     ({"equations": OSCILLATOR, "noise_model": "ar"}, "noise_model is for output-error"),
     ({"equations": OSCILLATOR, "n_bootstrap": 5}, "n_bootstrap is for output-error"),

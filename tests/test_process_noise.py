@@ -7,12 +7,18 @@ from the push.
 """
 
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets
 from sklearn_pycc.diagnostics._data import read_measurements
+from sklearn_pycc.diagnostics._decide import (
+    eligible_candidates,
+    residual_memory,
+    significant_under_push,
+)
 from sklearn_pycc.diagnostics._likelihood_judge import likelihood_check
 from sklearn_pycc.fitting.filter.evidence import process_noise_evidence
 
@@ -81,7 +87,7 @@ def pushed_cubic():
 
 def test_the_held_out_likelihood_confirms_a_real_effect(pushed_cubic):
     real = likelihood_check(PolyCCRegressor(equations=LINEAR), PolyCCRegressor(equations=CUBIC),
-                            pushed_cubic, n_added=1)
+                            pushed_cubic, n_added=1, n_jobs=2)
     assert real.confirmed and real.after > real.before and real.wins == real.n_folds
     assert "confirmed" in str(real) and real.folds.startswith("3 folds")
 
@@ -111,3 +117,62 @@ def test_the_loop_says_it_judged_a_pushed_record_by_the_likelihood():
     assert loop.model is last.model and np.isfinite(loop.model.log_likelihood(X))
     assert "[judged by held-out likelihood]" in loop.summary()
     assert list(loop.table()["judge"])[-1] == "held-out likelihood"
+
+
+def test_a_residuals_memory_counts_the_samples_one_independent_sample_is_worth():
+    rng = np.random.default_rng(0)
+    white = rng.standard_normal(20000)
+    coloured = np.empty_like(white)
+    coloured[0] = white[0]
+    for k in range(1, len(white)):  # AR(1) at 0.8: (1 + 0.8) / (1 - 0.8) = 9 samples
+        coloured[k] = 0.8 * coloured[k - 1] + white[k]
+    memory = residual_memory(np.column_stack([white, coloured]))
+    assert abs(memory[0] - 1.0) < 0.3
+    assert 7.5 < memory[1] < 10.5
+
+
+def _candidate(removed, n_change=1, *, n=2900, delta_bic=-150.0):
+    return SimpleNamespace(removed=removed, n_change=n_change, equations=[1],
+                           after_squares=np.ones((n, 1)), refit=object(), plausible=True,
+                           delta_bic=delta_bic, simulation_rmse=np.nan)
+
+
+def test_under_a_push_an_effect_that_removes_little_is_eligible_where_that_is_significant():
+    # a light asymmetric damping under a strong push removed 6.7 % of the residual, whose
+    # samples were each worth one of every 14; controls' leaders ~2-4 % at memories of 12-40
+    memory = np.array([1.0, 14.0])
+    weak, chance = _candidate(0.067), _candidate(0.03)
+    assert significant_under_push(weak, memory)
+    assert not significant_under_push(chance, memory)
+    assert not significant_under_push(weak, np.array([1.0, 60.0]))  # fewer independent samples
+    assert not significant_under_push(_candidate(0.067, n_change=4), memory)
+    # without a push the derivatives' own rule stands: a tenth of the residual
+    assert eligible_candidates([weak, chance], 0.1, 10.0, np.nan) == []
+    assert eligible_candidates([weak, chance], 0.1, 10.0, np.nan, memory) == [weak]
+    # and the information criterion still has to be cleared
+    assert eligible_candidates([_candidate(0.067, delta_bic=-5.0)], 0.1, 10.0, np.nan,
+                               memory) == []
+
+
+@pytest.mark.parametrize("after, confirmed", [
+    ((0.0030, 0.0050, 0.0040), True),   # every fold, 0.004 per sample
+    ((0.0020, 0.0030, 0.0016), False),  # every fold, but 0.0022: what chance gave a control
+    ((-0.0010, 0.0080, 0.0120), True),  # most folds, 0.0063
+    ((-0.0010, 0.0050, 0.0065), False),  # most folds, 0.0035: only a clean sweep may be small
+])
+def test_the_likelihood_judge_lets_a_clean_sweep_win_by_less(pushed_cubic, monkeypatch, after,
+                                                             confirmed):
+    from sklearn_pycc.diagnostics import _likelihood_judge
+
+    base, extended = PolyCCRegressor(equations=LINEAR), PolyCCRegressor(equations=CUBIC)
+    calls = {"base": 0, "extended": 0}
+
+    def scored(model, data, held):  # per held-out sample: 0 without the effect
+        key = "base" if model is base else "extended"
+        calls[key] += 1
+        return 0.0 if key == "base" else after[calls[key] - 1] * len(held)
+
+    monkeypatch.setattr(_likelihood_judge, "_held_out_likelihood", scored)
+    judgement = likelihood_check(base, extended, pushed_cubic, n_added=1)
+    assert judgement.confirmed is confirmed
+    assert judgement.wins == sum(a > 0 for a in after) and calls == {"base": 3, "extended": 3}

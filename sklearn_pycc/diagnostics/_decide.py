@@ -14,6 +14,7 @@ import warnings
 
 import numpy as np
 import pandas as pd
+from scipy.stats import f as f_law
 
 from ..exceptions import SkeletonError
 from ..fitting.fingerprint import fitted_on
@@ -28,9 +29,22 @@ from ._refit import prepared
 from ._trajectories import Horizon
 from .report import Suggestion
 
-__all__ = ["decide_addition", "decide_open", "decide_removal", "eligible_candidates",
-           "formula_for", "group_of", "open_gain", "ordered_candidates", "score_of",
-           "simulates_better", "suggestion_for", "whole_record_error"]
+__all__ = [
+    "decide_addition",
+    "decide_open",
+    "decide_removal",
+    "eligible_candidates",
+    "formula_for",
+    "group_of",
+    "open_gain",
+    "ordered_candidates",
+    "residual_memory",
+    "score_of",
+    "significant_under_push",
+    "simulates_better",
+    "suggestion_for",
+    "whole_record_error",
+]
 
 #: a candidate whose simulation error is at most this share of the model's is worth a
 #: held-out check even when it removes little of the derivative residual
@@ -110,14 +124,69 @@ def ordered_candidates(candidates: list[Candidate]) -> list[Candidate]:
 
 
 def eligible_candidates(ordered: list[Candidate], min_improvement: float, bic_threshold: float,
-              simulation_rmse: float) -> list[Candidate]:
-    """Plausible refits that clear the BIC and help the derivatives or the simulation."""
+              simulation_rmse: float, memory: np.ndarray | None = None) -> list[Candidate]:
+    """Plausible refits that clear the BIC and help the derivatives or the simulation.
+
+    ``memory`` (a model fitted by its Kalman filter: the record is pushed by
+    disturbances) holds each equation's residual memory
+    (:func:`residual_memory`); a candidate that removes less than
+    ``min_improvement`` is then eligible where what it removes is
+    significant (:func:`significant_under_push`).
+    """
     out = []
     for c in ordered:
         if group_of(c) != 0 or c.delta_bic > -bic_threshold:
             continue
-        if c.removed >= min_improvement or simulates_better(c, simulation_rmse):
+        if c.removed >= min_improvement or simulates_better(c, simulation_rmse) or (
+                memory is not None and significant_under_push(c, memory)):
             out.append(c)
+    return out
+
+
+#: significance at which an effect that removes little of a pushed record's derivative
+#: residual is still worth judging by the filter's held-out likelihood: a random push fills
+#: the residual, and a real effect it hides (a light asymmetric damping) removes a few
+#: percent of it where min_improvement asks ten
+PUSHED_P = 1e-3
+
+
+def significant_under_push(c: Candidate, memory: np.ndarray) -> bool:
+    """Whether the share of the residual ``c`` removes is significant, samples counted by memory.
+
+    An F test of the ``c.n_change`` numbers it adds on ``n / memory``
+    independent samples: the push, low-passed by the differentiation, leaves
+    a residual whose neighbouring samples are far from independent.
+    """
+    if c.after_squares is None or not c.equations or not math.isfinite(c.removed):
+        return False
+    k = max(int(c.n_change), 1)
+    n_eff = len(c.after_squares) / max(float(np.max(memory[c.equations])), 1.0)
+    if n_eff <= k + 2 or c.removed <= 0:
+        return False
+    statistic = (c.removed / k) / max((1.0 - c.removed) / (n_eff - k - 1), 1e-300)
+    return float(f_law.sf(statistic, k, n_eff - k - 1)) <= PUSHED_P
+
+
+def residual_memory(residuals: np.ndarray) -> np.ndarray:
+    """How many samples one independent sample of each residual column is worth.
+
+    The integrated autocorrelation time ``1 + 2 sum_k rho_k`` over the lags
+    up to the first whose autocorrelation is not positive (Geyer's initial
+    positive sequence, truncated at 500 lags): 1 for white residuals.
+    """
+    residuals = np.asarray(residuals, dtype=float)
+    out = np.ones(residuals.shape[1])
+    for j in range(residuals.shape[1]):
+        e = residuals[:, j][np.isfinite(residuals[:, j])]
+        e = e - e.mean()
+        total = float(e @ e)
+        if len(e) < 8 or total <= 0:
+            continue
+        spectrum = np.abs(np.fft.rfft(e, 2 * len(e))) ** 2
+        rho = np.fft.irfft(spectrum)[1:min(len(e) // 2, 500)] / total
+        stop = np.flatnonzero(rho <= 0)
+        rho = rho[:stop[0]] if stop.size else rho
+        out[j] = 1.0 + 2.0 * float(np.sum(rho))
     return out
 
 

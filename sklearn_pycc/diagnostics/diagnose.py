@@ -37,6 +37,7 @@ from ._decide import (
     group_of,
     open_gain,
     ordered_candidates,
+    residual_memory,
     score_of,
     simulates_better,
     suggestion_for,
@@ -112,7 +113,9 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         the refitted model (see :attr:`Diagnosis.implausible`). A plausible
         refit that lowers the BIC by more than ``bic_threshold`` and removes
         at least ``min_improvement`` of the residual (or simulates clearly
-        better) is then checked on data its fit did not see: the model with
+        better; or, for a model fitted by its Kalman filter, a significant
+        share, samples counted by their memory) is then checked on
+        data its fit did not see: the model with
         and without it is fitted without each fold (the experiments, or
         three folds of interleaved blocks in time) and compared on it, by the horizon-limited
         simulation error (the derivatives' when there is no time). The
@@ -156,7 +159,8 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         How many candidate effects are refitted inside the extended skeleton
         (each refit costs one fit of ``model``).
     min_improvement : float, default=0.1
-        Least share of the residual an effect must remove to be suggested.
+        Least share of the residual an effect must remove to be suggested
+        (but see above for a model fitted by its Kalman filter).
     bic_threshold : float, default=10.0
         Least decrease of the BIC an effect must bring (10 is "very strong
         evidence").
@@ -323,7 +327,8 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         _simulate_leaders(refitted, data, measured_states, window, steps,
                           base_divergences=divergences)
     ordered = ordered_candidates([c for c in candidates if c.move != "remove"])
-    eligible = eligible_candidates(ordered, min_improvement, bic_threshold, simulation_rmse)
+    eligible = eligible_candidates(ordered, min_improvement, bic_threshold, simulation_rmse,
+                                   _push_memory(model, residuals))
     judge = window if run_simulation else None
     cache: dict = {}  # the model's own held-out errors, by fold, for every check
     chosen = decide_addition(eligible, model, data, judge, failing, steps=steps, n_jobs=n_jobs,
@@ -385,6 +390,11 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
                      maps, ranking, best, simulation_rmse, notes, window, implausible,
                      units, measured, tried, candidates, data,
                      variables, stability, len(X) - data.n_samples, detection)
+
+
+def _push_memory(model, residuals: np.ndarray) -> np.ndarray | None:
+    """A model fitted by its filter (a push fills the residual): each residual's memory."""
+    return residual_memory(residuals) if getattr(model, "fit_mode_", None) == "filter" else None
 
 
 def _check_settings(bic_threshold, n_bootstrap, random_state, n_jobs) -> None:

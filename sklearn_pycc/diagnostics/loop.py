@@ -144,7 +144,8 @@ class HypothesisLoop:
         ``units`` (else ``X.attrs["units"]``), ``quantities`` (what each
         state measures, ``{"x1": "level"}``, by default the estimator's
         own: effects are then named in its field's words), ``n_jobs``
-        (the candidates' refits and held-out folds in parallel), ...).
+        (the candidates' refits and held-out folds in parallel, the
+        filter's held-out fits too), ...).
 
     Attributes
     ----------
@@ -312,7 +313,8 @@ class HypothesisLoop:
         init = {**(model.get_params().get("param_init") or {}), **best.param_init}
         extended = prepared(model, equations=best.equations, param_init=init, **best.settings)
         added = len(best.equations.params) - len(model.skeleton_.params)
-        return likelihood_check(model, extended, report.record, n_added=max(added, 1))
+        return likelihood_check(model, extended, report.record, n_added=max(added, 1),
+                                n_jobs=self.diagnose_options.get("n_jobs"))
 
     def run(self, max_rounds: int = 5, refine: bool = True) -> HypothesisLoop:
         """Step until nothing is missing or ``max_rounds`` rounds are recorded.
