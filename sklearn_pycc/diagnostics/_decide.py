@@ -29,22 +29,10 @@ from ._refit import prepared
 from ._trajectories import Horizon
 from .report import Suggestion
 
-__all__ = [
-    "decide_addition",
-    "decide_open",
-    "decide_removal",
-    "eligible_candidates",
-    "formula_for",
-    "group_of",
-    "open_gain",
-    "ordered_candidates",
-    "residual_memory",
-    "score_of",
-    "significant_under_push",
-    "simulates_better",
-    "suggestion_for",
-    "whole_record_error",
-]
+__all__ = ["decide_addition", "decide_open", "decide_removal", "eligible_candidates",
+           "formula_for", "group_of", "open_gain", "ordered_candidates", "residual_memory",
+           "score_of", "significant_under_push", "simulates_better", "suggestion_for",
+           "whole_record_error"]
 
 #: a candidate whose simulation error is at most this share of the model's is worth a
 #: held-out check even when it removes little of the derivative residual
@@ -170,9 +158,9 @@ def significant_under_push(c: Candidate, memory: np.ndarray) -> bool:
 def residual_memory(residuals: np.ndarray) -> np.ndarray:
     """How many samples one independent sample of each residual column is worth.
 
-    The integrated autocorrelation time ``1 + 2 sum_k rho_k`` over the lags
-    up to the first whose autocorrelation is not positive (Geyer's initial
-    positive sequence, truncated at 500 lags): 1 for white residuals.
+    The integrated autocorrelation time ``1 + 2 sum_k rho_k``, summed up to
+    the first lag whose autocorrelation is not positive (and at most 500
+    lags): 1 for white residuals, ``(1 + pole) / (1 - pole)`` for AR(1).
     """
     residuals = np.asarray(residuals, dtype=float)
     out = np.ones(residuals.shape[1])
