@@ -10,16 +10,17 @@ import warnings
 from types import SimpleNamespace
 
 import numpy as np
+import pandas as pd
 import pytest
 
-from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets, diagnose
 from sklearn_pycc.diagnostics._data import read_measurements
 from sklearn_pycc.diagnostics._decide import (
     eligible_candidates,
     residual_memory,
     significant_under_push,
 )
-from sklearn_pycc.diagnostics._likelihood_judge import likelihood_check
+from sklearn_pycc.diagnostics._likelihood_judge import likelihood_check, removal_check
 from sklearn_pycc.fitting.filter.evidence import process_noise_evidence
 
 LINEAR = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
@@ -170,9 +171,89 @@ def test_the_likelihood_judge_lets_a_clean_sweep_win_by_less(pushed_cubic, monke
     def scored(model, data, held):  # per held-out sample: 0 without the effect
         key = "base" if model is base else "extended"
         calls[key] += 1
-        return 0.0 if key == "base" else after[calls[key] - 1] * len(held)
+        return (0.0 if key == "base" else after[calls[key] - 1] * len(held)), 0.0
 
     monkeypatch.setattr(_likelihood_judge, "_held_out_likelihood", scored)
     judgement = likelihood_check(base, extended, pushed_cubic, n_added=1)
     assert judgement.confirmed is confirmed
     assert judgement.wins == sum(a > 0 for a in after) and calls == {"base": 3, "extended": 3}
+
+
+@pytest.mark.parametrize("after, n_removed, confirmed", [
+    ((-0.0010, -0.0020, 0.0000), 1, True),    # costs 0.001 per sample: chance
+    ((-0.0040, -0.0030, -0.0020), 1, False),  # costs 0.003: more than chance gives a term
+    ((-0.0040, -0.0030, -0.0020), 2, True),   # ... for one number, not for two
+    ((0.0010, 0.0005, 0.0020), 1, True),      # better without it
+])
+def test_a_removal_from_a_pushed_model_stands_where_the_likelihood_loses_no_more_than_chance(
+        pushed_cubic, monkeypatch, after, n_removed, confirmed):
+    from sklearn_pycc.diagnostics import _likelihood_judge
+
+    base, reduced = PolyCCRegressor(equations=CUBIC), PolyCCRegressor(equations=LINEAR)
+    seen = []
+
+    def scored(model, data, held):  # (held-out log-likelihood, training nll)
+        if model is base:
+            return 0.0, 100.0
+        seen.append(len(held))
+        return after[len(seen) - 1] * len(held), 100.5
+
+    monkeypatch.setattr(_likelihood_judge, "_held_out_likelihood", scored)
+    judgement = removal_check(base, reduced, pushed_cubic, n_removed=n_removed)
+    assert judgement.confirmed is confirmed and judgement.removal and not judgement.failed
+    assert judgement.wins == sum(a > 0 for a in after)
+    assert "without them" in str(judgement)
+
+
+def test_a_removal_never_rests_on_a_failed_fit_of_the_larger_model(pushed_cubic, monkeypatch):
+    # on one fold the fit with the cubic term ended worse on its own samples than the fit
+    # without it, which it holds: that fit failed, and its poor held-out score is no evidence
+    from sklearn_pycc.diagnostics import _likelihood_judge
+
+    base, reduced = PolyCCRegressor(equations=CUBIC), PolyCCRegressor(equations=LINEAR)
+    folds = []
+
+    def scored(model, data, held):
+        if model is base:
+            folds.append(len(folds))
+            return (-10.0 * len(held), 180.0) if len(folds) == 2 else (0.0, 100.0)
+        return -0.001 * len(held), 101.0
+
+    monkeypatch.setattr(_likelihood_judge, "_held_out_likelihood", scored)
+    judgement = removal_check(base, reduced, pushed_cubic, n_removed=1)
+    assert judgement.after > judgement.before  # the failed fold alone makes it look idle
+    assert judgement.failed and not judgement.confirmed
+    assert "a failed fit" in str(judgement)
+
+
+def _pushed_tank(n=1500, seed=0, push=0.01):
+    """A draining tank, level only every 2 s, pump held in steps, its inflow pushed."""
+    rng = np.random.default_rng(seed)
+    pump = np.repeat(rng.uniform(0.2, 1.0, size=n // 60 + 1), 60)[:n]
+    level, x, fine = np.empty(n), 1.0, 20
+    dt = 2.0 / fine
+    for k in range(n):
+        level[k] = x
+        for _ in range(fine):
+            x += (0.5 * pump[k] - 0.4 * np.sqrt(max(x, 0.0))) * dt
+            x = max(x + push * np.sqrt(dt) * rng.standard_normal(), 0.0)
+    noisy = level + 0.01 * rng.standard_normal(n)
+    return pd.DataFrame({"t": 2.0 * np.arange(n), "x1": noisy, "u": pump})
+
+
+@pytest.mark.slow
+def test_a_term_a_pushed_record_does_not_need_is_removed_by_the_filters_judgement():
+    # Torricelli's outflow beside the linear one the user started from: the push fills the
+    # derivatives, so only the filter's held-out likelihood can say the linear term is idle
+    X = _pushed_tank()
+    model = _fit(["x1_dot = a1 u - a2 x1 - a3 sqrt(abs(x1))"], X, input_hold="zoh",
+                 quantities={"x1": "level"})
+    assert model.fit_mode_ == "filter"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        report = diagnose(model, X, n_jobs=2)
+    best = report.best
+    assert best is not None and best.move == "remove" and best.effect == "linear_rate"
+    assert "sqrt" not in best.term and sorted(best.equations.params) == ["a1", "a3"]
+    assert best.likelihood.confirmed and best.likelihood.removal
+    assert "Decided, as process noise pushes the record, by the filter" in report.summary()

@@ -95,6 +95,8 @@ class Candidate:
     simulation_rmse: float = math.nan
     # held-out comparison with the model without the effect (HeldOut), when checked
     held_out: object = None
+    # a removal judged by the filter's held-out likelihood (LikelihoodJudgement), when it was
+    likelihood: object = None
     # the output error (normalised) of its skeleton fitted by output error to the whole
     # record, when asked for
     whole_record: float | None = None

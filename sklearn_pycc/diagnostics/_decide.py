@@ -24,6 +24,7 @@ from ..skeleton import Bound, Skeleton
 from ._candidates import TIE, Candidate, extend, refit_candidates
 from ._data import TIME
 from ._held_out import held_out_check
+from ._likelihood_judge import removal_check
 from ._open_curves import OpenCurve, formula_candidates
 from ._refit import prepared
 from ._trajectories import Horizon
@@ -477,13 +478,23 @@ def decide_removal(removals: list[Candidate], model, data: Record,
     held-out errors, windows
     restarted from the noisy states cannot see what a light damping does,
     and one trajectory through the whole record can (its start, where a
-    release decays, is often what shows it).
+    release decays, is often what shows it). On a model fitted by its
+    filter (process noise recognised), the filter's held-out likelihood
+    judges the removal instead (:func:`~._likelihood_judge.removal_check`).
     """
     output_error = getattr(model, "fit_mode_", "equation") == "simulation"
     for c in sorted((c for c in removals if group_of(c) == 0 and c.delta_bic < 0),
                     key=lambda c: c.delta_bic):
         if not held_out:
             return c if c.delta_bic <= -REMOVAL_BIC else None
+        if getattr(model, "fit_mode_", None) == "filter":
+            # a push fills the derivatives and wanders the simulations: the filter judges
+            c.likelihood = removal_check(model, c.refit, data, n_removed=-c.n_change,
+                                         n_jobs=n_jobs)
+            if c.likelihood.confirmed:
+                return c
+            c.note = "; ".join(filter(None, [c.note, str(c.likelihood)]))
+            return None
         if output_error and record is not None:
             with_it = whole_record_error(model, record, cache)
             without = whole_record_error(c.refit, record)
@@ -670,7 +681,8 @@ def suggestion_for(c: Candidate, base: Skeleton, model, formula: Candidate | Non
                      if isinstance(x, Bound) and x not in base.constraints),
         intervals=intervals, settings=_settings(c.refit, model),
         called=c.effect.called(c.roles.quantity_of(c.effect.acts_through)),
-        replaced_in={eq: tuple(terms) for eq, terms in replaced_in.items()})
+        replaced_in={eq: tuple(terms) for eq, terms in replaced_in.items()},
+        likelihood=c.likelihood)
 
 
 def _settings(refit, model) -> dict:

@@ -26,7 +26,7 @@ from ..measurements.record import Record
 from ._held_out import fold_labels, held_out_blocks, make_folds
 from ._refit import prepared
 
-__all__ = ["LikelihoodJudgement", "likelihood_check"]
+__all__ = ["LikelihoodJudgement", "likelihood_check", "removal_check"]
 
 #: least held-out log-likelihood an effect must add, per held-out sample and per number it
 #: adds, beside a win in most folds: a record pushed by disturbances holds few independent
@@ -39,6 +39,14 @@ LEAST_GAIN = 5e-3
 #: nothing to fit rarely wins them all (a cubic spring on a pushed linear oscillator did,
 #: by 0.0022 and 0.0026)
 EVERY_FOLD_SHARE = 0.7
+#: most held-out log-likelihood per held-out sample a removed number may cost, as a share of
+#: :data:`LEAST_GAIN`: what a term with nothing to fit gains by chance (a cubic spring on a
+#: pushed linear oscillator, 0.0022 to 0.0026), so a term that earns no more than that is
+#: not worth its number (a linear outflow beside a tank's Torricelli law)
+REMOVAL_SHARE = 0.5
+#: how much worse (negative log-likelihood of its own samples) a fit of a larger skeleton may
+#: end than one of a skeleton it holds before it counts as failed
+FIT_SLACK = 1.0
 
 
 @dataclass
@@ -58,7 +66,15 @@ class LikelihoodJudgement:
     confirmed : bool
         Whether the effect raised it by :data:`LEAST_GAIN` per added number
         and won in most folds, or by :data:`EVERY_FOLD_SHARE` of that and won
-        in every fold.
+        in every fold; for a removal (``removal``), whether taking the terms
+        out lowered it by no more than :data:`REMOVAL_SHARE` of
+        :data:`LEAST_GAIN` per removed number.
+    removal : bool
+        Whether ``after`` is the model without terms (:func:`removal_check`).
+    failed : bool
+        For a removal: whether the fit with the terms was worse than the fit
+        without them on some fold's own samples (beyond :data:`FIT_SLACK`): a
+        failed fit, and no removal.
     """
 
     folds: str
@@ -67,11 +83,17 @@ class LikelihoodJudgement:
     wins: int
     n_folds: int
     confirmed: bool
+    removal: bool = False
+    failed: bool = False
 
     def __str__(self) -> str:
         verdict = "confirmed" if self.confirmed else "not confirmed"
+        change = " without them" if self.removal else ""
+        if self.failed:
+            verdict += (" (the fit with them was the worse on a fold's own samples: a failed "
+                        "fit)")
         return (f"held out by the filter's likelihood ({self.folds}): log-likelihood per sample "
-                f"{self.before:.4g} -> {self.after:.4g}; higher in {self.wins} of "
+                f"{self.before:.4g} -> {self.after:.4g}{change}; higher in {self.wins} of "
                 f"{self.n_folds} folds: {verdict}")
 
 
@@ -93,6 +115,42 @@ def likelihood_check(base, extended, data: Record, *, n_added: int,
     n_jobs : int, optional
         Fits run at once (joblib); one after another by default.
     """
+    description, before, after, wins, n_folds = _fold_scores(base, extended, data, cache, n_jobs)
+    least = LEAST_GAIN * max(n_added, 1)
+    if wins == n_folds:
+        least *= EVERY_FOLD_SHARE
+    confirmed = bool(math.isfinite(after) and after - before >= least and 2 * wins > n_folds)
+    return LikelihoodJudgement(description, before, after, wins, n_folds, confirmed)
+
+
+def removal_check(base, reduced, data: Record, *, n_removed: int,
+                  n_jobs: int | None = None) -> LikelihoodJudgement:
+    """Fit ``base`` and ``reduced`` (terms taken out) as :func:`likelihood_check` does.
+
+    The removal is confirmed where the held-out log-likelihood per sample
+    falls by no more than :data:`REMOVAL_SHARE` of :data:`LEAST_GAIN` per
+    removed number.
+    """
+    training = {}
+    description, before, after, wins, n_folds = _fold_scores(base, reduced, data, None, n_jobs,
+                                                             training=training)
+    most = REMOVAL_SHARE * LEAST_GAIN * max(n_removed, 1)
+    # the model with the terms holds the one without: where its fit of a fold's training
+    # samples is the worse, that fit failed, and the fold says nothing against the terms
+    failed = any(training[base, i] > training[reduced, i] + FIT_SLACK for i in range(n_folds))
+    confirmed = bool(math.isfinite(after) and math.isfinite(before) and before - after <= most
+                     and not failed)
+    return LikelihoodJudgement(description, before, after, wins, n_folds, confirmed,
+                               removal=True, failed=failed)
+
+
+def _fold_scores(base, extended, data: Record, cache: dict | None, n_jobs: int | None, *,
+                 training: dict | None = None):
+    """The held-out log-likelihood per sample of both models, and the folds ``extended`` won.
+
+    ``training`` is filled with each fit's negative log-likelihood of its
+    training samples, by ``(model, fold)`` (of the folds fitted here).
+    """
     description, folds = make_folds(data)
     cache = {} if cache is None else cache
     jobs = [(model, i) for i in range(len(folds))
@@ -100,7 +158,9 @@ def likelihood_check(base, extended, data: Record, *, n_added: int,
     scores = Parallel(n_jobs=n_jobs)(delayed(_held_out_likelihood)(model, data, folds[i])
                                      for model, i in jobs)
     ours = {}
-    for (model, i), score in zip(jobs, scores):
+    for (model, i), (score, nll) in zip(jobs, scores):
+        if training is not None:
+            training[model, i] = nll
         if model is base:
             cache[i] = score
         else:
@@ -113,16 +173,16 @@ def likelihood_check(base, extended, data: Record, *, n_added: int,
         totals["after"] += after
         wins += int(after > before)
         count += len(held)
-    before, after = totals["before"] / count, totals["after"] / count
-    least = LEAST_GAIN * max(n_added, 1)
-    if wins == len(folds):
-        least *= EVERY_FOLD_SHARE
-    confirmed = bool(math.isfinite(after) and after - before >= least and 2 * wins > len(folds))
-    return LikelihoodJudgement(description, before, after, wins, len(folds), confirmed)
+    return (description, totals["before"] / count, totals["after"] / count, wins,
+            len(folds))
 
 
-def _held_out_likelihood(model, data: Record, held: np.ndarray) -> float:
-    """The log-likelihood of the rows ``held``, ``model`` fitted by the filter without them."""
+def _held_out_likelihood(model, data: Record, held: np.ndarray) -> tuple[float, float]:
+    """The log-likelihood of the rows ``held``, ``model`` fitted by the filter without them.
+
+    And that fit's negative log-likelihood of the rows it was fitted on
+    (inf where the fit failed).
+    """
     # the filter reads the states as measured (raw) and the inputs: never a state the
     # differentiation reconstructed, as if a sensor had read it
     X = data.frame([]).assign(**data.measured, **data.signals)
@@ -134,6 +194,7 @@ def _held_out_likelihood(model, data: Record, held: np.ndarray) -> float:
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore")
             fitted = estimator.fit(fit_on.reset_index(drop=True))
-            return float(fitted.log_likelihood(judged.reset_index(drop=True)))
+            return (float(fitted.log_likelihood(judged.reset_index(drop=True))),
+                    float(fitted.filter_["nll"]))
     except (SimulationError, ValueError, ArithmeticError, np.linalg.LinAlgError):
-        return -math.inf
+        return -math.inf, math.inf

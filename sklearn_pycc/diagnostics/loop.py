@@ -277,7 +277,8 @@ class HypothesisLoop:
         if getattr(model, "fit_mode_", None) == "filter":
             judge = "held-out likelihood"
             if best is not None:
-                likelihood = self._likelihood_of(model, best, report)
+                # a removal the diagnosis judged by the filter already
+                likelihood = best.likelihood or self._likelihood_of(model, best, report)
                 if not likelihood.confirmed:
                     report.notes.append(
                         f"process noise pushes this record: the suggestion ({best.action()}) "

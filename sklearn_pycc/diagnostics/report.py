@@ -129,6 +129,11 @@ class Suggestion:
         the state's quantity is not known, ``"coulomb friction"`` on a
         mechanical velocity); see :meth:`sklearn_pycc.effects.Effect.called`
         and ``diagnose(..., quantities=...)``. Empty: the catalogue name.
+    likelihood : LikelihoodJudgement or None
+        For a removal from a model fitted by its Kalman filter (process
+        noise recognised): the filter's held-out likelihood with and without
+        the terms, which judged it in place of :attr:`held_out`. None
+        otherwise.
     """
 
     effect: str
@@ -156,6 +161,7 @@ class Suggestion:
     refit: object = field(default=None, repr=False, compare=False)
     called: str = ""
     replaced_in: dict = field(default_factory=dict)
+    likelihood: object = field(default=None, compare=False)
 
     def __str__(self) -> str:
         return f"{self.action()} ({self.label} through {self.variable or 'nothing'})"
@@ -490,6 +496,9 @@ class Diagnosis:
             lines.append(f"    As fitted, the new term acts as '{acting}' in {best.equation}.")
         if best.held_out is not None:
             lines.append(f"    Decided on data each fit did not see: {best.held_out}.")
+        if best.likelihood is not None:
+            lines.append(f"    Decided, as process noise pushes the record, by the filter: "
+                         f"{best.likelihood}.")
         lines.extend(self._stability_words())
         runners = self.ranking.iloc[1:4]
         if len(runners):
