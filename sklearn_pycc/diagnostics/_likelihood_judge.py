@@ -129,7 +129,24 @@ def removal_check(base, reduced, data: Record, *, n_removed: int,
 
     The removal is confirmed where the held-out log-likelihood per sample
     falls by no more than :data:`REMOVAL_SHARE` of :data:`LEAST_GAIN` per
-    removed number.
+    removed number, and no fold's fit of ``base`` failed (see
+    :attr:`LikelihoodJudgement.failed`).
+
+    Parameters
+    ----------
+    base, reduced : CCRegressor
+        Models with and without the terms (cloned, never modified).
+    data : Record
+        The record, as for :func:`likelihood_check`.
+    n_removed : int
+        How many numbers the removal takes out.
+    n_jobs : int, optional
+        Fits run at once (joblib); one after another by default.
+
+    Returns
+    -------
+    LikelihoodJudgement
+        ``before`` with the terms, ``after`` without them, ``removal`` true.
     """
     training = {}
     description, before, after, wins, n_folds = _fold_scores(base, reduced, data, None, n_jobs,
