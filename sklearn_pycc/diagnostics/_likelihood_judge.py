@@ -115,7 +115,8 @@ def likelihood_check(base, extended, data: Record, *, n_added: int,
     n_jobs : int, optional
         Fits run at once (joblib); one after another by default.
     """
-    description, before, after, wins, n_folds = _fold_scores(base, extended, data, cache, n_jobs)
+    description, before, after, wins, n_folds, _ = _fold_scores(base, extended, data, cache,
+                                                                n_jobs)
     least = LEAST_GAIN * max(n_added, 1)
     if wins == n_folds:
         least *= EVERY_FOLD_SHARE
@@ -148,9 +149,8 @@ def removal_check(base, reduced, data: Record, *, n_removed: int,
     LikelihoodJudgement
         ``before`` with the terms, ``after`` without them, ``removal`` true.
     """
-    training = {}
-    description, before, after, wins, n_folds = _fold_scores(base, reduced, data, None, n_jobs,
-                                                             training=training)
+    description, before, after, wins, n_folds, training = _fold_scores(base, reduced, data,
+                                                                       None, n_jobs)
     most = REMOVAL_SHARE * LEAST_GAIN * max(n_removed, 1)
     # the model with the terms holds the one without: where its fit of a fold's training
     # samples is the worse, that fit failed, and the fold says nothing against the terms
@@ -161,12 +161,11 @@ def removal_check(base, reduced, data: Record, *, n_removed: int,
                                removal=True, failed=failed)
 
 
-def _fold_scores(base, extended, data: Record, cache: dict | None, n_jobs: int | None, *,
-                 training: dict | None = None):
+def _fold_scores(base, extended, data: Record, cache: dict | None, n_jobs: int | None):
     """The held-out log-likelihood per sample of both models, and the folds ``extended`` won.
 
-    ``training`` is filled with each fit's negative log-likelihood of its
-    training samples, by ``(model, fold)`` (of the folds fitted here).
+    Last, each fit's negative log-likelihood of its training samples, by
+    ``(model, fold)`` (of the folds fitted here: ``cache`` spares some).
     """
     description, folds = make_folds(data)
     cache = {} if cache is None else cache
@@ -174,10 +173,9 @@ def _fold_scores(base, extended, data: Record, cache: dict | None, n_jobs: int |
             for model in ((base,) if i not in cache else ()) + (extended,)]
     scores = Parallel(n_jobs=n_jobs)(delayed(_held_out_likelihood)(model, data, folds[i])
                                      for model, i in jobs)
-    ours = {}
+    ours, training = {}, {}
     for (model, i), (score, nll) in zip(jobs, scores):
-        if training is not None:
-            training[model, i] = nll
+        training[model, i] = nll
         if model is base:
             cache[i] = score
         else:
@@ -191,7 +189,7 @@ def _fold_scores(base, extended, data: Record, cache: dict | None, n_jobs: int |
         wins += int(after > before)
         count += len(held)
     return (description, totals["before"] / count, totals["after"] / count, wins,
-            len(folds))
+            len(folds), training)
 
 
 def _held_out_likelihood(model, data: Record, held: np.ndarray) -> tuple[float, float]:
