@@ -12,6 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 import pandas as pd
 import pytest
+from scipy.stats import chi2
 
 from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets, diagnose
 from sklearn_pycc.diagnostics._data import read_measurements
@@ -20,8 +21,14 @@ from sklearn_pycc.diagnostics._decide import (
     residual_memory,
     significant_under_push,
 )
-from sklearn_pycc.diagnostics._likelihood_judge import likelihood_check, removal_check
-from sklearn_pycc.fitting.filter.evidence import process_noise_evidence
+from sklearn_pycc.diagnostics._likelihood_judge import (
+    LikelihoodJudgement,
+    likelihood_check,
+    reconsidered,
+    removal_check,
+    whole_record,
+)
+from sklearn_pycc.fitting.filter.evidence import ProcessNoiseEvidence, process_noise_evidence
 
 LINEAR = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
 CUBIC = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1 - a3 x1^3"]
@@ -226,6 +233,29 @@ def test_a_removal_never_rests_on_a_failed_fit_of_the_larger_model(pushed_cubic,
     assert "a failed fit" in str(judgement)
 
 
+@pytest.mark.parametrize("nested", [True, False])
+def test_an_addition_is_not_held_against_a_failed_fit_with_it(pushed_cubic, monkeypatch,
+                                                              nested):
+    # on one fold the fit with the cubic term ended worse on its own samples than the fit
+    # without it: with the term at zero it would have done as well, so that fit failed
+    from sklearn_pycc.diagnostics import _likelihood_judge
+
+    base, extended = PolyCCRegressor(equations=LINEAR), PolyCCRegressor(equations=CUBIC)
+    folds = []
+
+    def scored(model, data, held):
+        if model is base:
+            return 0.0, 100.0
+        folds.append(len(folds))
+        return (-10.0 * len(held), 180.0) if len(folds) == 2 else (0.01 * len(held), 99.0)
+
+    monkeypatch.setattr(_likelihood_judge, "_held_out_likelihood", scored)
+    judgement = likelihood_check(base, extended, pushed_cubic, n_added=1, nested=nested)
+    assert judgement.wins == 2
+    # nested, the failed fold scores as the model without the term; else it sinks the effect
+    assert judgement.confirmed is nested and (judgement.after > judgement.before) is nested
+
+
 def _pushed_tank(n=1500, seed=0, push=0.01):
     """A draining tank, level only every 2 s, pump held in steps, its inflow pushed."""
     rng = np.random.default_rng(seed)
@@ -257,3 +287,132 @@ def test_a_term_a_pushed_record_does_not_need_is_removed_by_the_filters_judgemen
     assert "sqrt" not in best.term and sorted(best.equations.params) == ["a1", "a3"]
     assert best.likelihood.confirmed and best.likelihood.removal
     assert "Decided, as process noise pushes the record, by the filter" in report.summary()
+
+
+@pytest.mark.parametrize("after, in_sample_p, confirmed", [
+    ((0.0010, 0.0020, -0.0005), 1e-6, True),    # a little, in most folds: chance ruled out
+    ((0.0010, 0.0020, -0.0005), 1e-2, False),   # ... but not where the in-sample test is weak
+    ((0.0010, -0.0020, -0.0005), 1e-6, False),  # the held-out samples must agree
+    ((0.0030, 0.0050, 0.0040), None, True),     # without a test, the held-out bar stands
+    ((0.0020, 0.0030, 0.0016), None, False),
+])
+def test_an_effect_significant_in_sample_needs_only_a_held_out_win(after, in_sample_p,
+                                                                   confirmed):
+    folds = len(after)
+    held = LikelihoodJudgement("3 folds", 0.0, sum(after) / folds,
+                               sum(a > 0 for a in after), folds, not confirmed)
+    judged = reconsidered(held, n_added=1, in_sample_p=in_sample_p)
+    assert judged.confirmed is confirmed
+    assert (judged.before, judged.after, judged.wins) == (held.before, held.after, held.wins)
+
+
+@pytest.mark.parametrize("gain, white_p, depends_on, missing", [
+    (4.3, 0.2, "x2", True),     # a push, and errors that follow a state
+    (4.3, 1e-8, "x2", False),   # errors that last: a missing effect, no sign of a push
+    (0.01, 0.2, "x2", False),   # no push needed
+    (4.3, 0.2, None, False),    # a push alone
+])
+def test_white_errors_that_follow_a_state_read_as_a_push_and_a_missing_effect(
+        gain, white_p, depends_on, missing):
+    evidence = ProcessNoiseEvidence(recognised=False, gain=gain, white_p=white_p,
+                                    dependence_p=1e-19 if depends_on else 0.5,
+                                    depends_on=depends_on)
+    assert evidence.missing_under_push is missing
+
+
+def test_auto_mode_keeps_what_the_filter_saw():
+    X = _record(["cubic_stiffness"], 0.05)
+    wrong = _fit(LINEAR, X)
+    assert wrong.fit_mode_ == "simulation"
+    seen = wrong.process_noise_evidence_
+    assert seen is not None and not seen.recognised and seen.depends_on == "x1"
+    assert _fit(CUBIC, X).process_noise_evidence_.recognised
+    # where auto did not look, nothing is kept (a refit clears it)
+    assert _fit(LINEAR, X, fit_mode="simulation").process_noise_evidence_ is None
+
+
+def test_the_filter_judges_every_sample_of_the_record():
+    X = _record(["cubic_stiffness"], 0.05, n=1500)
+    model = _fit(LINEAR, X, fit_mode="simulation")
+    diagnosed = read_measurements(model.skeleton_, X, None)
+    whole = whole_record(model, X)
+    assert diagnosed.n_samples < len(X) == whole.n_samples
+    assert np.array_equal(whole.measured["x1"], X["x1"].to_numpy())
+
+
+@pytest.fixture(scope="module")
+def diagnosed_pushed_drag():
+    X = _record(["quadratic_drag"], 0.05, n=1500)
+    model = _fit(LINEAR, X, fit_mode="simulation")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        report = diagnose(model, X, n_bootstrap=0, open_curves=False, held_out=False)
+    return model, report
+
+
+def test_the_filter_ranks_candidates_by_their_likelihood_ratio(diagnosed_pushed_drag,
+                                                                monkeypatch):
+    from sklearn_pycc.diagnostics import _filter_search
+
+    model, report = diagnosed_pushed_drag
+    gains = {"quadratic_drag": 30.0, "cubic_stiffness": 12.0}
+    asked = []
+
+    def nll(estimator, data):  # the skeleton alone at 0; each effect lowers it by its gain
+        text = str(estimator.get_params()["equations"])
+        return -max((g for name, g in gains.items() if _TERMS[name] in text), default=0.0)
+
+    def judged(base, extended, data, *, n_added, n_jobs=None, in_sample_p=None, nested=False):
+        asked.append((str(extended.get_params()["equations"]), in_sample_p))
+        return LikelihoodJudgement("3 folds", 1.0, 1.01, 2, 3, True)
+
+    monkeypatch.setattr(_filter_search, "_in_sample_nll", nll)
+    monkeypatch.setattr(_filter_search, "likelihood_check", judged)
+    tried = _filter_search._tried(report.candidates)
+    assert 2 <= len(tried) <= _filter_search.N_TRIED
+    chosen, notes = _filter_search.likelihood_ratio_search(model, report.candidates,
+                                                           report.record)
+    assert chosen is not None and chosen.effect.name == "quadratic_drag"
+    assert chosen.likelihood.confirmed and len(asked) == 1
+    # the p-value counts every candidate tried
+    assert asked[0][1] == pytest.approx(len(tried) * chi2.sf(60.0, 1))
+    assert "gains 30 in the filter's log-likelihood" in notes[0]
+    assert "gains 30" in chosen.likelihood.in_sample
+
+
+def test_the_filter_names_nothing_that_chance_could_have_gained(diagnosed_pushed_drag,
+                                                                monkeypatch):
+    from sklearn_pycc.diagnostics import _filter_search
+
+    model, report = diagnosed_pushed_drag
+    monkeypatch.setattr(_filter_search, "_in_sample_nll",
+                        lambda estimator, data: -2.3 * ("x2*abs(x2)" in str(
+                            estimator.get_params()["equations"])))
+    monkeypatch.setattr(_filter_search, "likelihood_check", None)  # never reached
+    chosen, notes = _filter_search.likelihood_ratio_search(model, report.candidates,
+                                                           report.record)
+    assert chosen is None and "significant" in notes[0] and "quadratic_drag" in notes[0]
+
+
+_TERMS = {"quadratic_drag": "x2*abs(x2)", "cubic_stiffness": "x1^3"}
+
+
+@pytest.mark.slow
+def test_the_loop_names_an_effect_the_push_hid_from_the_derivatives():
+    # a pushed oscillator whose damping falls away from the centre, at 40 dB: the derivatives
+    # and simulations are swamped and the output-error round finds nothing; the filter's
+    # errors are white but follow a state, and its likelihood ratio names the damping
+    X = datasets.make_oscillator(hidden={"falling_damping": None}, disturbance=0.05,
+                                 noise=40.0, noise_columns=["x1"], n_samples=3000,
+                                 t_span=(0.0, 60.0), random_state=1)[["t", "x1", "F_ext"]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = HypothesisLoop(PolyCCRegressor(equations=LINEAR), X).run(max_rounds=3)
+    first = loop.rounds[0]
+    assert first.model.fit_mode_ == "simulation"
+    assert first.model.process_noise_evidence_.missing_under_push
+    assert first.added is not None and first.added.effect == "falling_damping"
+    assert first.judge == "held-out likelihood" and first.likelihood.confirmed
+    assert first.likelihood.in_sample is not None
+    summary = first.diagnosis.summary()
+    assert "Ranked first by the filter's likelihood" in summary and "nan" not in summary

@@ -42,7 +42,8 @@ from ._refit import fit_rows, prepared
 from ._roles import EquationRoles
 
 __all__ = ["MOVES", "Candidate", "enumerate_candidates", "enumerate_input_moves",
-           "enumerate_moves", "refit_candidate", "refit_candidates", "screen_candidates"]
+           "enumerate_moves", "refit_candidate", "refit_candidates", "screen_candidates",
+           "start_values"]
 
 #: a term whose contribution is this many times the derivative it explains is absurd
 ABSURD_RATIO = 10.0
@@ -831,6 +832,21 @@ def _concrete(node: Node, params: dict) -> Node:
     return rename_symbols(node, late) if late else node
 
 
+def start_values(model, candidate: Candidate) -> dict[str, float]:
+    """Where a fit of ``candidate``'s skeleton starts: the model's numbers and the screen's.
+
+    The user's ``param_init`` for the parameters the skeleton keeps, all
+    within the skeleton's bounds.
+    """
+    init = {a: v for a, v in model.params_.items() if a in candidate.extended.params}
+    init.update({a: candidate.screen_params[s]
+                 for a, s in zip(candidate.new_params, list(candidate.screen_params))})
+    user = model.get_params(deep=False).get("param_init") or {}
+    init.update({a: v for a, v in user.items() if a in candidate.extended.params})
+    bounds = candidate.extended.bounds
+    return {a: float(np.clip(v, *bounds.get(a, (-np.inf, np.inf)))) for a, v in init.items()}
+
+
 def refit_candidate(model, candidate: Candidate, data: Record, residuals: np.ndarray,
                     rss_before: np.ndarray, *, baseline: frozenset = frozenset()) -> None:
     """Fit the extended skeleton with a clone of ``model``; judge the added term.
@@ -840,17 +856,7 @@ def refit_candidate(model, candidate: Candidate, data: Record, residuals: np.nda
     judged only on what it changes.
     """
     params = model.get_params(deep=False)
-    init = None
-    if "param_init" in params:
-        screen_names = list(candidate.screen_params)
-        init = {a: v for a, v in model.params_.items() if a in candidate.extended.params}
-        init.update({a: candidate.screen_params[s]
-                     for a, s in zip(candidate.new_params, screen_names)})
-        user = params.get("param_init") or {}
-        init.update({a: v for a, v in user.items() if a in candidate.extended.params})
-        bounds = candidate.extended.bounds
-        init = {a: float(np.clip(v, *bounds.get(a, (-np.inf, np.inf))))
-                for a, v in init.items()}
+    init = start_values(model, candidate) if "param_init" in params else None
     other = {}
     if candidate.move == "open" and params.get("extrapolation") == "polynomial":
         # a free curve judged by simulations that may stray beyond its data

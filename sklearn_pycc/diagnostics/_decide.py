@@ -21,7 +21,7 @@ from ..fitting.fingerprint import fitted_on
 from ..measurements.noise import read_frame_noise
 from ..measurements.record import Record
 from ..skeleton import Bound, Skeleton
-from ._candidates import TIE, Candidate, extend, refit_candidates
+from ._candidates import TIE, Candidate, extend, refit_candidates, start_values
 from ._data import TIME
 from ._held_out import held_out_check
 from ._likelihood_judge import removal_check
@@ -673,13 +673,15 @@ def suggestion_for(c: Candidate, base: Skeleton, model, formula: Candidate | Non
         effect=c.effect.name, description=c.effect.description, equation=c.roles.derivative,
         variable=c.variable, term=c.term, equations=skeleton, move=c.move,
         replaces=c.replaces,
-        param_init={a: float(v) for a, v in c.refit.params_.items()},
+        # a candidate the filter chose among those only screened starts where the screen put it
+        param_init={a: float(v) for a, v in (
+            c.refit.params_ if c.refit is not None else start_values(model, c)).items()},
         curve_term=curve_term, curve_constraints=curve_constraints, also=also,
         error_removed=float(c.removed), delta_bic=float(c.delta_bic),
         simulation_rmse=float(c.simulation_rmse), held_out=c.held_out,
         bounds=tuple(str(x) for x in skeleton.constraints
                      if isinstance(x, Bound) and x not in base.constraints),
-        intervals=intervals, settings=_settings(c.refit, model),
+        intervals=intervals, settings={} if c.refit is None else _settings(c.refit, model),
         called=c.effect.called(c.roles.quantity_of(c.effect.acts_through)),
         replaced_in={eq: tuple(terms) for eq, terms in replaced_in.items()},
         likelihood=c.likelihood)

@@ -15,18 +15,19 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from joblib import Parallel, delayed
 
 from ..exceptions import SimulationError
 from ..measurements.experiments import TRAJECTORY
-from ..measurements.record import Record
+from ..measurements.record import Record, read_record
 from ._held_out import fold_labels, held_out_blocks, make_folds
 from ._refit import prepared
 
-__all__ = ["LikelihoodJudgement", "likelihood_check", "removal_check"]
+__all__ = ["IN_SAMPLE_ALPHA", "LikelihoodJudgement", "likelihood_check", "reconsidered",
+           "removal_check", "whole_record"]
 
 #: least held-out log-likelihood an effect must add, per held-out sample and per number it
 #: adds, beside a win in most folds: a record pushed by disturbances holds few independent
@@ -44,6 +45,12 @@ EVERY_FOLD_SHARE = 0.7
 #: pushed linear oscillator, 0.0022 to 0.0026), so a term that earns no more than that is
 #: not worth its number (a linear outflow beside a tank's Torricelli law)
 REMOVAL_SHARE = 0.5
+#: the likelihood-ratio p-value on the whole record (family-wise: times the candidates
+#: tried) at which chance is ruled out in-sample, and a held-out gain of any size in most
+#: folds confirms the effect: a term with nothing to fit has a p-value near a half (a
+#: spurious cubic spring on a pushed linear oscillator gained at most 2.3 in
+#: log-likelihood, p = 0.03), an effect the push hid one below 1e-5
+IN_SAMPLE_ALPHA = 1e-4
 #: how much worse (negative log-likelihood of its own samples) a fit of a larger skeleton may
 #: end than one of a skeleton it holds before it counts as failed
 FIT_SLACK = 1.0
@@ -66,7 +73,9 @@ class LikelihoodJudgement:
     confirmed : bool
         Whether the effect raised it by :data:`LEAST_GAIN` per added number
         and won in most folds, or by :data:`EVERY_FOLD_SHARE` of that and won
-        in every fold; for a removal (``removal``), whether taking the terms
+        in every fold, or at all in most folds where its likelihood-ratio test
+        on the whole record ruled chance out (:data:`IN_SAMPLE_ALPHA`,
+        ``in_sample``); for a removal (``removal``), whether taking the terms
         out lowered it by no more than :data:`REMOVAL_SHARE` of
         :data:`LEAST_GAIN` per removed number.
     removal : bool
@@ -75,6 +84,10 @@ class LikelihoodJudgement:
         For a removal: whether the fit with the terms was worse than the fit
         without them on some fold's own samples (beyond :data:`FIT_SLACK`): a
         failed fit, and no removal.
+    in_sample : str or None
+        For an effect the filter ranked among the diagnosis's candidates
+        (:func:`~._filter_search.likelihood_ratio_search`): its
+        likelihood-ratio test on the whole record, in words.
     """
 
     folds: str
@@ -85,6 +98,7 @@ class LikelihoodJudgement:
     confirmed: bool
     removal: bool = False
     failed: bool = False
+    in_sample: str | None = None
 
     def __str__(self) -> str:
         verdict = "confirmed" if self.confirmed else "not confirmed"
@@ -97,8 +111,22 @@ class LikelihoodJudgement:
                 f"{self.n_folds} folds: {verdict}")
 
 
+def whole_record(model, X) -> Record:
+    """The record of ``X`` the filter judges on: every sample, the ends too.
+
+    The diagnosis leaves out the ends of each experiment, where the estimated
+    derivatives cannot be trusted; the filter reads the measured states
+    themselves, and a transient at the start (the widest swings of a record)
+    often says most about an effect.
+    """
+    return read_record(model.skeleton_, X, trim=False, split=True, derivatives_from_X=True,
+                       who="the filter's judge", hidden_ok=True)
+
+
 def likelihood_check(base, extended, data: Record, *, n_added: int,
-                     cache: dict | None = None, n_jobs: int | None = None) -> LikelihoodJudgement:
+                     cache: dict | None = None, n_jobs: int | None = None,
+                     in_sample_p: float | None = None,
+                     nested: bool = False) -> LikelihoodJudgement:
     """Fit ``base`` and ``extended`` by the filter without each fold and score them on it.
 
     Parameters
@@ -114,14 +142,40 @@ def likelihood_check(base, extended, data: Record, *, n_added: int,
         ``base``'s held-out log-likelihood by fold, filled and reused.
     n_jobs : int, optional
         Fits run at once (joblib); one after another by default.
+    in_sample_p : float, optional
+        The p-value of the effect's likelihood-ratio test on the whole record,
+        times the candidates tried
+        (:func:`~._filter_search.likelihood_ratio_search`). Where it is at
+        most :data:`IN_SAMPLE_ALPHA`, chance is ruled out in-sample and the
+        held-out samples need only agree: a higher log-likelihood, in most
+        folds.
+    nested : bool, default=False
+        Whether ``extended`` holds ``base`` (an addition: its terms at zero
+        give ``base``). A fold whose fit of ``extended`` then ends worse on
+        its own samples than that of ``base`` failed, and scores as ``base``
+        (a fold fitted here, not one ``cache`` gives).
     """
     description, before, after, wins, n_folds, _ = _fold_scores(base, extended, data, cache,
-                                                                n_jobs)
+                                                                n_jobs, nested=nested)
+    judgement = LikelihoodJudgement(description, before, after, wins, n_folds, False)
+    return reconsidered(judgement, n_added=n_added, in_sample_p=in_sample_p)
+
+
+def reconsidered(judgement: LikelihoodJudgement, *, n_added: int,
+                 in_sample_p: float | None = None) -> LikelihoodJudgement:
+    """An addition's held-out scores decided again, knowing its in-sample test's p-value.
+
+    The rule of :func:`likelihood_check`; its held-out fits are not repeated.
+    """
     least = LEAST_GAIN * max(n_added, 1)
-    if wins == n_folds:
+    if judgement.wins == judgement.n_folds:
         least *= EVERY_FOLD_SHARE
-    confirmed = bool(math.isfinite(after) and after - before >= least and 2 * wins > n_folds)
-    return LikelihoodJudgement(description, before, after, wins, n_folds, confirmed)
+    if in_sample_p is not None and in_sample_p <= IN_SAMPLE_ALPHA:
+        least = 0.0
+    before, after = judgement.before, judgement.after
+    confirmed = bool(math.isfinite(after) and after - before >= least and after > before
+                     and 2 * judgement.wins > judgement.n_folds)
+    return replace(judgement, confirmed=confirmed)
 
 
 def removal_check(base, reduced, data: Record, *, n_removed: int,
@@ -161,11 +215,16 @@ def removal_check(base, reduced, data: Record, *, n_removed: int,
                                removal=True, failed=failed)
 
 
-def _fold_scores(base, extended, data: Record, cache: dict | None, n_jobs: int | None):
+def _fold_scores(base, extended, data: Record, cache: dict | None, n_jobs: int | None, *,
+                 nested: bool = False):
     """The held-out log-likelihood per sample of both models, and the folds ``extended`` won.
 
     Last, each fit's negative log-likelihood of its training samples, by
     ``(model, fold)`` (of the folds fitted here: ``cache`` spares some).
+    Where ``extended`` holds ``base`` (``nested``: an addition), a fold
+    whose fit of ``extended`` ended worse on its own samples than the fit of
+    ``base`` (beyond :data:`FIT_SLACK`) failed: the terms at zero would have
+    done as well, so that fold scores ``extended`` as ``base``.
     """
     description, folds = make_folds(data)
     cache = {} if cache is None else cache
@@ -184,6 +243,9 @@ def _fold_scores(base, extended, data: Record, cache: dict | None, n_jobs: int |
     wins, count = 0, 0
     for i, held in enumerate(folds):
         before, after = cache[i], ours[i]
+        if nested and (base, i) in training and math.isfinite(training[base, i]) \
+                and training[extended, i] > training[base, i] + FIT_SLACK:
+            after = before
         totals["before"] += before
         totals["after"] += after
         wins += int(after > before)

@@ -16,7 +16,9 @@ from ..simulation.integration import judged_step_limit
 from ..skeleton import Skeleton
 from ..skeleton.nodes import Param, product_factors, rename, signed_terms, walk
 from ..skeleton.printer import to_text
-from ._likelihood_judge import LikelihoodJudgement, likelihood_check
+from ._decide import suggestion_for
+from ._filter_search import likelihood_ratio_search
+from ._likelihood_judge import LikelihoodJudgement, likelihood_check, whole_record
 from ._refit import KEEP, prepared
 from .diagnose import diagnose
 from .report import Diagnosis, Suggestion
@@ -274,7 +276,8 @@ class HypothesisLoop:
         best = report.best
         judge = "held-out simulation" if report.horizon is not None else "held-out derivatives"
         likelihood = None
-        if getattr(model, "fit_mode_", None) == "filter":
+        by_filter = getattr(model, "fit_mode_", None) == "filter"
+        if by_filter:
             judge = "held-out likelihood"
             if best is not None:
                 # a removal the diagnosis judged by the filter already
@@ -284,6 +287,16 @@ class HypothesisLoop:
                         f"process noise pushes this record: the suggestion ({best.action()}) "
                         f"is judged by the filter's likelihood of held-out samples, and "
                         f"{likelihood}")
+        evidence = getattr(model, "process_noise_evidence_", None)
+        if (by_filter and best is not None and not likelihood.confirmed) or (
+                best is None and evidence is not None and evidence.missing_under_push):
+            # the push fills the derivatives the diagnosis ranked by and wanders its
+            # simulations: the filter ranks the candidates (on a round it fitted, where the
+            # diagnosis saw something; a round it fitted with nothing seen was recognised by
+            # errors that depend on no state)
+            found = self._searched(model, best, likelihood, report)
+            if found is not None:
+                best, likelihood, judge = found, found.likelihood, "held-out likelihood"
         seen = None if best is None else next(
             (r.index for r in self.rounds
              if _structure(r.skeleton) == _structure(best.equations)), None)
@@ -309,12 +322,33 @@ class HypothesisLoop:
         self.rounds.append(current)
         return current
 
+    def _searched(self, model, rejected: Suggestion | None,
+                  judgement: LikelihoodJudgement | None,
+                  report: Diagnosis) -> Suggestion | None:
+        """The diagnosis's candidates ranked by the filter's likelihood ratio: one confirmed."""
+        chosen, notes = likelihood_ratio_search(
+            model, report.candidates, report.record,
+            whole=whole_record(model, self.measurement),
+            judged=None if rejected is None or judgement is None or judgement.removal
+            else (rejected.equations, judgement),
+            n_jobs=self.diagnose_options.get("n_jobs"))
+        evidence = getattr(model, "process_noise_evidence_", None)
+        why = ("process noise pushes this record" if getattr(model, "fit_mode_", None) == "filter"
+               else f"the filter's one-step errors are white but depend on {evidence.depends_on} "
+               "(a random push, and a function of the state missing)")
+        report.notes.extend(f"{why}: {words}" for words in notes)
+        if chosen is None:
+            return None
+        report.best = suggestion_for(chosen, model.skeleton_, model)
+        return report.best
+
     def _likelihood_of(self, model, best: Suggestion, report: Diagnosis):
         """The suggestion judged by the filter's likelihood of held-out samples."""
         init = {**(model.get_params().get("param_init") or {}), **best.param_init}
         extended = prepared(model, equations=best.equations, param_init=init, **best.settings)
         added = len(best.equations.params) - len(model.skeleton_.params)
-        return likelihood_check(model, extended, report.record, n_added=max(added, 1),
+        return likelihood_check(model, extended, report.record,
+                                n_added=max(added, 1), nested=best.move == "add",
                                 n_jobs=self.diagnose_options.get("n_jobs"))
 
     def run(self, max_rounds: int = 5, refine: bool = True) -> HypothesisLoop:

@@ -475,6 +475,15 @@ class Diagnosis:
                      + (f"; or a free curve '- {best.curve_term}' "
                         f"({', '.join(best.curve_constraints)})" if best.curve_term else "")
                      + ".")
+        if best.likelihood is not None and best.likelihood.in_sample is not None:
+            # chosen by the filter where the push hid it from the derivatives' ranking
+            return [
+                *lines,
+                f"    Ranked first by the filter's likelihood (the push fills the derivative "
+                f"residual the candidates are ranked by): {best.likelihood.in_sample}.",
+                f"    Decided, as process noise pushes the record, by the filter: "
+                f"{best.likelihood}.",
+                "    Next: fit report.best.equations and diagnose again."]
         change = (f" and the simulation RMSE from {self.simulation_rmse:.4g} to "
                   f"{best.simulation_rmse:.4g}" if np.isfinite(best.simulation_rmse) else "")
         share = (f"removes {100 * best.error_removed:.1f} % of" if best.error_removed >= 0

@@ -269,6 +269,13 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         unit of time; 0 for a kinematic identity) and each measured state's
         measurement-noise standard deviation. ``filter_`` holds the fit's
         negative log-likelihood, iterations and segments.
+    process_noise_evidence_ : ProcessNoiseEvidence or None
+        Where ``fit_mode="auto"`` looked for process noise (after an
+        output-error fit of noisy states), what the filter saw: whether a
+        random push is recognised, or, where the one-step errors it leaves
+        depend on a state, that the skeleton misses something
+        (:func:`~sklearn_pycc.fitting.filter.evidence.process_noise_evidence`);
+        None where it did not look.
     noise_model_ : NoiseModel or None
         With ``noise_model``, after an output-error fit: each measured
         state's noise model (AR coefficients and poles, MA coefficient,
@@ -503,6 +510,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         problem.check_enough_rows()
         result = backend.estimate(problem, shooting_window=self.shooting_window,
                                   shooting_iterations=self.shooting_iterations)
+        facts = {**facts, "process_noise_evidence_": None}
         if self.fit_mode == "filter":
             with blas_threads(1):
                 result = filter_stage(problem, backend.numbers(problem, result))
@@ -557,6 +565,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                 evidence = process_noise_evidence(problem, system)
             except (ValueError, ArithmeticError, np.linalg.LinAlgError, SimulationError):
                 return result, facts  # a look that fails says nothing: the fit stands
+            facts = {**facts, "process_noise_evidence_": evidence}
             if not evidence.recognised:
                 return result, facts
             refined = filter_stage(problem, backend.numbers(problem, result))

@@ -73,6 +73,19 @@ class ProcessNoiseEvidence:
     dependence_p: float
     depends_on: str | None
 
+    @property
+    def missing_under_push(self) -> bool:
+        """A push, and a function of a state missing.
+
+        The record needs a random push (:attr:`gain`), the one-step errors it
+        leaves are white, yet they depend on a predicted state: a skeleton
+        short of an effect, on a record that disturbances push (where they
+        do not, a missing effect leaves its errors lasting from one sample to
+        the next too).
+        """
+        return bool(self.gain >= LEAST_GAIN and self.white_p >= ALPHA
+                    and self.depends_on is not None)
+
     def describe(self) -> str:
         """The evidence in words."""
         push = f"a random push adds {self.gain:.3f} to the log-likelihood per sample"
