@@ -53,7 +53,7 @@ def likelihood_ratio_search(model, candidates: list[Candidate], data: Record, *,
                             whole: Record | None = None,
                             judged: tuple[Skeleton, LikelihoodJudgement] | None = None,
                             n_jobs: int | None = None) -> tuple[Candidate | None, list[str]]:
-    """The likeliest refitted candidate that the filter confirms, or None; and what was found.
+    """The likeliest candidate that the filter confirms, or None; and what was found.
 
     Parameters
     ----------
