@@ -36,6 +36,7 @@ from ._decide import group_of
 from ._likelihood_judge import (
     IN_SAMPLE_ALPHA,
     LikelihoodJudgement,
+    filter_frame,
     likelihood_check,
     reconsidered,
 )
@@ -159,7 +160,7 @@ def _p_value(gain: float, c: Candidate) -> float:
 
 def _in_sample_nll(estimator, data: Record) -> float:
     """The filter's negative log-likelihood of the whole record, ``estimator`` fitted to it."""
-    X = data.frame([]).assign(**data.measured, **data.signals)
+    X = filter_frame(data)
     try:
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore")

@@ -18,6 +18,7 @@ import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
+import pandas as pd
 from joblib import Parallel, delayed
 
 from ..exceptions import SimulationError
@@ -26,8 +27,8 @@ from ..measurements.record import Record, read_record
 from ._held_out import fold_labels, held_out_blocks, make_folds
 from ._refit import prepared
 
-__all__ = ["IN_SAMPLE_ALPHA", "LikelihoodJudgement", "likelihood_check", "reconsidered",
-           "removal_check", "whole_record"]
+__all__ = ["IN_SAMPLE_ALPHA", "LikelihoodJudgement", "filter_frame", "likelihood_check",
+           "reconsidered", "removal_check", "whole_record"]
 
 #: least held-out log-likelihood an effect must add, per held-out sample and per number it
 #: adds, beside a win in most folds: a record pushed by disturbances holds few independent
@@ -112,7 +113,7 @@ class LikelihoodJudgement:
 
 
 def whole_record(model, X) -> Record:
-    """The record of ``X`` the filter judges on: every sample, the ends too.
+    """The record of ``X`` with every sample, the ends too, for the filter's in-sample fits.
 
     The diagnosis leaves out the ends of each experiment, where the estimated
     derivatives cannot be trusted; the filter reads the measured states
@@ -260,9 +261,7 @@ def _held_out_likelihood(model, data: Record, held: np.ndarray) -> tuple[float, 
     And that fit's negative log-likelihood of the rows it was fitted on
     (inf where the fit failed).
     """
-    # the filter reads the states as measured (raw) and the inputs: never a state the
-    # differentiation reconstructed, as if a sensor had read it
-    X = data.frame([]).assign(**data.measured, **data.signals)
+    X = filter_frame(data)
     train = np.setdiff1d(np.arange(data.n_samples), held)
     fit_on = X.assign(**{TRAJECTORY: fold_labels(data, held)}).iloc[train]
     judged = X.iloc[held].assign(**{TRAJECTORY: held_out_blocks(data, held)})
@@ -275,3 +274,12 @@ def _held_out_likelihood(model, data: Record, held: np.ndarray) -> tuple[float, 
                     float(fitted.filter_["nll"]))
     except (SimulationError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return -math.inf, math.inf
+
+
+def filter_frame(data: Record) -> pd.DataFrame:
+    """What the filter reads of ``data``: time, experiments, measured states and inputs.
+
+    The states as measured (raw): never one the differentiation reconstructed,
+    as if a sensor had read it.
+    """
+    return data.frame([]).assign(**data.measured, **data.signals)
