@@ -300,3 +300,67 @@ def test_an_upper_tank_nobody_measures_is_smoothed_inside_its_band():
         inside = np.mean((smooth[f"{name}_lower"] <= levels[:, j])
                          & (levels[:, j] <= smooth[f"{name}_upper"]))
         assert inside >= 0.9
+
+
+def _tank_at_its_rim(n: int, seed: int, *, rim: float = 1.0):
+    """A tank filled through a held pump, pushed, that spills at its rim; the level measured.
+
+    ``x1_dot = u - x1`` with ``x1 <= rim``: a pump setting of 1.4 holds the
+    level at the rim. Returns the record and the true level.
+    """
+    rng = np.random.default_rng(seed)
+    step, fine, push = 0.5, 20, 0.03
+    u = np.repeat(rng.choice([0.2, 0.6, 1.4], size=n // 80 + 1), 80)[:n]
+    x, levels, dt = 0.5, [], step / fine
+    for k in range(n):
+        levels.append(x)
+        for _ in range(fine):
+            x = min(x + (u[k] - x) * dt + push * np.sqrt(dt) * rng.standard_normal(), rim)
+    levels = np.array(levels)
+    X = pd.DataFrame({"t": np.arange(n) * step, "u": u,
+                      "x1": levels + 0.01 * rng.standard_normal(n)})
+    return X, levels
+
+
+def test_a_level_held_at_its_rim_is_filtered_within_its_limit():
+    X, levels = _tank_at_its_rim(800, seed=1)
+    assert 0.1 < np.mean(levels == 1.0) < 0.5  # the level spends a good share of it spilling
+
+    def fit(constraints):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return PolyCCRegressor(equations=["x1_dot = a1 u - a2 x1"], constraints=constraints,
+                                   fit_mode="filter", input_hold="zoh").fit(X)
+
+    model, unlimited = fit(["x1 <= 1"]), fit([])
+    # the rim held inside the filter: the numbers and both noises found again
+    for name in ("a1", "a2"):
+        assert abs(model.params_[name] - 1.0) < 3 * model.params_std_[name] < 0.15
+    assert model.process_noise_["x1"] == pytest.approx(0.03, rel=0.2)
+    assert model.measurement_noise_["x1"] == pytest.approx(0.01, rel=0.2)
+    # without the rim the filter cannot hold the level there: far less likely
+    assert unlimited.filter_["nll"] > model.filter_["nll"] + 100
+    smooth = model.smooth(X)
+    assert smooth[["x1", "x1_lower", "x1_upper"]].to_numpy().max() <= 1.0
+    assert np.mean((smooth.x1_lower <= levels) & (levels <= smooth.x1_upper)) >= 0.9
+    assert model.predict_ahead(X, steps=5).x1.max() <= 1.0
+
+
+def test_variants_with_their_own_limit_are_each_filtered_as_alone():
+    X, _ = _tank_at_its_rim(400, seed=2)
+    estimator = PolyCCRegressor(equations=["x1_dot = a1 u - a2 x1"],
+                                constraints=["x1 <= a3"], fit_mode="filter", input_hold="zoh")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        problem, _ = estimator._problem(X, None, estimator._make_backend())
+    plan = ShootingPlan(problem, 100)
+    rims = [0.95, 1.0, 1.05]
+    systems = [problem.skeleton.compile({}, {"a1": 1.0, "a2": 1.0, "a3": rim}) for rim in rims]
+    plan.choose_substeps(systems[1], dict(problem.data.columns))
+    q, r = np.array([[0.03]] * 3), np.array([[0.01]] * 3)
+    together = kalman_pass(plan, systems, q, r, keep=True)
+    for k, system in enumerate(systems):
+        alone = kalman_pass(plan, system, q[:1], r[:1], keep=True)
+        assert together.nll[k] == pytest.approx(alone.nll[0], rel=1e-9)
+        assert together.means[k, ..., 0].max() <= rims[k]
+    assert np.argmin(together.nll) == 1  # the true rim is the likeliest

@@ -115,12 +115,16 @@ class FilteringMixin:
         out = {TIME: plan.columns()[TIME]}
         valid = plan.valid
         rows = plan.rows[valid]
+        limits = self._system().limits
         for j, s in enumerate(states):
             mean = np.full(n_rows, np.nan)
             sd = np.full(n_rows, np.nan)
             mean[rows] = pooled_mean[valid][:, j]
             sd[rows] = np.sqrt(np.maximum(pooled_var[valid][:, j], 0.0))
-            out[s], out[f"{s}_lower"], out[f"{s}_upper"] = mean, mean - z * sd, mean + z * sd
+            # a state and its band stay within the state's hard limits (a tank's rim)
+            low, high = limits.get(s, (-np.inf, np.inf))
+            out[s], out[f"{s}_lower"], out[f"{s}_upper"] = (
+                np.clip(v, low, high) for v in (mean, mean - z * sd, mean + z * sd))
         index = X.index if isinstance(X, pd.DataFrame) and len(X.index) == n_rows else None
         return pd.DataFrame(out, index=index)
 

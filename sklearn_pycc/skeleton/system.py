@@ -89,7 +89,7 @@ class CompiledSystem:
         self.states = list(states)
         #: what it was compiled from, for :func:`stack_systems`
         self._source = (equations, params, functions)
-        self.limits = {s: (float(lo), float(hi)) for s, (lo, hi) in (limits or {}).items()}
+        self.limits = {s: (_end(lo), _end(hi)) for s, (lo, hi) in (limits or {}).items()}
         # (position among the states, position among the derivatives, low, high)
         self._limited = [(self.states.index(s), [eq.state for eq in equations].index(s), lo, hi)
                          for s, (lo, hi) in self.limits.items()]
@@ -178,14 +178,15 @@ class CompiledSystem:
             x[q] = min(max(x[q], low), high)
         return x
 
-    def batch_rhs(self, n: int, signals: list[str]) -> Callable:
+    def batch_rhs(self, n: int, signals: list[str], *, hold: bool = True) -> Callable:
         """Return ``rhs(x, values)`` for ``n`` trajectories integrated side by side.
 
         ``x`` is ``(n, n_states)``; ``values`` holds an ``(n,)`` array for each
         name of ``signals`` (inputs and ``t``), in that order. The result is
         ``(n, n_states)``. What :meth:`evaluate` does, without building a
         mapping or broadcasting per call: the window integrators call it
-        hundreds of thousands of times.
+        hundreds of thousands of times. ``hold=False`` leaves the rates at a
+        limit as the equations give them (how hard the flow presses on it).
         """
         plan = self._plan_array
         n_env = self.n_env
@@ -224,6 +225,8 @@ class CompiledSystem:
                 hold(x, out)
             return out
 
+        if not hold:
+            return rates
         limited, hold, clip = bool(self._limited), self._hold, self.clip
         return rhs
 
@@ -312,7 +315,13 @@ class CompiledSystem:
         return rhs
 
 
-def stack_systems(systems: Sequence[CompiledSystem], rows: int) -> CompiledSystem | None:
+def _end(value) -> float | np.ndarray:
+    """A limit's end: a number, or one number per row of a stacked system."""
+    return float(value) if np.ndim(value) == 0 else np.asarray(value, dtype=float)
+
+
+def stack_systems(systems: Sequence[CompiledSystem], rows: int, *,
+                  limits_per_row: bool = False) -> CompiledSystem | None:
     """Systems that differ only in their numbers, compiled as one on ``len(systems) * rows`` rows.
 
     Block ``b`` of ``rows`` rows of every array the result evaluates follows
@@ -321,17 +330,28 @@ def stack_systems(systems: Sequence[CompiledSystem], rows: int) -> CompiledSyste
     then integrates its bumped systems side by side, in one pass of numpy
     calls instead of one pass each.
 
+    With ``limits_per_row``, the states' limits may differ too (an end to
+    fit): an end that differs is then an array of one value per row, which
+    :meth:`CompiledSystem.clip` and the held rates read row by row (the
+    caller reads no end as a number).
+
     Returns
     -------
     CompiledSystem or None
         Array evaluation only (:meth:`CompiledSystem.batch_rhs` and friends);
-        None where the systems differ in more than numbers (their equations
-        or their states' limits).
+        None where the systems differ in more than numbers (their equations,
+        or their states' limits without ``limits_per_row``).
     """
     first = systems[0]
     equations, params, functions = first._source
-    if any(s._source[0] is not equations or s.limits != first.limits for s in systems):
+    if any(s._source[0] is not equations for s in systems):
         return None
+    limits = first.limits
+    if any(s.limits != first.limits for s in systems):
+        if not limits_per_row or any(s.limits.keys() != first.limits.keys() for s in systems):
+            return None
+        limits = {state: tuple(np.repeat([s.limits[state][side] for s in systems], rows)
+                               for side in (0, 1)) for state in first.limits}
     stacked_params = {}
     for name, value in params.items():
         values = [s._source[1][name] for s in systems]
@@ -340,4 +360,4 @@ def stack_systems(systems: Sequence[CompiledSystem], rows: int) -> CompiledSyste
     stacked_functions = {name: stack_curves([s._source[2][name] for s in systems], rows)
                          for name in functions}
     return CompiledSystem(equations, first.states, first.inputs, stacked_params,
-                          stacked_functions, limits=first.limits)
+                          stacked_functions, limits=limits)

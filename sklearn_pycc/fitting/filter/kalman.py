@@ -17,8 +17,15 @@ likelihood is the sum of theirs: the information that crosses a segment's
 boundary is all that is lost, little where the segments are far longer than
 the states' memory under the process noise.
 
+A state's hard limits hold inside the filter as in a simulation: the mean is
+kept within them after each update and integration step, each state is bumped
+into its range, and a state a step leaves at its limit is read as a censored
+normal (:func:`_held_at_limits`): held there where the flow presses hard, with
+about a third of its spread where it barely presses.
+
 Many variants of the system (the bumps of a finite-difference gradient) are
-filtered in the same pass: the cost is in the calls, not in the rows.
+filtered in the same pass: the cost is in the calls, not in the rows; their
+limits may differ (an end to fit).
 """
 
 from __future__ import annotations
@@ -101,20 +108,11 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     K, L, m = plan.n_segments, plan.n_steps, plan.substeps
     mi = np.asarray(plan.measured_index, dtype=int)
     rows_per = (n + 1) * K  # a variant's rows: the mean and each state bumped, per segment
-    stacked = systems[0] if copies == 1 else stack_systems(systems, rows_per)
+    stacked = systems[0] if copies == 1 else stack_systems(systems, rows_per,
+                                                             limits_per_row=True)
     if stacked is None:
         raise ValueError("the systems filtered side by side must differ only in their numbers")
-    fine = plan.fine_signals()
-    ends = plan.fine_signals(left=True)
-    signals = [name for name in fine if name in stacked.slots]
-    columns = [fine[name].T.copy() for name in signals]
-    lefts = columns if ends is fine else [ends[name].T.copy() for name in signals]
-    evaluate = stacked.batch_rhs(copies * rows_per, signals)
-    repeat = copies * (n + 1)
-
-    def rhs(x, column, source):
-        return evaluate(x, [np.tile(values[column], repeat) for values in source])
-
+    rhs, pressing, columns, lefts = _rates(plan, stacked, copies * (n + 1), copies * rows_per)
     q = np.asarray(process_sd, dtype=float).reshape(copies, n) ** 2
     Q = np.repeat(q[:, None, :], K, axis=1).reshape(copies * K, n)  # diagonal, per segment
     r2 = np.repeat((np.asarray(measurement_sd, dtype=float).reshape(copies, -1) ** 2)[:, None],
@@ -126,17 +124,19 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     own = np.tile(plan.own, (copies, 1))
     h_all = np.tile(plan.h, (copies, 1))
     bound = np.asarray(plan.bound, dtype=float)
+    limited = bool(stacked.limits)
+    low_end, high_end = _limit_ends(systems, plan.states, K)  # (copies K, n)
     eye = np.eye(n)
     used = np.flatnonzero(plan.own.ravel())
     terms = np.zeros((copies * K, L + 1))
     innov = np.zeros((copies * K, L + 1, len(mi)))
     var = np.ones((copies * K, L + 1, len(mi)))
     failed = np.zeros(copies * K, dtype=bool)
-    means = np.zeros((copies * K, L + 1, n)) if keep else None
-    covs = np.zeros((copies * K, L + 1, n, n)) if keep else None
-    ahead = np.zeros((copies * K, L + 1, n)) if keep else None
-    ahead_covs = np.zeros((copies * K, L + 1, n, n)) if keep else None
-    steps_F = np.zeros((copies * K, L, n, n)) if keep else None
+    kept = {"predicted": np.zeros((copies * K, L + 1, n)),
+            "predicted_covariances": np.zeros((copies * K, L + 1, n, n)),
+            "means": np.zeros((copies * K, L + 1, n)),
+            "covariances": np.zeros((copies * K, L + 1, n, n)),
+            "transitions": np.zeros((copies * K, L, n, n))} if keep else None
 
     def update_one(i: int) -> None:
         """The update for a single measured state: every matrix of the measurement a number."""
@@ -193,14 +193,18 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     with np.errstate(all="ignore"):
         for i in range(L + 1):
             if keep:
-                ahead[:, i], ahead_covs[:, i] = x, P
+                kept["predicted"][:, i], kept["predicted_covariances"][:, i] = x, P
             update(i)
+            if limited:  # an update may carry a state a hair beyond its limit
+                x = np.clip(x, low_end, high_end)
             if keep:
-                means[:, i], covs[:, i] = x, P
+                kept["means"][:, i], kept["covariances"][:, i] = x, P
             if i == L:
                 break
             h = h_all[:, i]
             step = BUMP * np.maximum(np.abs(x), scale)  # (copies K, n)
+            if limited:  # bumped into the states' range: beyond a limit the flow is flat
+                step = np.where((x + step > high_end) & (x - step >= low_end), -step, step)
             points = np.repeat(x[:, None, :], n + 1, axis=1)  # (copies K, n + 1, n)
             points[:, 1:] += step[:, :, None] * eye
             # rows ordered (copy, point, segment): each variant's rows stay together
@@ -209,19 +213,27 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
             sub = hz / m
             for j in range(m):
                 z = rk4_step(rhs, z, sub, 2 * (i * m + j), right=columns, left=lefts)
+                if limited:  # held at a limit, as a simulation holds it
+                    stacked.clip(z)
+            if limited:  # at each mean at the step's end (rows of point 0)
+                rates = pressing(z, 2 * (i + 1) * m, lefts).reshape(
+                    copies, n + 1, K, n)[:, 0].reshape(copies * K, n)
             z = z.reshape(copies, n + 1, K, n).transpose(0, 2, 1, 3).reshape(copies * K, n + 1, n)
             x = z[:, 0]
             F = ((z[:, 1:] - x[:, None, :]) / step[:, :, None]).transpose(0, 2, 1)
             half = Q * (h[:, None] / 2.0)
+            spread = np.diagonal(P, axis1=1, axis2=2) + 2.0 * half  # before the step, and its push
             P = F @ (P + half[:, :, None] * eye) @ F.transpose(0, 2, 1) + half[:, :, None] * eye
+            if limited:
+                x, P = _held_at_limits(x, P, rates * h[:, None], spread,
+                                       low=low_end, high=high_end)
             if keep:
-                steps_F[:, i] = F
+                kept["transitions"][:, i] = F
             bad = ~(np.isfinite(x).all(axis=1) & (np.abs(x) <= bound).all(axis=1)
                     & np.isfinite(P).all(axis=(1, 2)))
-            if bad.any():
+            if bad.any():  # a variant's segment that diverged fails, and starts again
                 failed |= bad
-                x = np.where(bad[:, None], np.asarray(plan.initial, float)[
-                    np.arange(copies * K) % K], x)
+                x = np.where(bad[:, None], np.tile(plan.initial, (copies, 1)), x)
                 P = np.where(bad[:, None, None], np.diag(scale**2), P)
     nll = terms.sum(axis=1)
     nll[failed] = np.inf
@@ -230,13 +242,77 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     out = FilterPass(per_copy, flat,
                      innov.reshape(copies, K * (L + 1), -1)[:, used],
                      var.reshape(copies, K * (L + 1), -1)[:, used])
-    if keep:
-        out.means = means.reshape(copies, K, L + 1, n)
-        out.covariances = covs.reshape(copies, K, L + 1, n, n)
-        out.predicted = ahead.reshape(copies, K, L + 1, n)
-        out.predicted_covariances = ahead_covs.reshape(copies, K, L + 1, n, n)
-        out.transitions = steps_F.reshape(copies, K, L, n, n)
+    for name, values in (kept or {}).items():
+        setattr(out, name, values.reshape(copies, K, *values.shape[1:]))
     return out
+
+
+def _rates(plan, stacked: CompiledSystem, repeat: int, rows: int):
+    """``rhs(x, column, source)`` on the stacked rows, its unheld twin, and the inputs it reads.
+
+    The inputs are read at the plan's fine columns (``columns``, and
+    ``lefts`` after a held input's step), each tiled ``repeat`` times. The
+    twin gives the rates as the equations give them where a limit holds a
+    state: how hard they press on it.
+    """
+    fine, ends = plan.fine_signals(), plan.fine_signals(left=True)
+    signals = [name for name in fine if name in stacked.slots]
+    columns = [fine[name].T.copy() for name in signals]
+    lefts = columns if ends is fine else [ends[name].T.copy() for name in signals]
+    held, unheld = stacked.batch_rhs(rows, signals), stacked.batch_rhs(rows, signals, hold=False)
+
+    def rhs(x, column, source, *, evaluate=held):
+        return evaluate(x, [np.tile(values[column], repeat) for values in source])
+
+    def pressing(x, column, source):
+        return rhs(x, column, source, evaluate=unheld)
+
+    return rhs, pressing, columns, lefts
+
+
+def _held_at_limits(x: np.ndarray, P: np.ndarray, pressed: np.ndarray, spread: np.ndarray, *,
+                    low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each state a step left at a limit, read as a censored normal (its mean and variance).
+
+    A state held at its limit has a flat Jacobian there, which would claim
+    it known exactly. Its value is rather ``min(Y, high)`` (``max`` at a low
+    limit) of a normal ``Y`` with the variance ``spread`` the state had
+    before the step plus the step's push, centred beyond the limit by
+    ``pressed`` (the rate pressing on it times the step): a flow that presses
+    hard holds it at the limit, one that barely presses leaves it about a
+    third of that variance, and a mean a little inside.
+    """
+    at_high, at_low = x >= high, x <= low
+    held = at_high | at_low
+    if not held.any():
+        return x, P
+    from scipy.special import ndtr
+
+    s = np.sqrt(np.where(held, spread, 1.0))
+    beyond = np.where(at_high, pressed, np.where(at_low, -pressed, 0.0))
+    z = np.where(held, -np.maximum(beyond, 0.0) / s, 0.0)  # the limit in units of s from Y's mean
+    mass, density = ndtr(z), np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)
+    first = -z * mass - density  # E[min(Y, b) - b] / s
+    second = (z * z + 1.0) * mass + z * density
+    variance = np.maximum(second - first**2, 0.0) * s * s
+    inward = np.where(at_high, 1.0, -1.0) * first * s  # a held state's mean, off the limit
+    x = np.where(held, x + inward, x)
+    free = (~held).astype(float)
+    P = P * free[:, :, None] * free[:, None, :]  # a held state shares nothing with the others
+    P[:, np.arange(x.shape[1]), np.arange(x.shape[1])] += np.where(held, variance, 0.0)
+    return x, P
+
+
+def _limit_ends(systems: list[CompiledSystem], states,
+                repeat: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each variant's hard limits, ``(len(systems) * repeat, n_states)`` each (infinite: none)."""
+    states = list(states)
+    low = np.full((len(systems), len(states)), -np.inf)
+    high = np.full((len(systems), len(states)), np.inf)
+    for b, system in enumerate(systems):
+        for name, (lo, hi) in system.limits.items():
+            low[b, states.index(name)], high[b, states.index(name)] = lo, hi
+    return np.repeat(low, repeat, axis=0), np.repeat(high, repeat, axis=0)
 
 
 def rk4_step(rhs, z: np.ndarray, h, column, *, right, left) -> np.ndarray:
