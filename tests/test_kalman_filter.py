@@ -9,7 +9,8 @@ from benchmark_scripts import load
 from scipy.linalg import expm
 
 from sklearn_pycc import PolyCCRegressor, Skeleton
-from sklearn_pycc.fitting.filter import fit_filter, kalman_pass
+from sklearn_pycc.fitting.filter import fit_filter, kalman_pass, smoothed
+from sklearn_pycc.fitting.filter.stage import filter_plan
 from sklearn_pycc.fitting.output_error.shooting import ShootingPlan
 
 OSCILLATOR = ["x1_dot = x2", "x2_dot = -a1 x2 - a2 x1"]
@@ -364,3 +365,29 @@ def test_variants_with_their_own_limit_are_each_filtered_as_alone():
         assert together.nll[k] == pytest.approx(alone.nll[0], rel=1e-9)
         assert together.means[k, ..., 0].max() <= rims[k]
     assert np.argmin(together.nll) == 1  # the true rim is the likeliest
+
+
+def test_a_state_held_at_its_limit_is_smoothed_beside_one_that_is_not():
+    # a second tank fed by the first: while the first spills, its level is held at the rim
+    # and shares nothing with the second; the smoother must still carry both back
+    X, levels = _tank_at_its_rim(400, seed=2)
+    lower, fine = [0.5], 20
+    for k in range(len(X) - 1):
+        x = lower[-1]
+        for _ in range(fine):
+            x += (levels[k] - x) * 0.5 / fine
+        lower.append(x)
+    X = pd.DataFrame({"t": X.t, "u": X.u, "x2": np.array(lower) + 0.01 * np.random.default_rng(
+        3).standard_normal(len(X))})  # only the second level measured
+    estimator = PolyCCRegressor(equations=["x1_dot = a1 u - a2 x1", "x2_dot = x1 - x2"],
+                                constraints=["x1 <= 1"], fit_mode="filter", input_hold="zoh")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        problem, _ = estimator._problem(X, None, estimator._make_backend())
+    system = problem.skeleton.compile({}, {"a1": 1.0, "a2": 1.0})
+    plan = filter_plan(problem, system, whole=True)
+    run = kalman_pass(plan, system, np.array([[0.03, 0.002]]), np.array([[0.01]]), keep=True)
+    means, covs = smoothed(run)
+    assert np.isfinite(means).all() and np.isfinite(covs).all()
+    assert means[..., 0].max() <= 1.0 + 1e-3
+    assert np.sqrt(np.mean((means[0, 0, :, 0] - levels) ** 2)) < 0.05

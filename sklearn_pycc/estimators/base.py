@@ -191,7 +191,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         the likelihood's curvature. Other backends' curves are held as the
         start drew them (``filter_["held"]``). Not with ``noise_model`` or
         ``n_bootstrap``; a state nobody measured is filtered through each
-        whole experiment.
+        whole experiment, and the states' hard limits hold inside the filter.
     shooting_window : int, default=40
         Samples per shooting segment in ``fit_mode="simulation"``.
     shooting_iterations : int, default=30

@@ -294,7 +294,7 @@ def _held_at_limits(x: np.ndarray, P: np.ndarray, pressed: np.ndarray, spread: n
     mass, density = ndtr(z), np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)
     first = -z * mass - density  # E[min(Y, b) - b] / s
     second = (z * z + 1.0) * mass + z * density
-    variance = np.maximum(second - first**2, 0.0) * s * s
+    variance = np.maximum(second - first**2, 1e-12) * s * s  # never quite known: smoothable
     inward = np.where(at_high, 1.0, -1.0) * first * s  # a held state's mean, off the limit
     x = np.where(held, x + inward, x)
     free = (~held).astype(float)
