@@ -96,7 +96,8 @@ class FilteringMixin:
         -------
         DataFrame
             ``t`` and, per state, its estimate and ``<state>_lower``,
-            ``<state>_upper``: one row per row of ``X``, in its order.
+            ``<state>_upper``: one row per row of ``X``, in its order, each
+            within the state's hard limits.
 
         Raises
         ------

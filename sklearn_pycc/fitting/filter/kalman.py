@@ -34,6 +34,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import ndtr
 
 from ...skeleton.system import CompiledSystem, stack_systems
 
@@ -286,8 +287,6 @@ def _held_at_limits(x: np.ndarray, P: np.ndarray, pressed: np.ndarray, spread: n
     held = at_high | at_low
     if not held.any():
         return x, P
-    from scipy.special import ndtr
-
     s = np.sqrt(np.where(held, spread, 1.0))
     beyond = np.where(at_high, pressed, np.where(at_low, -pressed, 0.0))
     z = np.where(held, -np.maximum(beyond, 0.0) / s, 0.0)  # the limit in units of s from Y's mean
