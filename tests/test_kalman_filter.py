@@ -391,3 +391,19 @@ def test_a_state_held_at_its_limit_is_smoothed_beside_one_that_is_not():
     assert np.isfinite(means).all() and np.isfinite(covs).all()
     assert means[..., 0].max() <= 1.0 + 1e-3
     assert np.sqrt(np.mean((means[0, 0, :, 0] - levels) ** 2)) < 0.05
+
+
+def test_a_level_held_at_its_rim_without_a_push_still_has_a_likelihood():
+    # the noise grid's calm rows (no process noise) must be scored, not failed: a failed
+    # calm row would make any push look like a gain
+    X, _ = _tank_at_its_rim(800, seed=1)
+    estimator = PolyCCRegressor(equations=["x1_dot = a1 u - a2 x1"], constraints=["x1 <= 1"],
+                                fit_mode="filter", input_hold="zoh")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        problem, _ = estimator._problem(X, None, estimator._make_backend())
+    plan = ShootingPlan(problem, len(X) - 1)
+    system = problem.skeleton.compile({}, {"a1": 1.0, "a2": 1.0})
+    plan.choose_substeps(system, dict(problem.data.columns))
+    run = kalman_pass(plan, [system] * 2, np.array([[0.0], [0.03]]), np.array([[0.01]] * 2))
+    assert np.isfinite(run.nll).all() and run.nll[1] < run.nll[0]

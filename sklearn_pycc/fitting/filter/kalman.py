@@ -226,8 +226,8 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
             spread = np.diagonal(P, axis1=1, axis2=2) + 2.0 * half  # before the step, and its push
             P = F @ (P + half[:, :, None] * eye) @ F.transpose(0, 2, 1) + half[:, :, None] * eye
             if limited:
-                x, P = _held_at_limits(x, P, rates * h[:, None], spread,
-                                       low=low_end, high=high_end)
+                x, P = _held_at_limits(x, P, rates * h[:, None], spread, low=low_end,
+                                       high=high_end, floor=(BUMP * scale) ** 2)
             if keep:
                 kept["transitions"][:, i] = F
             bad = ~(np.isfinite(x).all(axis=1) & (np.abs(x) <= bound).all(axis=1)
@@ -272,7 +272,8 @@ def _rates(plan, stacked: CompiledSystem, repeat: int, rows: int):
 
 
 def _held_at_limits(x: np.ndarray, P: np.ndarray, pressed: np.ndarray, spread: np.ndarray, *,
-                    low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                    low: np.ndarray, high: np.ndarray,
+                    floor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each state a step left at a limit, read as a censored normal (its mean and variance).
 
     A state held at its limit has a flat Jacobian there, which would claim
@@ -281,19 +282,22 @@ def _held_at_limits(x: np.ndarray, P: np.ndarray, pressed: np.ndarray, spread: n
     before the step plus the step's push, centred beyond the limit by
     ``pressed`` (the rate pressing on it times the step): a flow that presses
     hard holds it at the limit, one that barely presses leaves it about a
-    third of that variance, and a mean a little inside.
+    third of that variance, and a mean a little inside. A variance is never
+    below ``floor`` (per state): a state held without a push, or pressed
+    hard, is never quite known, so the smoother can carry the others back
+    beside it and a pass with no process noise stays finite.
     """
     at_high, at_low = x >= high, x <= low
     held = at_high | at_low
     if not held.any():
         return x, P
-    s = np.sqrt(np.where(held, spread, 1.0))
+    s = np.sqrt(np.where(held, np.maximum(spread, floor), 1.0))
     beyond = np.where(at_high, pressed, np.where(at_low, -pressed, 0.0))
     z = np.where(held, -np.maximum(beyond, 0.0) / s, 0.0)  # the limit in units of s from Y's mean
     mass, density = ndtr(z), np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)
     first = -z * mass - density  # E[min(Y, b) - b] / s
     second = (z * z + 1.0) * mass + z * density
-    variance = np.maximum(second - first**2, 1e-12) * s * s  # never quite known: smoothable
+    variance = np.maximum((second - first**2) * s * s, floor)
     inward = np.where(at_high, 1.0, -1.0) * first * s  # a held state's mean, off the limit
     x = np.where(held, x + inward, x)
     free = (~held).astype(float)
