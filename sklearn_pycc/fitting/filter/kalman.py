@@ -263,7 +263,11 @@ def _rates(plan, stacked: CompiledSystem, repeat: int, rows: int):
     held, unheld = stacked.batch_rhs(rows, signals), stacked.batch_rhs(rows, signals, hold=False)
 
     def rhs(x, column, source, *, evaluate=held):
+        if limits:  # a stage that overshoots a limit reads the state there, as a bump does
+            x = stacked.clip(x.copy())
         return evaluate(x, [np.tile(values[column], repeat) for values in source])
+
+    limits = bool(stacked.limits)
 
     def pressing(x, column, source):
         return rhs(x, column, source, evaluate=unheld)
