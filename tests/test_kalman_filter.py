@@ -8,7 +8,7 @@ import pytest
 from benchmark_scripts import load
 from scipy.linalg import expm
 
-from sklearn_pycc import PolyCCRegressor, Skeleton
+from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, Skeleton
 from sklearn_pycc.fitting.filter import fit_filter, kalman_pass, smoothed
 from sklearn_pycc.fitting.filter.stage import filter_plan
 from sklearn_pycc.fitting.output_error.shooting import ShootingPlan
@@ -207,6 +207,72 @@ def test_a_polynomial_curve_is_fitted_by_the_filter_with_its_band():
     assert 0.9 <= inside <= 0.99
 
 
+def test_a_neural_curve_is_refitted_by_the_filter():
+    # the networks' last layers move with the parameters: the curve the output error drew
+    # while chasing the wander is corrected, and the push is read at its true intensity
+    X, states = _pushed_cubic_friction(2000, seed=1)
+    settings = {"equations": ["x1_dot = x2", "x2_dot = -f1(x2) - a2 x1"],
+                "constraints": ["f1 odd"], "max_epochs": 200, "random_state": 0}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = NeuralCCRegressor(fit_mode="filter", **settings).fit(X)
+        output_error = NeuralCCRegressor(fit_mode="simulation", **settings).fit(X)
+    assert model.filter_["held"] == [] and model.filter_["converged"]
+    v = np.array([-1.0, -0.5, 0.5, 1.0])
+    truth = 0.2 * v + 0.3 * v**3
+    assert np.abs(model.functions_["f1"](v) - truth).max() < 0.06
+    assert np.abs(model.functions_["f1"](v) - truth).sum() < \
+        0.5 * np.abs(output_error.functions_["f1"](v) - truth).sum()
+    assert abs(model.params_["a2"] - 1.0) < 3 * model.params_std_["a2"]
+    assert model.process_noise_["x2"] == pytest.approx(Q, rel=0.2)
+    smooth = model.smooth(X)
+    inside = np.mean((smooth.x2_lower <= states[:, 1]) & (states[:, 1] <= smooth.x2_upper))
+    assert 0.9 <= inside <= 0.99
+
+
+def test_the_user_holds_or_shares_the_process_noises(record):
+    settings = {"equations": OSCILLATOR, "fit_mode": "filter"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        free = PolyCCRegressor(**settings).fit(record)
+        held = PolyCCRegressor(process_noise={"x2": Q}, **settings).fit(record)
+        shared = PolyCCRegressor(process_noise={"x1": "push", "x2": "push"}, **settings).fit(
+            record)
+        calm = PolyCCRegressor(process_noise={"x2": 0}, **settings).fit(record)
+    assert free.process_noise_ == {"x1": 0.0, "x2": pytest.approx(Q, rel=0.1)}
+    assert held.process_noise_ == {"x1": 0.0, "x2": Q}  # held exactly, the rest refitted
+    for name, value in {"a1": A1, "a2": A2}.items():
+        assert abs(held.params_[name] - value) < 3 * held.params_std_[name]
+    assert held.filter_["nll"] == pytest.approx(free.filter_["nll"], abs=2.0)
+    # one intensity for both states: a worse account of a push that enters one
+    assert shared.process_noise_["x1"] == shared.process_noise_["x2"] > 0
+    assert shared.filter_["nll"] > free.filter_["nll"] + 10
+    # no push at all: the wander is then read as measurement noise, far less likely
+    assert calm.process_noise_ == {"x1": 0.0, "x2": 0.0}
+    assert calm.filter_["nll"] > free.filter_["nll"] + 1000
+
+
+@pytest.mark.parametrize("process_noise, match", [
+    ({"x3": 0.1}, r"process_noise names 'x3', which is not a state of the skeleton "
+                  r"\(states: x1, x2\)"),
+    ({"x2": -0.1}, r"process_noise\['x2'\] must be a non-negative intensity"),
+    ({"x2": float("nan")}, r"process_noise\['x2'\] must be a non-negative intensity"),
+    ({"x2": " "}, r"process_noise\['x2'\] must be .* or a name"),
+    ({"x2": [0.1]}, r"process_noise\['x2'\] must be .* or a name"),
+])
+def test_a_process_noise_the_filter_cannot_read_is_refused_naming_it(record, process_noise,
+                                                                      match):
+    with pytest.raises(ValueError, match=match):
+        PolyCCRegressor(equations=OSCILLATOR, fit_mode="filter",
+                        process_noise=process_noise).fit(record.iloc[:300])
+
+
+def test_a_process_noise_no_filter_reads_is_said_to_be_unused(record):
+    with pytest.warns(UserWarning, match="process_noise is read by the filter"):
+        PolyCCRegressor(equations=OSCILLATOR, fit_mode="equation",
+                        process_noise={"x2": 0.1}).fit(record.iloc[:300])
+
+
 def test_the_filter_needs_time(record):
     with pytest.raises(ValueError, match="X has no time column 't'"):
         PolyCCRegressor(equations=OSCILLATOR, fit_mode="filter").fit(record[["x1"]])
@@ -367,10 +433,13 @@ def test_variants_with_their_own_limit_are_each_filtered_as_alone():
     assert np.argmin(together.nll) == 1  # the true rim is the likeliest
 
 
-def test_a_state_held_at_its_limit_is_smoothed_beside_one_that_is_not():
-    # a second tank fed by the first: while the first spills, its level is held at the rim
-    # and shares nothing with the second; the smoother must still carry both back
-    X, levels = _tank_at_its_rim(400, seed=2)
+def _lower_tank_of_a_rim(n: int = 400):
+    """A second tank fed by the tank at its rim, only its level measured.
+
+    Returns the filter's plan of the whole record under the true numbers,
+    the true system and the upper tank's true level.
+    """
+    X, levels = _tank_at_its_rim(n, seed=2)
     lower, fine = [0.5], 20
     for k in range(len(X) - 1):
         x = lower[-1]
@@ -378,19 +447,40 @@ def test_a_state_held_at_its_limit_is_smoothed_beside_one_that_is_not():
             x += (levels[k] - x) * 0.5 / fine
         lower.append(x)
     X = pd.DataFrame({"t": X.t, "u": X.u, "x2": np.array(lower) + 0.01 * np.random.default_rng(
-        3).standard_normal(len(X))})  # only the second level measured
+        3).standard_normal(len(X))})
     estimator = PolyCCRegressor(equations=["x1_dot = a1 u - a2 x1", "x2_dot = x1 - x2"],
                                 constraints=["x1 <= 1"], fit_mode="filter", input_hold="zoh")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         problem, _ = estimator._problem(X, None, estimator._make_backend())
     system = problem.skeleton.compile({}, {"a1": 1.0, "a2": 1.0})
-    plan = filter_plan(problem, system, whole=True)
+    return filter_plan(problem, system, whole=True), system, levels
+
+
+def test_a_state_held_at_its_limit_is_smoothed_beside_one_that_is_not():
+    # a second tank fed by the first: while the first spills, its level is held at the rim
+    # and shares nothing with the second; the smoother must still carry both back
+    plan, system, levels = _lower_tank_of_a_rim()
     run = kalman_pass(plan, system, np.array([[0.03, 0.002]]), np.array([[0.01]]), keep=True)
     means, covs = smoothed(run)
     assert np.isfinite(means).all() and np.isfinite(covs).all()
     assert means[..., 0].max() <= 1.0 + 1e-3
     assert np.sqrt(np.mean((means[0, 0, :, 0] - levels) ** 2)) < 0.05
+
+
+def test_a_hidden_level_started_on_its_rim_starts_within_it():
+    # the filter starts a level nobody measures where a simulation put it, here on its rim,
+    # with the spread of the record: half of that normal lies beyond the rim, and read so
+    # the first measurements of the lower tank threw the upper level far below its truth
+    plan, system, levels = _lower_tank_of_a_rim()
+    assert plan.initial[0][0] == 1.0 and levels[0] == 0.5  # started on the rim, truly half
+    run = kalman_pass(plan, system, np.array([[0.03, 0.002]]), np.array([[0.01]]), keep=True)
+    # the start's mean and spread are those of the normal within the rim
+    spread = plan.scale[0]
+    assert run.predicted[0, 0, 0, 0] == pytest.approx(1.0 - spread * np.sqrt(2 / np.pi))
+    assert run.predicted_covariances[0, 0, 0, 0, 0] == pytest.approx(spread**2 * (1 - 2 / np.pi))
+    means, _ = smoothed(run)
+    assert abs(means[0, 0, 0, 0] - levels[0]) < 0.35  # read below the empty tank before
 
 
 def test_a_level_held_at_its_rim_without_a_push_still_has_a_likelihood():

@@ -221,6 +221,43 @@ def test_scalar_table_follows_a_friction_step(stick_slip_model):
     np.testing.assert_allclose(scalar, f1(x), rtol=0, atol=1e-8)
 
 
+@pytest.mark.parametrize("activation, parity, points, extrapolation", [
+    ("tanh", None, [(0.5, 1.0)], "linear"),
+    ("silu", "odd", [], "clip"),
+    ("tanh", "even", [], "linear"),
+    ("relu", None, [], "linear"),  # kinks: no table, the network itself
+])
+def test_curves_that_differ_in_their_last_layers_are_evaluated_side_by_side(
+        activation, parity, points, extrapolation):
+    generator = torch.Generator().manual_seed(2)
+    net = CurveNet("f1", (8, 6), activation, 0.2, 1.5, parity=parity, points=points, exact=True,
+                   generator=generator, dtype=torch.float64)
+    fitted = net.export((-1.3, 1.7), extrapolation)
+    size = fitted.features(np.zeros(1)).shape[1]
+    assert size == 6 + (parity != "odd")
+    rng = np.random.default_rng(0)
+    changes = 0.3 * rng.standard_normal((4, size))
+    curves = [fitted.with_last_layer(change) for change in changes]
+    x = np.linspace(-1.3, 1.7, 31)
+    for curve, change in zip(curves, changes):
+        # the curve is linear in its last layer, whose directions are the features
+        np.testing.assert_allclose(curve(x), fitted(x) + fitted.features(x) @ change,
+                                   atol=1e-12)
+    assert fitted.with_last_layer(np.zeros(size))(0.5) == pytest.approx(fitted(0.5), abs=1e-12)
+    stacked = NumpyCurve.stack(curves, rows=40)
+    assert stacked is not None
+    assert (stacked.table is None) == (activation == "relu")
+    rows = rng.uniform(-2.5, 3.0, 160)  # beyond the domain too, on both sides
+    alone = np.concatenate([curve(rows[40 * b:40 * (b + 1)]) for b, curve in enumerate(curves)])
+    np.testing.assert_allclose(stacked(rows), alone, rtol=0, atol=1e-8 * np.abs(alone).max())
+    # curves with their own inner layers are not stacked this way
+    other = CurveNet("f1", (8, 6), activation, 0.2, 1.5, parity=parity, points=points,
+                     exact=True, generator=generator, dtype=torch.float64)
+    assert NumpyCurve.stack([fitted, other.export((-1.3, 1.7), extrapolation)], 5) is None
+    with pytest.raises(ValueError, match=f"f1: the last layer has {size} numbers"):
+        fitted.with_last_layer(np.zeros(size + 1))
+
+
 def test_predict_and_simulate_never_call_torch(stick_slip, stick_slip_model, monkeypatch):
     frame, truth = stick_slip
 

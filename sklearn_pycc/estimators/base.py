@@ -21,6 +21,7 @@ from .._utils.threads import blas_threads
 from ..exceptions import DomainWarning, SimulationError
 from ..fitting.filter.evidence import LAGS as PROCESS_NOISE_LAGS
 from ..fitting.filter.evidence import process_noise_evidence
+from ..fitting.filter.noises import check_process_noise
 from ..fitting.filter.stage import filter_stage
 from ..fitting.fingerprint import fit_fingerprint
 from ..fitting.output_error.hidden import check_visible
@@ -65,7 +66,7 @@ __all__ = ["FIT_MODES", "OUTPUT_ERROR_SETTINGS", "RANDOM_STATES", "RESAMPLING", 
 FIT_MODES = ("auto", "equation", "simulation", "filter")
 #: the hyperparameters of the output-error stage, left out by estimators that have none
 OUTPUT_ERROR_SETTINGS = ("fit_mode", "shooting_window", "shooting_iterations", "input_hold",
-                         "noise_model")
+                         "noise_model", "process_noise")
 #: below this signal-to-noise ratio of the measured states, ``fit_mode="auto"`` refines the
 #: equation fit by output error: derivatives of such records bias the fit by per cents
 AUTO_SIMULATION_SNR_DB = 45.0
@@ -186,10 +187,11 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         measured), and refines the output-error fit by the extended Kalman
         filter's likelihood (the equation-error fit, for a backend without an
         output-error stage): the parameters, the polynomial curves'
-        coefficients, the noises' intensities (``process_noise_``) and the
-        measurement noise (``measurement_noise_``), their covariance from
-        the likelihood's curvature. Other backends' curves are held as the
-        start drew them (``filter_["held"]``). Not with ``noise_model`` or
+        coefficients or the networks' last layers, the noises' intensities
+        (``process_noise_``) and the measurement noise
+        (``measurement_noise_``), their covariance from the likelihood's
+        curvature. A monotone curve is held as the start drew it
+        (``filter_["held"]``). Not with ``noise_model`` or
         ``n_bootstrap``; a state nobody measured is filtered through each
         whole experiment, and the states' hard limits hold inside the filter.
     shooting_window : int, default=40
@@ -233,6 +235,16 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         those and white noise by the BIC), and the fit is made again with
         every output error whitened by it. The model is ``noise_model_``.
         Only for fits by output error without unmeasured states.
+    process_noise : dict or None, default=None
+        Which states the random push of ``fit_mode="filter"`` enters, and
+        how its intensities are fitted (also where ``"auto"`` recognises a
+        push). None: every state whose equation is more than a kinematic
+        identity, each with its own fitted intensity. A dict overrides that
+        state by state: a number holds the state's intensity at it (``0``:
+        not pushed, ``{"x2": 0}`` for a level fed only through a pipe), a
+        name makes the states given it share one fitted intensity
+        (``{"x1": "load", "x2": "load"}``). States it does not name keep the
+        default; a kinematic identity is pushed only where named.
 
     Attributes
     ----------
@@ -316,6 +328,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         "input_hold": [StrOptions({*INPUT_HOLDS, "auto"})],
         "noise_model": [StrOptions(set(NOISE_MODELS)), None],
         "quantities": [dict, None],
+        "process_noise": [dict, None],
     }
 
     def __init__(self, *, equations=None, constraints=None, gauge: str = "auto",
@@ -323,7 +336,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                  fit_mode: str = "auto", shooting_window: int = 40,
                  shooting_iterations: int = 30, equation_weights=None,
                  input_hold: str = "auto", noise_model: str | None = None,
-                 quantities: Mapping[str, str] | None = None) -> None:
+                 quantities: Mapping[str, str] | None = None,
+                 process_noise: Mapping | None = None) -> None:
         self.equations = equations
         self.constraints = constraints
         self.equation_weights = equation_weights
@@ -336,6 +350,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         self.input_hold = input_hold
         self.noise_model = noise_model
         self.quantities = quantities
+        self.process_noise = process_noise
 
     # -- to be provided by each estimator -------------------------------------
     @abstractmethod
@@ -428,7 +443,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                           input_hold=given_hold(self),
                           hold_chosen=getattr(self, "input_hold", "auto") == "auto",
                           observed=({o: record.data[o] for o in skeleton.outputs}
-                                    if record.hidden else {}))
+                                    if record.hidden else {}),
+                          process_noise=getattr(self, "process_noise", None))
         return problem, facts
 
     def _problem_of(self, X) -> Problem:
@@ -503,6 +519,13 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                              f"(fit_mode='simulation')")
         backend = self._make_backend()
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
+        process_noise = getattr(self, "process_noise", None)
+        if process_noise is not None:
+            check_process_noise(process_noise, skeleton.states, [])
+            if self.fit_mode in ("equation", "simulation"):
+                warnings.warn(f"process_noise is read by the filter (fit_mode='filter', or "
+                              f"'auto' where it recognises a push); fit_mode="
+                              f"{self.fit_mode!r} does not use it", UserWarning, stacklevel=2)
         delays = self._fit_delays(X, y, skeleton, backend) if skeleton.delay_params else {}
         problem, facts = self._problem(X, y, backend, delays=delays)
         if delays:

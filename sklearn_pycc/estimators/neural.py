@@ -6,12 +6,14 @@ from collections.abc import Mapping, Sequence
 from numbers import Integral, Real
 
 import numpy as np
+from scipy.linalg import null_space
 from sklearn.utils._param_validation import Interval, StrOptions
 
 from .._utils.randomness import seeds
 from .._utils.threads import torch_threads
 from ..backends.neural.activations import ACTIVATIONS
 from ..backends.neural.numpy_mlp import EXTRAPOLATIONS, NumpyCurve
+from ..fitting.numbers import Numbers, parameters_only
 from ..fitting.problem import FitResult, Problem, active_residuals
 from ..skeleton.curves import ZeroCurve
 from .backend import Backend
@@ -33,6 +35,9 @@ DEVICES = ("cpu", "cuda", "xpu", "auto")
 COARSE_ROWS = 10_000
 DTYPES = ("float32", "float64")
 CONSTRAINT_MODES = ("exact", "penalty")
+#: a last-layer direction the filter moves changes its curve by at least this share of the
+#: strongest one's change
+LAST_LAYER_RANK = 1e-3
 
 
 def _int_or_none(value) -> int | None:
@@ -270,6 +275,68 @@ class NeuralBackend(Backend):
         return FitResult({**result.functions, **refined}, {**result.params, **values},
                          {**result.attributes, "shooting_": info})
 
+    def numbers(self, problem: Problem, result: FitResult) -> Numbers:
+        """The free parameters and the curves' last layers as one vector.
+
+        Near the fitted networks a curve changes mostly through its last
+        layer, in which it is linear (its last hidden layer's outputs are the
+        basis); the inner layers keep what training drew. The last layers
+        move in the null space of the point constraints (which then hold
+        exactly); a monotone curve is held as training shaped it. The
+        labelled numbers are the parameters alone, as ``covariance_`` names
+        them for every neural fit: the curves are nuisances whose freedom
+        their errors account for.
+        """
+        names = [f for f in problem.free_functions
+                 if isinstance(result.functions.get(f), NumpyCurve)
+                 and problem.monotone(f) is None]
+        if not names:
+            return parameters_only(problem, result)
+        free_params = problem.free_params
+        fixed = dict(problem.fixed_params)
+        pieces = []  # (curve, its fitted network, the directions its last layer moves in)
+        for name in names:
+            curve = result.functions[name]
+            pieces.append((name, curve, _last_layer_directions(curve, problem.points(name))))
+        p = len(free_params)
+        sizes = [d.shape[1] for *_, d in pieces]
+
+        def unpack(theta):
+            values = {**fixed, **dict(zip(free_params, (float(v) for v in theta[:p])))}
+            curves, offset = dict(result.functions), p
+            for (name, curve, directions), size in zip(pieces, sizes):
+                curves[name] = curve.with_last_layer(directions @ theta[offset:offset + size])
+                offset += size
+            return values, curves
+
+        def system_for(theta):
+            values, curves = unpack(theta)
+            return problem.skeleton.compile(curves, values)
+
+        def result_for(theta) -> FitResult:
+            values, curves = unpack(theta)
+            kept = {k: v for k, v in result.attributes.items() if k != "covariance_"}
+            return FitResult(curves, {**result.params, **{a: values[a] for a in free_params}},
+                             kept)
+
+        bounds = problem.bounds
+        # a direction moves its curve by its number's size (root mean square over the
+        # domain): typically a share of the curve's own
+        typical = np.concatenate([np.abs([result.params[a] for a in free_params])] + [
+            np.full(size, np.sqrt(np.mean(np.square(curve(np.linspace(*curve.domain, 101))))))
+            for (_, curve, _), size in zip(pieces, sizes)])
+        total = p + sum(sizes)
+        return Numbers(
+            theta0=np.concatenate([[result.params[a] for a in free_params], np.zeros(sum(sizes))]),
+            low=np.concatenate([[bounds.get(a, (-np.inf, np.inf))[0] for a in free_params],
+                                np.full(sum(sizes), -np.inf)]),
+            high=np.concatenate([[bounds.get(a, (-np.inf, np.inf))[1] for a in free_params],
+                                 np.full(sum(sizes), np.inf)]),
+            system_for=system_for,
+            result_for=result_for, labels=list(free_params),
+            to_labels=np.eye(p, total), typical=typical,
+            held=[f for f in problem.free_functions if f not in names])
+
     def _curve_spec(self, problem: Problem, name: str, params: Mapping[str, float]) -> dict:
         """Input scaling and constraints of one curve's network."""
         parity = problem.parity(name)
@@ -392,6 +459,9 @@ default="lbfgs"
     noise_model : {"ar", "arma", "auto"} or None, default=None
         The measurement noise's model for output-error fits: see
         :class:`CCRegressor`.
+    process_noise : dict or None, default=None
+        Which states the filter's random push enters, each intensity fitted,
+        shared or held: see :class:`CCRegressor`.
     equation_weights : list of float, optional
         One weight per equation: see :class:`CCRegressor`.
     quantities : dict, optional
@@ -493,13 +563,15 @@ default="lbfgs"
                  n_jobs: int | None = None, verbose: int = 0,
                  input_hold: str = "auto",
                  noise_model: str | None = None,
-                 quantities: Mapping[str, str] | None = None) -> None:
+                 quantities: Mapping[str, str] | None = None,
+                 process_noise: Mapping | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
                          shooting_iterations=shooting_iterations,
                          equation_weights=equation_weights, input_hold=input_hold,
-                         noise_model=noise_model, quantities=quantities)
+                         noise_model=noise_model, quantities=quantities,
+                         process_noise=process_noise)
         self.hidden_layer_sizes = hidden_layer_sizes
         self.activation = activation
         self.optimizer = optimizer
@@ -531,6 +603,29 @@ default="lbfgs"
 
     def _make_backend(self) -> NeuralBackend:
         return NeuralBackend(**self._backend_settings(NeuralBackend))
+
+
+def _last_layer_directions(curve: NumpyCurve, points) -> np.ndarray:
+    """The changes of ``curve``'s last layer a refinement moves, one per column.
+
+    Within the null space of the features at the point values (those then
+    hold), the principal directions of the features over the domain: each
+    changes the curve by one unit, root mean square over the domain, and
+    those that change it by less than :data:`LAST_LAYER_RANK` of the
+    strongest are left out (a network's features are nearly collinear, and
+    the likelihood has no curvature along what they barely change).
+    """
+    size = curve.features(np.zeros(1)).shape[1]
+    if points:
+        base = null_space(curve.features(np.array([at for at, _ in points])))
+    else:
+        base = np.eye(size)
+    grid = curve.features(np.linspace(*curve.domain, 101)) @ base
+    if not base.shape[1] or not np.any(grid):
+        return np.zeros((size, 0))
+    _, strengths, rows = np.linalg.svd(grid / np.sqrt(len(grid)), full_matrices=False)
+    keep = strengths > LAST_LAYER_RANK * strengths[0]
+    return base @ (rows[keep].T / strengths[keep])
 
 
 def _silent(*args, **kwargs) -> None:

@@ -382,7 +382,8 @@ class PolyBackend(Backend):
                                  np.full(sum(sizes), np.inf)]),
             system_for=system_for,
             result_for=result_for, labels=labels, to_labels=block_diag(*blocks),
-            typical=typical)
+            typical=typical,
+            held=[name for name in problem.free_functions if problem.monotone(name) is not None])
 
     def refine(self, problem: Problem, result: FitResult, plan: ShootingPlan) -> FitResult:
         """Refine the coefficients and parameters so that simulations match the states.
@@ -632,6 +633,9 @@ class PolyCCRegressor(CCRegressor):
     noise_model : {"ar", "arma", "auto"} or None, default=None
         The measurement noise's model for output-error fits: see
         :class:`CCRegressor`.
+    process_noise : dict or None, default=None
+        Which states the filter's random push enters, each intensity fitted,
+        shared or held: see :class:`CCRegressor`.
     equation_weights : list of float, optional
         One weight per equation: see :class:`CCRegressor`.
     quantities : dict, optional
@@ -698,13 +702,15 @@ class PolyCCRegressor(CCRegressor):
                  random_state=None, n_bootstrap: int = 0,
                  n_jobs: int | None = None, input_hold: str = "auto",
                  noise_model: str | None = None,
-                 quantities: Mapping[str, str] | None = None) -> None:
+                 quantities: Mapping[str, str] | None = None,
+                 process_noise: Mapping | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
                          shooting_iterations=shooting_iterations,
                          equation_weights=equation_weights, input_hold=input_hold,
-                         noise_model=noise_model, quantities=quantities)
+                         noise_model=noise_model, quantities=quantities,
+                         process_noise=process_noise)
         self.degree = degree
         self.basis = basis
         self.alpha = alpha

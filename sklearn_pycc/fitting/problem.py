@@ -152,6 +152,9 @@ class Problem:
     whitening : dict or None
         Measured state -> the taps of the filter that whitens its output
         errors (the estimator's ``noise_model``); None for white noise.
+    process_noise : dict or None
+        The estimator's ``process_noise``: state -> a held intensity or the
+        name of a fitted one (:func:`~sklearn_pycc.fitting.filter.stage.noisy_states`).
     """
 
     skeleton: Skeleton
@@ -175,6 +178,7 @@ class Problem:
     hold_chosen: bool = False
     observed: dict[str, np.ndarray] = field(default_factory=dict)
     whitening: dict[str, np.ndarray] | None = None
+    process_noise: dict | None = None
 
     @property
     def equations(self) -> list[Equation]:

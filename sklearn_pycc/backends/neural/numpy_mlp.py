@@ -84,7 +84,7 @@ class NumpyCurve(Curve):
     # -- pickling: the numpy function is looked up again on load --------------
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
-        for key in ("_act", "_first", "_hidden", "_last", "_edges", "_table"):
+        for key in ("_act", "_first", "_hidden", "_last", "_edges", "_tabulated", "_family"):
             state.pop(key, None)
         return state
 
@@ -103,7 +103,16 @@ class NumpyCurve(Curve):
         edges = np.array([lo, hi])
         values, slopes = self._value_and_slope(edges)
         self._edges = (float(values[0]), float(values[1]), float(slopes[0]), float(slopes[1]))
-        self._table = self._tabulate() if is_smooth(self.activation) else None
+        self._tabulated = None  # tabulated on the first call with a float
+        # what the curves sharing these inner layers share (:meth:`with_last_layer`)
+        self._family = {}
+
+    @property
+    def _table(self):
+        """The scalar table (None: the network is evaluated exactly), built when first asked."""
+        if self._tabulated is None:
+            self._tabulated = (self._tabulate() if is_smooth(self.activation) else None,)
+        return self._tabulated[0]
 
     # -- the scalar table ------------------------------------------------------------
     def _tabulate(self):
@@ -150,33 +159,18 @@ class NumpyCurve(Curve):
 
     def _value_and_slope(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The constrained network and its derivative on a 1-D array (forward mode)."""
-        act, dact = self._act, numpy_derivative(self.activation)
-        u = (x - self.center) / self.scale
-        uu = u if self.parity is None else np.concatenate([u, -u])
-        w, b = self._first
-        z = w * uu + b
-        h = act(z)
-        dh = dact(z, h) * w
-        for w, b in self._hidden:
-            z = w @ h + b
-            h = act(z)
-            dh = dact(z, h) * (w @ dh)
+        h, dh = self._features_and_slopes(x)
         w, b = self._last
-        out, dout = w @ h + b, w @ dh
-        if self.parity is not None:
-            m = u.shape[0]
-            # d/du of g(-u) is -g'(-u)
-            if self.parity == "odd":
-                out, dout = 0.5 * (out[:m] - out[m:]), 0.5 * (dout[:m] + dout[m:])
-            else:
-                out, dout = 0.5 * (out[:m] + out[m:]), 0.5 * (dout[:m] - dout[m:])
+        last = w if self.parity == "odd" else np.append(w, b)  # an odd curve's bias cancels
+        out, dout = h @ last, dh @ last
         if self.coefficients.size:
+            u = (x - self.center) / self.scale
             e = self.exponents
             out = out + np.power.outer(u, e) @ self.coefficients
             with np.errstate(divide="ignore", invalid="ignore"):
                 powers = np.where(e > 0, np.power.outer(u, np.maximum(e - 1.0, 0.0)) * e, 0.0)
-            dout = dout + powers @ self.coefficients
-        return out, dout / self.scale
+            dout = dout + powers @ self.coefficients / self.scale
+        return out, dout
 
     def inside_value(self, x: np.ndarray) -> np.ndarray:
         """The constrained network on a 1-D array, as if every point were inside its domain."""
@@ -205,25 +199,140 @@ class NumpyCurve(Curve):
         :mod:`sklearn_pycc.fitting.uncertainty.linearized`).
         """
         lo, hi = self.domain
-        u = (np.clip(np.asarray(x, dtype=float).reshape(-1), lo, hi) - self.center) / self.scale
+        return self.hidden_features(np.clip(np.asarray(x, dtype=float).reshape(-1), lo, hi))
+
+    def hidden_features(self, x: np.ndarray) -> np.ndarray:
+        """:meth:`features` without the clip: the last hidden layer's outputs at ``x``.
+
+        Shaped ``(len(x), m)``, symmetrised like the curve, with a column of
+        ones unless the curve is odd.
+        """
+        u = (np.asarray(x, dtype=float).reshape(-1) - self.center) / self.scale
+        act = self._act
 
         def hidden(v: np.ndarray) -> np.ndarray:
-            if len(self.layers) == 1:
-                return v[None, :]
             w, b = self._first
-            h = self._act(w * v + b)
+            h = act(w * v + b)
             for w, b in self._hidden:
-                h = self._act(w @ h + b)
+                h = act(w @ h + b)
             return h
 
         h = hidden(u)
         if self.parity is not None:
             mirror = hidden(-u)
             h = 0.5 * (h - mirror) if self.parity == "odd" else 0.5 * (h + mirror)
-        columns = [h.T]
+        if self.parity == "odd":
+            return h.T
+        return np.hstack([h.T, np.ones((u.size, 1))])
+
+    def with_last_layer(self, change: np.ndarray) -> NumpyCurve:
+        """The curve with its last layer moved by ``change``, in :meth:`features`' columns.
+
+        The weights move by the first entries, the bias by the last (an odd
+        curve has none: its bias cancels). The inner layers are shared, not
+        copied, so that curves differing only in their last layers evaluate
+        side by side (:meth:`stack`); the point values hold where ``change``
+        leaves the features at the points unmoved.
+        """
+        change = np.asarray(change, dtype=float).reshape(-1)
+        weight, bias = self.layers[-1]
+        m = weight.shape[1]
+        if change.size != m + (self.parity != "odd"):
+            raise ValueError(f"{self.name}: the last layer has {m + (self.parity != 'odd')} "
+                             f"numbers, got a change of {change.size}")
+        moved_bias = bias + (change[m] if self.parity != "odd" else 0.0)
+        moved = NumpyCurve(self.name, [*self.layers[:-1], (weight + change[:m], moved_bias)],
+                           self.activation, self.center, self.scale, parity=self.parity,
+                           exponents=self.exponents, coefficients=self.coefficients,
+                           domain=self.domain, extrapolation=self.extrapolation)
+        moved._family = self._family
+        return moved
+
+    def feature_table(self):
+        """:meth:`hidden_features` tabulated on the domain, or None.
+
+        Cubic Hermite pieces (values and exact slopes at the nodes) on a
+        uniform grid, doubled until every interval's midpoint matches the
+        features to ``TABLE_TOLERANCE`` of their largest size: ``(lo,
+        intervals per unit, coefficients shaped (4, n, m))``. None for an
+        activation with kinks, or where ``MAX_TABLE_SIZE`` nodes do not
+        suffice. Built once for every curve that shares these inner layers.
+        """
+        if "features" not in self._family:
+            self._family["features"] = (self._tabulate_features()
+                                        if is_smooth(self.activation) else None)
+        return self._family["features"]
+
+    def _tabulate_features(self):
+        lo, hi = self.domain
+        if not hi > lo:
+            return None
+        n = MIN_TABLE_SIZE
+        while n <= MAX_TABLE_SIZE:
+            x = np.linspace(lo, hi, n + 1)
+            h = (hi - lo) / n
+            v, d = self._features_and_slopes(x)
+            m0, m1 = d[:-1] * h, d[1:] * h
+            middle = 0.5 * (v[:-1] + v[1:]) + (m0 - m1) / 8.0
+            error = np.abs(middle - self.hidden_features(x[:-1] + 0.5 * h)).max()
+            if error <= TABLE_TOLERANCE * max(float(np.abs(v).max()), 1e-300):
+                y0, y1 = v[:-1], v[1:]
+                return lo, 1.0 / h, np.stack([y0, m0, 3.0 * (y1 - y0) - 2.0 * m0 - m1,
+                                              2.0 * (y0 - y1) + m0 + m1])
+            n *= 2
+        return None
+
+    def _features_and_slopes(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`hidden_features` and their derivatives by ``x`` (forward mode)."""
+        act, dact = self._act, numpy_derivative(self.activation)
+        u = (x - self.center) / self.scale
+
+        def forward(v):
+            w, b = self._first
+            z = w * v + b
+            h = act(z)
+            dh = dact(z, h) * w
+            for w, b in self._hidden:
+                z = w @ h + b
+                h = act(z)
+                dh = dact(z, h) * (w @ dh)
+            return h.T, dh.T
+
+        h, dh = forward(u)
+        if self.parity is not None:
+            mirror, dmirror = forward(-u)  # d/du of h(-u) is -h'(-u)
+            sign = -1.0 if self.parity == "odd" else 1.0
+            h, dh = 0.5 * (h + sign * mirror), 0.5 * (dh - sign * dmirror)
         if self.parity != "odd":
-            columns.append(np.ones((u.size, 1)))
-        return np.hstack(columns)
+            h = np.hstack([h, np.ones((u.size, 1))])
+            dh = np.hstack([dh, np.zeros((u.size, 1))])
+        return h, dh / self.scale
+
+    @classmethod
+    def stack(cls, curves, rows: int) -> Curve | None:
+        """Curves that differ only in their last layers, evaluated at once.
+
+        The inner layers run once on every row; each block of ``rows`` rows
+        is then read through its own curve's last layer. None where the
+        curves share less (their inner layers must be the same arrays, as
+        :meth:`with_last_layer` leaves them).
+        """
+        first = curves[0]
+        inner = first.layers[:-1]
+
+        def shares(curve) -> bool:
+            return (len(curve.layers) == len(first.layers)
+                    and all(a is c and b is d for (a, b), (c, d) in zip(curve.layers[:-1], inner))
+                    and (curve.activation, curve.center, curve.scale, curve.parity,
+                         curve.domain, curve.extrapolation)
+                    == (first.activation, first.center, first.scale, first.parity,
+                        first.domain, first.extrapolation)
+                    and np.array_equal(curve.exponents, first.exponents)
+                    and np.array_equal(curve.coefficients, first.coefficients))
+
+        if not all(isinstance(c, NumpyCurve) and shares(c) for c in curves):
+            return None
+        return _StackedLastLayers(curves, rows)
 
     def _outside(self, x) -> OutsideTrainingRange:
         lo, hi = self.domain
@@ -286,3 +395,62 @@ class NumpyCurve(Curve):
         sizes = [w.shape[0] for w, _ in self.layers[:-1]]
         return (f"NumpyCurve({self.name!r}, hidden={sizes}, activation={self.activation!r}, "
                 f"parity={self.parity!r}, domain=({self.domain[0]:.4g}, {self.domain[1]:.4g}))")
+
+
+class _StackedLastLayers(Curve):
+    """Networks that share their inner layers, block ``b`` of ``rows`` rows read by the ``b``-th.
+
+    What :meth:`NumpyCurve.stack` returns: the last hidden layer is
+    evaluated once on every row, and each row weighs it by its own curve's
+    last layer; beyond the domain each block continues as its own curve does.
+    """
+
+    def __init__(self, curves: list[NumpyCurve], rows: int) -> None:
+        first = curves[0]
+        self.first = first
+        self.domain = first.domain
+        self.extrapolation = first.extrapolation
+        self.rows = int(rows)
+        self.size = len(curves) * self.rows
+        odd = first.parity == "odd"
+        last = np.array([np.concatenate([c.layers[-1][0][0], [] if odd else c.layers[-1][1]])
+                         for c in curves])
+        edges = np.array([c._edges for c in curves])  # value, value, slope, slope at the ends
+        self.edges = np.repeat(edges, self.rows, axis=0).T
+        table = first.feature_table()
+        self.table = self.weights = None
+        if table is None:  # the network itself, each row weighed by its block's last layer
+            self.weights = np.repeat(last, self.rows, axis=0)
+        else:  # each block's curve tabulated: (4, nodes, blocks)
+            lo, inverse, pieces = table
+            self.table = (lo, inverse, pieces @ last.T,
+                          np.repeat(np.arange(len(curves)), self.rows))
+
+    def __call__(self, x):
+        """Each block's curve on its rows of ``x`` (a float is every row's argument)."""
+        first = self.first
+        flat = np.broadcast_to(np.asarray(x, dtype=float), (self.size,))
+        lo, hi = self.domain
+        if self.extrapolation == "raise":
+            bad = np.flatnonzero((flat < lo) | (flat > hi))
+            if bad.size:
+                raise first._outside(flat[bad[0]])
+        clipped = np.clip(flat, lo, hi)
+        if self.table is None:
+            out = np.einsum("ij,ij->i", first.hidden_features(clipped), self.weights)
+        else:
+            start, inverse, pieces, block = self.table
+            position = (clipped - start) * inverse
+            k = np.minimum(position.astype(np.intp), pieces.shape[1] - 1)
+            s = position - k
+            c0, c1, c2, c3 = pieces[:, k, block]
+            out = c0 + s * (c1 + s * (c2 + s * c3))
+        if first.coefficients.size:
+            u = (clipped - first.center) / first.scale
+            out = out + np.power.outer(u, first.exponents) @ first.coefficients
+        if self.extrapolation == "linear":
+            v_lo, v_hi, s_lo, s_hi = self.edges
+            below, above = flat < lo, flat > hi
+            out = np.where(below, v_lo + s_lo * (flat - lo), out)
+            out = np.where(above, v_hi + s_hi * (flat - hi), out)
+        return out

@@ -37,6 +37,7 @@ import numpy as np
 from scipy.special import ndtr
 
 from ...skeleton.system import CompiledSystem, stack_systems
+from .noises import NoiseLayout
 
 __all__ = ["FilterPass", "fit_filter", "kalman_pass", "likeliest_noises", "rk4_step", "smoothed"]
 
@@ -119,14 +120,15 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     r2 = np.repeat((np.asarray(measurement_sd, dtype=float).reshape(copies, -1) ** 2)[:, None],
                    K, axis=1).reshape(copies * K, len(mi))
     scale = np.asarray(plan.scale, dtype=float)
-    x = np.tile(np.asarray(plan.initial, dtype=float), (copies, 1))  # (copies K, n)
-    P = np.tile(np.diag(scale**2), (copies * K, 1, 1))
     targets = np.tile(plan.targets, (copies, 1, 1))  # (copies K, L + 1, n_measured)
     own = np.tile(plan.own, (copies, 1))
     h_all = np.tile(plan.h, (copies, 1))
     bound = np.asarray(plan.bound, dtype=float)
     limited = bool(stacked.limits)
     low_end, high_end = _limit_ends(systems, plan.states, K)  # (copies K, n)
+    # each segment starts broad, within the states' limits
+    x, P = _truncated_start(np.tile(np.asarray(plan.initial, dtype=float), (copies, 1)),
+                            scale**2, low_end, high_end)  # (copies K, n), (copies K, n, n)
     eye = np.eye(n)
     used = np.flatnonzero(plan.own.ravel())
     terms = np.zeros((copies * K, L + 1))
@@ -234,8 +236,10 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
                     & np.isfinite(P).all(axis=(1, 2)))
             if bad.any():  # a variant's segment that diverged fails, and starts again
                 failed |= bad
-                x = np.where(bad[:, None], np.tile(plan.initial, (copies, 1)), x)
-                P = np.where(bad[:, None, None], np.diag(scale**2), P)
+                x0, P0 = _truncated_start(np.tile(plan.initial, (copies, 1)), scale**2,
+                                          low_end, high_end)
+                x = np.where(bad[:, None], x0, x)
+                P = np.where(bad[:, None, None], P0, P)
     nll = terms.sum(axis=1)
     nll[failed] = np.inf
     per_copy = nll.reshape(copies, K).sum(axis=1)
@@ -310,6 +314,38 @@ def _held_at_limits(x: np.ndarray, P: np.ndarray, pressed: np.ndarray, spread: n
     return x, P
 
 
+def _truncated_start(x: np.ndarray, variance: np.ndarray, low: np.ndarray,
+                     high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A broad start ``N(x, diag(variance))`` within the limits: each state's truncated normal.
+
+    A segment starts where a simulation put it, with the spread of the
+    states over the record. Where that start lies on or near a limit (a
+    level started at its rim), half the normal would lie where the state
+    never goes; the first measurements would then be read through a mean
+    and a spread no level can have. Its mean and variance are instead those
+    of the normal truncated to the limits (the states independent at the
+    start). Returns the means and the (diagonal) covariances.
+    """
+    variance = np.broadcast_to(np.asarray(variance, dtype=float), x.shape)
+    sd = np.sqrt(variance)
+    with np.errstate(all="ignore"):
+        a, b = (low - x) / sd, (high - x) / sd
+        phi_a = np.where(np.isfinite(a), np.exp(-0.5 * a * a), 0.0) / np.sqrt(2.0 * np.pi)
+        phi_b = np.where(np.isfinite(b), np.exp(-0.5 * b * b), 0.0) / np.sqrt(2.0 * np.pi)
+        mass = ndtr(b) - ndtr(a)
+        shift = (phi_a - phi_b) / mass
+        spread = 1.0 + (np.where(np.isfinite(a), a * phi_a, 0.0)
+                        - np.where(np.isfinite(b), b * phi_b, 0.0)) / mass - shift**2
+        limited = np.isfinite(low) | np.isfinite(high)
+        sound = limited & (mass > 1e-12) & np.isfinite(shift) & (spread > 0)
+        mean = np.where(sound, x + sd * shift, x)
+        var = np.where(sound, variance * spread, variance)
+    mean = np.clip(mean, low, high)  # a start beyond its range, where the normal says nothing
+    P = np.zeros((*x.shape, x.shape[1]))
+    P[:, np.arange(x.shape[1]), np.arange(x.shape[1])] = var
+    return mean, P
+
+
 def _limit_ends(systems: list[CompiledSystem], states,
                 repeat: int) -> tuple[np.ndarray, np.ndarray]:
     """Each variant's hard limits, ``(len(systems) * repeat, n_states)`` each (infinite: none)."""
@@ -375,9 +411,11 @@ MEASUREMENT_FACTORS = (0.7, 1.0, 1.4)
 def likeliest_noises(plan, system: CompiledSystem, noisy, measurement: np.ndarray):
     """The likeliest of a grid of noises under ``system``, all filtered in one pass.
 
-    The process noise of the ``noisy`` states over :data:`INTENSITIES`
-    (times each state's scale), the measurement noise over
-    :data:`MEASUREMENT_FACTORS` times ``measurement``.
+    The process noise of the ``noisy`` states (indices, or a
+    :class:`NoiseLayout`: a shared intensity at its states' mean scale, a
+    held one at its value) over :data:`INTENSITIES` (times each state's
+    scale), the measurement noise over :data:`MEASUREMENT_FACTORS` times
+    ``measurement``.
 
     Returns
     -------
@@ -387,12 +425,11 @@ def likeliest_noises(plan, system: CompiledSystem, noisy, measurement: np.ndarra
         Log-likelihood per measured sample that the likeliest process noise
         adds to the likeliest without one.
     """
-    noisy = np.asarray(list(noisy), dtype=int)
-    n = len(plan.states)
+    layout = _layout(noisy, len(plan.states))
     grid = [(c, f) for c in INTENSITIES for f in MEASUREMENT_FACTORS]
-    q = np.zeros((len(grid), n))
-    for row, (c, _) in enumerate(grid):
-        q[row, noisy] = c * np.asarray(plan.scale, dtype=float)[noisy]
+    # a shared intensity is tried at its states' mean scale; a held one keeps its value
+    scales = layout.fitted_of(np.asarray(plan.scale, dtype=float))
+    q = np.array([layout.intensities(c * scales) for c, _ in grid])
     r = np.array([f * np.asarray(measurement, dtype=float) for _, f in grid])
     run = kalman_pass(plan, [system] * len(grid), q, r)
     nll = np.where(np.isfinite(run.nll), run.nll, np.inf)
@@ -403,17 +440,20 @@ def likeliest_noises(plan, system: CompiledSystem, noisy, measurement: np.ndarra
     return q[best], r[best], gain
 
 
-def _numbers(z: np.ndarray, p: int, noisy: np.ndarray, n: int):
+def _layout(noisy, n: int) -> NoiseLayout:
+    """``noisy`` as a layout: itself, or states each with its own fitted intensity."""
+    return noisy if isinstance(noisy, NoiseLayout) else NoiseLayout.each(noisy, n)
+
+
+def _numbers(z: np.ndarray, p: int, layout: NoiseLayout):
     """``theta``, process and measurement standard deviations from the search vector."""
-    q = np.zeros(n)
-    q[noisy] = np.exp(z[p:p + len(noisy)])
-    return z[:p], q, np.exp(z[p + len(noisy):])
+    g = layout.n_fitted
+    return z[:p], layout.intensities(np.exp(z[p:p + g])), np.exp(z[p + g:])
 
 
-def _variants(plan, system_for, points: np.ndarray, p: int, noisy: np.ndarray) -> FilterPass:
+def _variants(plan, system_for, points: np.ndarray, p: int, layout: NoiseLayout) -> FilterPass:
     """One pass of the filter at every row of ``points`` (search vectors)."""
-    n = len(plan.states)
-    parts = [_numbers(z, p, noisy, n) for z in points]
+    parts = [_numbers(z, p, layout) for z in points]
     return kalman_pass(plan, [system_for(theta) for theta, _, _ in parts],
                        np.array([q for _, q, _ in parts]), np.array([r for _, _, r in parts]))
 
@@ -433,12 +473,13 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
     theta0 : ndarray
         Starting parameters (an output-error or equation-error fit).
     process0 : ndarray of shape (n_states,)
-        Starting process-noise intensities (those of ``noisy`` states are fitted,
-        the others are 0).
+        Starting process-noise intensities (those ``noisy`` fits; a shared
+        one starts at its states' mean).
     measurement0 : ndarray of shape (n_measured,)
         Starting measurement-noise standard deviations.
-    noisy : sequence of int
-        The states the process noise enters.
+    noisy : sequence of int or NoiseLayout
+        The states the process noise enters, each with its own fitted
+        intensity; or a layout (intensities shared, or held at a value).
     bounds : (ndarray, ndarray), optional
         Least and largest value of each parameter.
     typical : ndarray, optional
@@ -458,10 +499,10 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
     """
     from scipy.optimize import minimize
 
-    noisy = np.asarray(list(noisy), dtype=int)
-    p, n = len(theta0), len(plan.states)
+    layout = _layout(noisy, len(plan.states))
+    p = len(theta0)
     z0 = np.concatenate([np.asarray(theta0, float),
-                         np.log(np.maximum(np.asarray(process0, float)[noisy], 1e-12)),
+                         np.log(np.maximum(layout.fitted_of(process0), 1e-12)),
                          np.log(np.maximum(np.asarray(measurement0, float), 1e-12))])
     d = len(z0)
     low = np.full(d, -np.inf)
@@ -482,7 +523,7 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
         z = z0 + unit * u
         s = 1e-6 * np.maximum(np.abs(z), 1.0)
         points = np.vstack([z, z + np.diag(s), z - np.diag(s)])
-        nll = _variants(plan, system_for, points, p, noisy).nll
+        nll = _variants(plan, system_for, points, p, layout).nll
         if not np.isfinite(nll[0]):  # worse than anything seen: the line search steps back
             return failure["value"] or 1e300, np.zeros(d)
         if failure["value"] is None:
@@ -494,8 +535,8 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
                       bounds=list(zip((low - z0) / unit, (high - z0) / unit)),
                       options={"maxiter": int(max_iterations), "ftol": 1e-10, "gtol": 1e-6})
     z = z0 + unit * result.x
-    search_cov = _curvature_covariance(plan, system_for, z, p, noisy)
-    theta, q, r = _numbers(z, p, noisy, n)
+    search_cov = _curvature_covariance(plan, system_for, z, p, layout)
+    theta, q, r = _numbers(z, p, layout)
     info = {"nll": float(result.fun), "iterations": int(result.nit),
             "converged": bool(result.success),
             "search_covariance": search_cov,
@@ -504,7 +545,7 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
 
 
 def _curvature_covariance(plan, system_for, z: np.ndarray, p: int,
-                          noisy: np.ndarray) -> np.ndarray | None:
+                          layout: NoiseLayout) -> np.ndarray | None:
     """The inverse of the negative log-likelihood's Hessian at ``z`` (one pass of bumps)."""
     d = len(z)
     s = 1e-3 * np.maximum(np.abs(z), 1.0)
@@ -519,7 +560,7 @@ def _curvature_covariance(plan, system_for, z: np.ndarray, p: int,
                 for sj in (1, -1):
                     index[(i, si, j, sj)] = len(points)
                     points.append(z + si * s[i] * np.eye(d)[i] + sj * s[j] * np.eye(d)[j])
-    f = _variants(plan, system_for, np.array(points), p, noisy).nll
+    f = _variants(plan, system_for, np.array(points), p, layout).nll
     if not np.isfinite(f).all():
         return None
     H = np.empty((d, d))

@@ -25,6 +25,7 @@ from ...skeleton.nodes import Symbol
 from ..numbers import Numbers
 from ..problem import FitResult, Problem
 from .kalman import fit_filter, likeliest_noises
+from .noises import NoiseLayout, check_process_noise
 
 __all__ = ["WINDOW", "filter_plan", "filter_stage", "noisy_states", "smoothing_level"]
 
@@ -32,17 +33,22 @@ __all__ = ["WINDOW", "filter_plan", "filter_stage", "noisy_states", "smoothing_l
 WINDOW = 200
 
 
-def noisy_states(problem: Problem) -> list[int]:
-    """Positions of the states a process noise enters: all but kinematic identities."""
+def noisy_states(problem: Problem) -> NoiseLayout:
+    """Which states a process noise enters, and which intensities are fitted.
+
+    By default every state but a kinematic identity, each with its own
+    intensity; the estimator's ``process_noise`` (``problem.process_noise``)
+    holds some at given values or shares one among several.
+    """
     states = list(problem.skeleton.states)
-    out = []
+    default = []
     for eq in problem.skeleton.parsed:
         if not eq.dynamic:
             continue
         identity = isinstance(eq.rhs, Symbol) and eq.rhs.name in states
         if not identity:
-            out.append(states.index(eq.state))
-    return out
+            default.append(states.index(eq.state))
+    return check_process_noise(problem.process_noise, states, default)
 
 
 def filter_plan(problem: Problem, system, *, whole: bool):

@@ -1,0 +1,104 @@
+"""Which states a process noise pushes, and which intensities are fitted: :class:`NoiseLayout`."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from numbers import Real
+
+import numpy as np
+
+__all__ = ["NoiseLayout", "check_process_noise"]
+
+
+@dataclass(frozen=True)
+class NoiseLayout:
+    """The process noise of each state: fitted (alone or shared), held at a value, or none.
+
+    Attributes
+    ----------
+    n_states : int
+        How many states the skeleton has.
+    groups : tuple of tuple of int
+        The states of each fitted intensity: one state each by default,
+        several where they share one.
+    held : tuple of (int, float)
+        States whose intensity is given, with its value. A state in
+        neither is not pushed.
+    """
+
+    n_states: int
+    groups: tuple[tuple[int, ...], ...]
+    held: tuple[tuple[int, float], ...] = ()
+
+    @classmethod
+    def each(cls, noisy: Sequence[int], n_states: int) -> NoiseLayout:
+        """Every state of ``noisy`` with its own fitted intensity, the others not pushed."""
+        return cls(int(n_states), tuple((int(j),) for j in noisy))
+
+    @property
+    def n_fitted(self) -> int:
+        """How many intensities are fitted."""
+        return len(self.groups)
+
+    def intensities(self, fitted: np.ndarray) -> np.ndarray:
+        """Every state's intensity, given the fitted ones (one per group)."""
+        q = np.zeros(self.n_states)
+        for j, value in self.held:
+            q[j] = value
+        for group, value in zip(self.groups, np.asarray(fitted, dtype=float)):
+            q[list(group)] = value
+        return q
+
+    def fitted_of(self, q: np.ndarray) -> np.ndarray:
+        """The fitted intensities ``q`` (one per state) gives: each group's mean."""
+        q = np.asarray(q, dtype=float)
+        return np.array([float(np.mean(q[list(group)])) for group in self.groups])
+
+
+def check_process_noise(process_noise: Mapping | None, states: Sequence[str],
+                        default: Sequence[int]) -> NoiseLayout:
+    """The layout the estimator's ``process_noise`` asks for, checked against the skeleton.
+
+    Parameters
+    ----------
+    process_noise : dict or None
+        State -> a non-negative number (its intensity, held) or a name (a
+        fitted intensity, shared by the states given the same name).
+    states : sequence of str
+        The skeleton's states, in order.
+    default : sequence of int
+        The states pushed, each by its own fitted intensity, where
+        ``process_noise`` does not say otherwise.
+
+    Raises
+    ------
+    ValueError
+        Naming the entry that is not a state, or whose value is neither a
+        non-negative number nor a name.
+    """
+    states = list(states)
+    settings = dict(process_noise or {})
+    for state, value in settings.items():
+        if state not in states:
+            raise ValueError(f"process_noise names {state!r}, which is not a state of the "
+                             f"skeleton (states: {', '.join(states)})")
+        number = isinstance(value, Real) and not isinstance(value, bool)
+        if number and not (np.isfinite(value) and value >= 0):
+            raise ValueError(f"process_noise[{state!r}] must be a non-negative intensity or a "
+                             f"name, got {value!r}")
+        if not number and not (isinstance(value, str) and value.strip()):
+            raise ValueError(f"process_noise[{state!r}] must be a non-negative intensity (held) "
+                             f"or a name (fitted, shared by the states given it), got "
+                             f"{value!r}")
+    groups: dict[str, list[int]] = {}
+    held = []
+    for j, state in enumerate(states):
+        value = settings.get(state, state if j in set(default) else 0.0)
+        if isinstance(value, str):
+            # a default state's own group is keyed so that no name given can join it
+            key = value.strip() if state in settings else f"\0{state}"
+            groups.setdefault(key, []).append(j)
+        elif value > 0:
+            held.append((j, float(value)))
+    return NoiseLayout(len(states), tuple(tuple(g) for g in groups.values()), tuple(held))
