@@ -17,11 +17,14 @@ likelihood is the sum of theirs: the information that crosses a segment's
 boundary is all that is lost, little where the segments are far longer than
 the states' memory under the process noise.
 
-A state's hard limits hold inside the filter as in a simulation: the mean is
-kept within them after each update and integration step, each state is bumped
-into its range, and a state a step leaves at its limit is read as a censored
-normal (:func:`_held_at_limits`): held there where the flow presses hard, with
-about a third of its spread where it barely presses.
+A state's hard limits hold inside the filter: each segment starts within them
+(a truncated normal), the states a state feeds read it at its limits, and
+after each step every state near a limit is read as a censored normal
+(:func:`_censored`): the step moves it past the limit by as much as the flow
+presses on it, and the state is the smaller of that normal and the limit,
+held there where the flow presses hard, spread where it barely presses. The
+reading is smooth in the prediction, so the likelihood is smooth in the
+numbers the search moves. Each state is bumped away from its nearer limit.
 
 Many variants of the system (the bumps of a finite-difference gradient) are
 filtered in the same pass: the cost is in the calls, not in the rows; their
@@ -114,7 +117,7 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
                                                              limits_per_row=True)
     if stacked is None:
         raise ValueError("the systems filtered side by side must differ only in their numbers")
-    rhs, pressing, columns, lefts = _rates(plan, stacked, copies * (n + 1), copies * rows_per)
+    rhs, columns, lefts = _rates(plan, stacked, copies * (n + 1), copies * rows_per)
     q = np.asarray(process_sd, dtype=float).reshape(copies, n) ** 2
     Q = np.repeat(q[:, None, :], K, axis=1).reshape(copies * K, n)  # diagonal, per segment
     r2 = np.repeat((np.asarray(measurement_sd, dtype=float).reshape(copies, -1) ** 2)[:, None],
@@ -126,6 +129,8 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     bound = np.asarray(plan.bound, dtype=float)
     limited = bool(stacked.limits)
     low_end, high_end = _limit_ends(systems, plan.states, K)  # (copies K, n)
+    row_ends = [np.repeat(end.reshape(copies, 1, K, n), n + 1, axis=1).reshape(-1, n)
+                for end in (low_end, high_end)]  # the integrated rows' order
     # each segment starts broad, within the states' limits
     x, P = _truncated_start(np.tile(np.asarray(plan.initial, dtype=float), (copies, 1)),
                             scale**2, low_end, high_end)  # (copies K, n), (copies K, n, n)
@@ -206,30 +211,27 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
                 break
             h = h_all[:, i]
             step = BUMP * np.maximum(np.abs(x), scale)  # (copies K, n)
-            if limited:  # bumped into the states' range: beyond a limit the flow is flat
-                step = np.where((x + step > high_end) & (x - step >= low_end), -step, step)
+            if limited:  # bumped away from the nearer limit: beyond it the flow is flat
+                step = np.where(high_end - x < x - low_end, -step, step)
             points = np.repeat(x[:, None, :], n + 1, axis=1)  # (copies K, n + 1, n)
             points[:, 1:] += step[:, :, None] * eye
             # rows ordered (copy, point, segment): each variant's rows stay together
             z = points.reshape(copies, K, n + 1, n).transpose(0, 2, 1, 3).reshape(-1, n)
             hz = np.repeat(h.reshape(copies, K)[:, None, :], n + 1, axis=1).reshape(-1, 1)
             sub = hz / m
-            for j in range(m):
+            for j in range(m):  # past a limit by as much as the flow presses on it
                 z = rk4_step(rhs, z, sub, 2 * (i * m + j), right=columns, left=lefts)
-                if limited:  # held at a limit, as a simulation holds it
-                    stacked.clip(z)
-            if limited:  # at each mean at the step's end (rows of point 0)
-                rates = pressing(z, 2 * (i + 1) * m, lefts).reshape(
-                    copies, n + 1, K, n)[:, 0].reshape(copies * K, n)
+            if limited:
+                z = _pressed_past(z, rhs(z, 2 * (i + 1) * m, lefts), hz, *row_ends)
             z = z.reshape(copies, n + 1, K, n).transpose(0, 2, 1, 3).reshape(copies * K, n + 1, n)
             x = z[:, 0]
             F = ((z[:, 1:] - x[:, None, :]) / step[:, :, None]).transpose(0, 2, 1)
             half = Q * (h[:, None] / 2.0)
-            spread = np.diagonal(P, axis1=1, axis2=2) + 2.0 * half  # before the step, and its push
             P = F @ (P + half[:, :, None] * eye) @ F.transpose(0, 2, 1) + half[:, :, None] * eye
-            if limited:
-                x, P = _held_at_limits(x, P, rates * h[:, None], spread, low=low_end,
-                                       high=high_end, floor=(BUMP * scale) ** 2)
+            if limited:  # the smoother carries a state back as far as it was not censored
+                x, P, through = _censored(x, P, low=low_end, high=high_end,
+                                          floor=(BUMP * scale) ** 2)
+                F = F * through[:, :, None]
             if keep:
                 kept["transitions"][:, i] = F
             bad = ~(np.isfinite(x).all(axis=1) & (np.abs(x) <= bound).all(axis=1)
@@ -253,65 +255,94 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
 
 
 def _rates(plan, stacked: CompiledSystem, repeat: int, rows: int):
-    """``rhs(x, column, source)`` on the stacked rows, its unheld twin, and the inputs it reads.
+    """``rhs(x, column, source)`` on the stacked rows, and the inputs it reads.
 
     The inputs are read at the plan's fine columns (``columns``, and
-    ``lefts`` after a held input's step), each tiled ``repeat`` times. The
-    twin gives the rates as the equations give them where a limit holds a
-    state: how hard they press on it.
+    ``lefts`` after a held input's step), each tiled ``repeat`` times. A
+    state past a limit is read at the limit, and its rate is the one the
+    equations give there: a state the flow presses on its limit moves past
+    it by as much as the flow presses (:func:`_censored` reads that), while
+    the states it feeds see it at the limit.
     """
     fine, ends = plan.fine_signals(), plan.fine_signals(left=True)
     signals = [name for name in fine if name in stacked.slots]
     columns = [fine[name].T.copy() for name in signals]
     lefts = columns if ends is fine else [ends[name].T.copy() for name in signals]
-    held, unheld = stacked.batch_rhs(rows, signals), stacked.batch_rhs(rows, signals, hold=False)
+    evaluate = stacked.batch_rhs(rows, signals, hold=False)
+    limits = bool(stacked.limits)
 
-    def rhs(x, column, source, *, evaluate=held):
-        if limits:  # a stage that overshoots a limit reads the state there, as a bump does
+    def rhs(x, column, source):
+        if limits:
             x = stacked.clip(x.copy())
         return evaluate(x, [np.tile(values[column], repeat) for values in source])
 
-    limits = bool(stacked.limits)
-
-    def pressing(x, column, source):
-        return rhs(x, column, source, evaluate=unheld)
-
-    return rhs, pressing, columns, lefts
+    return rhs, columns, lefts
 
 
-def _held_at_limits(x: np.ndarray, P: np.ndarray, pressed: np.ndarray, spread: np.ndarray, *,
-                    low: np.ndarray, high: np.ndarray,
-                    floor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each state a step left at a limit, read as a censored normal (its mean and variance).
+def _pressed_past(z: np.ndarray, rates: np.ndarray, h: np.ndarray, low: np.ndarray,
+                  high: np.ndarray) -> np.ndarray:
+    """Rows a step carried past a limit, no farther than the flow at the limit presses them.
 
-    A state held at its limit has a flat Jacobian there, which would claim
-    it known exactly. Its value is rather ``min(Y, high)`` (``max`` at a low
-    limit) of a normal ``Y`` with the variance ``spread`` the state had
-    before the step plus the step's push, centred beyond the limit by
-    ``pressed`` (the rate pressing on it times the step): a flow that presses
-    hard holds it at the limit, one that barely presses leaves it about a
-    third of that variance, and a mean a little inside. A variance is never
-    below ``floor`` (per state): a state held without a push, or pressed
-    hard, is never quite known, so the smoother can carry the others back
-    beside it and a pass with no process noise stays finite.
+    The integration's stages overshoot a limit the flow reaches in finite
+    time (a tank draining through a square root empties and stays empty),
+    where the flow at the limit does not press at all; read as a push
+    against the floor, that overshoot would hold the level there too
+    firmly. ``rates`` are the rates at each row's end, read at the limit.
     """
-    at_high, at_low = x >= high, x <= low
-    held = at_high | at_low
-    if not held.any():
-        return x, P
-    s = np.sqrt(np.where(held, np.maximum(spread, floor), 1.0))
-    beyond = np.where(at_high, pressed, np.where(at_low, -pressed, 0.0))
-    z = np.where(held, -np.maximum(beyond, 0.0) / s, 0.0)  # the limit in units of s from Y's mean
-    mass, density = ndtr(z), np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)
-    first = -z * mass - density  # E[min(Y, b) - b] / s
-    second = (z * z + 1.0) * mass + z * density
-    variance = np.maximum((second - first**2) * s * s, floor)
-    inward = np.where(at_high, 1.0, -1.0) * first * s  # a held state's mean, off the limit
-    x = np.where(held, x + inward, x)
-    free = (~held).astype(float)
-    P = P * free[:, :, None] * free[:, None, :]  # a held state shares nothing with the others
-    P[:, np.arange(x.shape[1]), np.arange(x.shape[1])] += np.where(held, variance, 0.0)
-    return x, P
+    rates = np.where(np.isfinite(rates), rates, 0.0)
+    z = np.minimum(z, high + np.maximum(rates, 0.0) * h)
+    return np.maximum(z, low + np.minimum(rates, 0.0) * h)
+
+
+#: a limit this many standard deviations away from a state's mean leaves it as it is
+CENSOR_REACH = 8.0
+
+
+def _censored(x: np.ndarray, P: np.ndarray, *, low: np.ndarray, high: np.ndarray,
+              floor: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The predicted states read through their limits: each a censored normal.
+
+    A step moves a state as the equations do, past a limit by as much as
+    the flow presses on it. The state itself is ``min(Y, high)`` (``max``
+    at a low limit) of the normal ``Y`` the step predicts: its mean and
+    variance are those of the censored normal, and its covariances with the
+    others are scaled by the chance that it is below the limit. A flow that
+    presses hard holds it at the limit (nearly known, sharing nothing), one
+    that barely presses leaves it spread, its mean a little inside; a state
+    whose limit lies beyond :data:`CENSOR_REACH` standard deviations is left
+    as it is. The censoring is smooth in the prediction, so the likelihood
+    is smooth in the numbers (a state that a step leaves just short of its
+    limit is read almost as one that reaches it). A variance is never below
+    ``floor`` (per state): a state held without a push, or pressed hard, is
+    never quite known, so the smoother can carry the others back beside it
+    and a pass with no process noise stays finite.
+
+    Returns the means, the covariances and each state's chance of lying
+    within its limits: the factor its covariance with the state before the
+    step was scaled by (the step's Jacobian, row by row, as the smoother
+    reads it).
+    """
+    n = x.shape[1]
+    diagonal = np.arange(n)
+    through = np.ones_like(x)
+    for limit, sign in ((high, 1.0), (low, -1.0)):
+        sd = np.sqrt(np.maximum(P[:, diagonal, diagonal], floor))
+        with np.errstate(invalid="ignore"):
+            z = sign * (limit - x) / sd  # the limit in units of sd from the mean, inside > 0
+        near = np.isfinite(z) & (z < CENSOR_REACH)
+        if not near.any():
+            continue
+        z = np.where(near, z, CENSOR_REACH)
+        mass, density = ndtr(z), np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)
+        first = -z * mass - density  # E[min(W - z, 0)], W standard normal
+        second = (z * z + 1.0) * mass + z * density
+        variance = np.maximum((second - first**2) * sd * sd, floor)
+        x = np.where(near, np.where(near, limit, 0.0) + sign * first * sd, x)
+        keep = np.where(near, mass, 1.0)
+        through = through * keep
+        P = P * keep[:, :, None] * keep[:, None, :]
+        P[:, diagonal, diagonal] = np.where(near, variance, P[:, diagonal, diagonal])
+    return x, P, through
 
 
 def _truncated_start(x: np.ndarray, variance: np.ndarray, low: np.ndarray,
@@ -535,7 +566,8 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
                       bounds=list(zip((low - z0) / unit, (high - z0) / unit)),
                       options={"maxiter": int(max_iterations), "ftol": 1e-10, "gtol": 1e-6})
     z = z0 + unit * result.x
-    search_cov = _curvature_covariance(plan, system_for, z, p, layout)
+    steps = _curvature_steps(plan, system_for, z, p, layout=layout, unit=unit)
+    search_cov = _curvature_covariance(plan, system_for, z, p, layout=layout, s=steps)
     theta, q, r = _numbers(z, p, layout)
     info = {"nll": float(result.fun), "iterations": int(result.nit),
             "converged": bool(result.success),
@@ -544,16 +576,49 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
     return theta, q, r, info
 
 
-def _curvature_covariance(plan, system_for, z: np.ndarray, p: int,
-                          layout: NoiseLayout) -> np.ndarray | None:
-    """The inverse of the negative log-likelihood's Hessian at ``z`` (one pass of bumps)."""
+def _curvature_steps(plan, system_for, z: np.ndarray, p: int, *, layout: NoiseLayout,
+                     unit: np.ndarray) -> np.ndarray:
+    """Each number's bump for the curvature: a tenth of its standard error, as a pilot reads it.
+
+    The pilot bumps each number by the search's ``unit``; a number whose
+    curvature it cannot read keeps that unit. Bumps far below the standard
+    error would read rounding, far above it the likelihood's bends.
+    """
     d = len(z)
-    s = 1e-3 * np.maximum(np.abs(z), 1.0)
+    points = np.vstack([z, z + np.diag(unit), z - np.diag(unit)])
+    f = _variants(plan, system_for, points, p, layout).nll
+    with np.errstate(all="ignore"):
+        curvature = (f[1:d + 1] - 2 * f[0] + f[d + 1:]) / unit**2
+        steps = 0.1 / np.sqrt(curvature)
+    return np.where(np.isfinite(steps) & (steps > 0), np.minimum(steps, unit), unit)
+
+
+#: how much farther than its own bump each number is bumped again, to check the curvature
+CURVATURE_CHECK = 10.0
+#: the most the curvature may change between the two bumps for the covariance to be given
+CURVATURE_AGREEMENT = 1.5
+
+
+def _curvature_covariance(plan, system_for, z: np.ndarray, p: int, *, layout: NoiseLayout,
+                          s: np.ndarray) -> np.ndarray | None:
+    """The inverse of the negative log-likelihood's Hessian at ``z`` (one pass of bumps).
+
+    ``s`` is each number's bump (:func:`_curvature_steps`: a tenth of its
+    standard error). Each number is also bumped :data:`CURVATURE_CHECK` times as
+    far: where a parameter's curvature there differs from the near one by
+    more than a factor :data:`CURVATURE_AGREEMENT`, the likelihood is not
+    the smooth bowl the covariance would describe (states held at their
+    limits, sample after sample, leave it rippled) and None is returned
+    rather than standard errors the ripples set.
+    """
+    d = len(z)
     points, index = [z], {}
     for i in range(d):
         for sign in (1, -1):
             index[(i, sign)] = len(points)
             points.append(z + sign * s[i] * np.eye(d)[i])
+            index[(i, sign, "far")] = len(points)
+            points.append(z + sign * CURVATURE_CHECK * s[i] * np.eye(d)[i])
     for i in range(d):
         for j in range(i + 1, d):
             for si in (1, -1):
@@ -566,6 +631,11 @@ def _curvature_covariance(plan, system_for, z: np.ndarray, p: int,
     H = np.empty((d, d))
     for i in range(d):
         H[i, i] = (f[index[(i, 1)]] - 2 * f[0] + f[index[(i, -1)]]) / s[i] ** 2
+        far = (f[index[(i, 1, "far")]] - 2 * f[0] + f[index[(i, -1, "far")]]) / (
+            CURVATURE_CHECK * s[i]) ** 2
+        if i < p and not (H[i, i] > 0 and far > 0 and max(H[i, i], far)
+                          <= CURVATURE_AGREEMENT * min(H[i, i], far)):
+            return None
         for j in range(i + 1, d):
             H[i, j] = H[j, i] = (f[index[(i, 1, j, 1)]] - f[index[(i, 1, j, -1)]]
                                  - f[index[(i, -1, j, 1)]] + f[index[(i, -1, j, -1)]]) / (
