@@ -281,8 +281,10 @@ class NeuralBackend(Backend):
         Near the fitted networks a curve changes mostly through its last
         layer, in which it is linear (its last hidden layer's outputs are the
         basis); the inner layers keep what training drew. The last layers
-        move in the null space of the point constraints (which then hold
-        exactly); a monotone curve is held as training shaped it. The
+        move along the few directions that change the curve
+        (:func:`_last_layer_directions`), in the null space of the point
+        constraints (which then hold exactly); a monotone curve is held as
+        training shaped it. The
         labelled numbers are the parameters alone, as ``covariance_`` names
         them for every neural fit: the curves are nuisances whose freedom
         their errors account for.
@@ -294,7 +296,7 @@ class NeuralBackend(Backend):
             return parameters_only(problem, result)
         free_params = problem.free_params
         fixed = dict(problem.fixed_params)
-        pieces = []  # (curve, its fitted network, the directions its last layer moves in)
+        pieces = []  # (name, its fitted network, the directions its last layer moves in)
         for name in names:
             curve = result.functions[name]
             pieces.append((name, curve, _last_layer_directions(curve, problem.points(name))))
