@@ -250,6 +250,12 @@ def test_curves_that_differ_in_their_last_layers_are_evaluated_side_by_side(
     rows = rng.uniform(-2.5, 3.0, 160)  # beyond the domain too, on both sides
     alone = np.concatenate([curve(rows[40 * b:40 * (b + 1)]) for b, curve in enumerate(curves)])
     np.testing.assert_allclose(stacked(rows), alone, rtol=0, atol=1e-8 * np.abs(alone).max())
+    # a row that diverged reads NaN, as each curve gives it, and leaves the others be
+    rows[7] = np.nan
+    out = stacked(rows)
+    assert np.isnan(out[7]) and np.isnan(curves[0](np.array([np.nan])))[0]
+    np.testing.assert_allclose(np.delete(out, 7), np.delete(alone, 7), rtol=0,
+                               atol=1e-8 * np.abs(alone).max())
     # curves with their own inner layers are not stacked this way
     other = CurveNet("f1", (8, 6), activation, 0.2, 1.5, parity=parity, points=points,
                      exact=True, generator=generator, dtype=torch.float64)

@@ -244,7 +244,9 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         not pushed, ``{"x2": 0}`` for a level fed only through a pipe), a
         name makes the states given it share one fitted intensity
         (``{"x1": "load", "x2": "load"}``). States it does not name keep the
-        default; a kinematic identity is pushed only where named.
+        default; a kinematic identity is pushed only where named. With no
+        intensity left to fit, ``"auto"`` has no push to recognise and keeps
+        output error.
 
     Attributes
     ----------

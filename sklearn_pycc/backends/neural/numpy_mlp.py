@@ -440,11 +440,12 @@ class _StackedLastLayers(Curve):
             out = np.einsum("ij,ij->i", first.hidden_features(clipped), self.weights)
         else:
             start, inverse, pieces, block = self.table
-            position = (clipped - start) * inverse
+            lost = np.isnan(clipped)  # a row that diverged reads NaN, as the curve gives it
+            position = (np.where(lost, lo, clipped) - start) * inverse
             k = np.minimum(position.astype(np.intp), pieces.shape[1] - 1)
             s = position - k
             c0, c1, c2, c3 = pieces[:, k, block]
-            out = c0 + s * (c1 + s * (c2 + s * c3))
+            out = np.where(lost, np.nan, c0 + s * (c1 + s * (c2 + s * c3)))
         if first.coefficients.size:
             u = (clipped - first.center) / first.scale
             out = out + np.power.outer(u, first.exponents) @ first.coefficients

@@ -617,8 +617,9 @@ def _curvature_covariance(plan, system_for, z: np.ndarray, p: int, *, layout: No
         for sign in (1, -1):
             index[(i, sign)] = len(points)
             points.append(z + sign * s[i] * np.eye(d)[i])
-            index[(i, sign, "far")] = len(points)
-            points.append(z + sign * CURVATURE_CHECK * s[i] * np.eye(d)[i])
+            if i < p:  # the parameters' curvature is checked (a noise's may well bend)
+                index[(i, sign, "far")] = len(points)
+                points.append(z + sign * CURVATURE_CHECK * s[i] * np.eye(d)[i])
     for i in range(d):
         for j in range(i + 1, d):
             for si in (1, -1):
@@ -631,11 +632,12 @@ def _curvature_covariance(plan, system_for, z: np.ndarray, p: int, *, layout: No
     H = np.empty((d, d))
     for i in range(d):
         H[i, i] = (f[index[(i, 1)]] - 2 * f[0] + f[index[(i, -1)]]) / s[i] ** 2
-        far = (f[index[(i, 1, "far")]] - 2 * f[0] + f[index[(i, -1, "far")]]) / (
-            CURVATURE_CHECK * s[i]) ** 2
-        if i < p and not (H[i, i] > 0 and far > 0 and max(H[i, i], far)
-                          <= CURVATURE_AGREEMENT * min(H[i, i], far)):
-            return None
+        if i < p:
+            far = (f[index[(i, 1, "far")]] - 2 * f[0] + f[index[(i, -1, "far")]]) / (
+                CURVATURE_CHECK * s[i]) ** 2
+            if not (H[i, i] > 0 and far > 0
+                    and max(H[i, i], far) <= CURVATURE_AGREEMENT * min(H[i, i], far)):
+                return None
         for j in range(i + 1, d):
             H[i, j] = H[j, i] = (f[index[(i, 1, j, 1)]] - f[index[(i, 1, j, -1)]]
                                  - f[index[(i, -1, j, 1)]] + f[index[(i, -1, j, -1)]]) / (
