@@ -446,7 +446,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                           hold_chosen=getattr(self, "input_hold", "auto") == "auto",
                           observed=({o: record.data[o] for o in skeleton.outputs}
                                     if record.hidden else {}),
-                          process_noise=getattr(self, "process_noise", None))
+                          process_noise=self.process_noise)
         return problem, facts
 
     def _problem_of(self, X) -> Problem:
@@ -521,9 +521,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                              f"(fit_mode='simulation')")
         backend = self._make_backend()
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
-        process_noise = getattr(self, "process_noise", None)
-        if process_noise is not None:
-            check_process_noise(process_noise, skeleton.states, [])
+        if self.process_noise is not None:
+            check_process_noise(self.process_noise, skeleton.states, [])
             if self.fit_mode in ("equation", "simulation"):
                 warnings.warn(f"process_noise is read by the filter (fit_mode='filter', or "
                               f"'auto' where it recognises a push); fit_mode="

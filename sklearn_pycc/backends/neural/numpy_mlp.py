@@ -132,17 +132,12 @@ class NumpyCurve(Curve):
             if scale is None:
                 scale = max(float(np.max(np.abs(v))), 1e-300)
             h = np.diff(x)
-            m0, m1 = d[:-1] * h, d[1:] * h
-            middle = 0.5 * (v[:-1] + v[1:]) + (m0 - m1) / 8.0
+            middle, pieces = _hermite(v, d, h)
             error = np.abs(middle - self.inside_value(x[:-1] + 0.5 * h))
             bad = error > TABLE_TOLERANCE * scale
             if not bad.any():
-                y0, y1 = v[:-1], v[1:]
-                c2 = 3.0 * (y1 - y0) - 2.0 * m0 - m1
-                c3 = 2.0 * (y0 - y1) + m0 + m1
                 self.table_error = float(error.max()) / scale
-                return (x[:-1].tolist(), (1.0 / h).tolist(), y0.tolist(), m0.tolist(),
-                        c2.tolist(), c3.tolist())
+                return (x[:-1].tolist(), (1.0 / h).tolist(), *(c.tolist() for c in pieces))
             x = np.sort(np.concatenate([x, x[:-1][bad] + 0.5 * h[bad]]))
         self.table_error = None
         return None
@@ -272,13 +267,10 @@ class NumpyCurve(Curve):
             x = np.linspace(lo, hi, n + 1)
             h = (hi - lo) / n
             v, d = self._features_and_slopes(x)
-            m0, m1 = d[:-1] * h, d[1:] * h
-            middle = 0.5 * (v[:-1] + v[1:]) + (m0 - m1) / 8.0
+            middle, pieces = _hermite(v, d, h)
             error = np.abs(middle - self.hidden_features(x[:-1] + 0.5 * h)).max()
             if error <= TABLE_TOLERANCE * max(float(np.abs(v).max()), 1e-300):
-                y0, y1 = v[:-1], v[1:]
-                return lo, 1.0 / h, np.stack([y0, m0, 3.0 * (y1 - y0) - 2.0 * m0 - m1,
-                                              2.0 * (y0 - y1) + m0 + m1])
+                return lo, 1.0 / h, np.stack(pieces)
             n *= 2
         return None
 
@@ -381,7 +373,8 @@ class NumpyCurve(Curve):
             if self.extrapolation == "clip":
                 return v_lo if x < lo else v_hi
             return v_lo + s_lo * (x - lo) if x < lo else v_hi + s_hi * (x - hi)
-        table = self._table
+        table = self._tabulated  # the ODE path: an attribute, the property only once
+        table = self._table if table is None else table[0]
         if table is None:
             return float(self.inside_value(np.array([x]))[0])
         nodes, inverse, c0, c1, c2, c3 = table
@@ -395,6 +388,20 @@ class NumpyCurve(Curve):
         sizes = [w.shape[0] for w, _ in self.layers[:-1]]
         return (f"NumpyCurve({self.name!r}, hidden={sizes}, activation={self.activation!r}, "
                 f"parity={self.parity!r}, domain=({self.domain[0]:.4g}, {self.domain[1]:.4g}))")
+
+
+def _hermite(v: np.ndarray, d: np.ndarray, h):
+    """Cubic Hermite pieces through values ``v`` and slopes ``d`` at nodes ``h`` apart.
+
+    Returns the pieces' midpoints and their coefficients ``(c0, c1, c2, c3)``
+    in the interval's own unit (``c0 + s (c1 + s (c2 + s c3))``, ``s`` in
+    [0, 1]). ``v`` and ``d`` may hold several functions, one per column.
+    """
+    h = np.asarray(h, dtype=float).reshape((-1,) + (1,) * (v.ndim - 1)) if np.ndim(h) else h
+    m0, m1 = d[:-1] * h, d[1:] * h
+    y0, y1 = v[:-1], v[1:]
+    middle = 0.5 * (y0 + y1) + (m0 - m1) / 8.0
+    return middle, (y0, m0, 3.0 * (y1 - y0) - 2.0 * m0 - m1, 2.0 * (y0 - y1) + m0 + m1)
 
 
 class _StackedLastLayers(Curve):

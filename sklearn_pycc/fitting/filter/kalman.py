@@ -131,9 +131,10 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     low_end, high_end = _limit_ends(systems, plan.states, K)  # (copies K, n)
     row_ends = [np.repeat(end.reshape(copies, 1, K, n), n + 1, axis=1).reshape(-1, n)
                 for end in (low_end, high_end)]  # the integrated rows' order
-    # each segment starts broad, within the states' limits
-    x, P = _truncated_start(np.tile(np.asarray(plan.initial, dtype=float), (copies, 1)),
-                            scale**2, low_end, high_end)  # (copies K, n), (copies K, n, n)
+    # each segment starts broad, within the states' limits (and starts so again if it fails)
+    x0, P0 = _truncated_start(np.tile(np.asarray(plan.initial, dtype=float), (copies, 1)),
+                              scale**2, low_end, high_end)  # (copies K, n), (copies K, n, n)
+    x, P = x0, P0
     eye = np.eye(n)
     used = np.flatnonzero(plan.own.ravel())
     terms = np.zeros((copies * K, L + 1))
@@ -238,8 +239,6 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
                     & np.isfinite(P).all(axis=(1, 2)))
             if bad.any():  # a variant's segment that diverged fails, and starts again
                 failed |= bad
-                x0, P0 = _truncated_start(np.tile(plan.initial, (copies, 1)), scale**2,
-                                          low_end, high_end)
                 x = np.where(bad[:, None], x0, x)
                 P = np.where(bad[:, None, None], P0, P)
     nll = terms.sum(axis=1)
@@ -337,7 +336,7 @@ def _censored(x: np.ndarray, P: np.ndarray, *, low: np.ndarray, high: np.ndarray
         first = -z * mass - density  # E[min(W - z, 0)], W standard normal
         second = (z * z + 1.0) * mass + z * density
         variance = np.maximum((second - first**2) * sd * sd, floor)
-        x = np.where(near, np.where(near, limit, 0.0) + sign * first * sd, x)
+        x = np.where(near, limit + sign * first * sd, x)
         keep = np.where(near, mass, 1.0)
         through = through * keep
         P = P * keep[:, :, None] * keep[:, None, :]
