@@ -47,6 +47,7 @@ from .exceptions import (
     RankDeficiencyWarning,
     SimulationError,
     SkeletonError,
+    StartsWarning,
 )
 from .skeleton import Skeleton
 
@@ -66,6 +67,7 @@ __all__ = [
     "SimulationError",
     "Skeleton",
     "SkeletonError",
+    "StartsWarning",
     "SymbolicCCRegressor",
     "check_innovations",
     "compare_skeletons",

@@ -10,6 +10,7 @@ __all__ = [
     "RankDeficiencyWarning",
     "SimulationError",
     "SkeletonError",
+    "StartsWarning",
 ]
 
 
@@ -84,6 +85,10 @@ class GaugeWarning(UserWarning):
 
 class RankDeficiencyWarning(UserWarning):
     """The design matrix of a fit is rank deficient on the given data."""
+
+
+class StartsWarning(UserWarning):
+    """Starts of an output-error fit end equally well at different parameters (``starts_``)."""
 
 
 class ExtrapolationWarning(UserWarning):

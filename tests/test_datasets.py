@@ -452,8 +452,8 @@ def test_public_api():
     assert sorted(datasets.__all__) == ["add_sensor_noise",
                                         "make_duffing", "make_experiments", "make_first_order",
                                         "make_heated_tank", "make_oscillator", "make_pendulum",
-                                        "make_positioning_axis",
-                                        "make_resonator", "make_stick_slip", "make_two_dof",
+                                        "make_positioning_axis", "make_resonator",
+                                        "make_rooms", "make_stick_slip", "make_two_dof",
                                         "make_two_tanks", "make_van_der_pol"]
     assert datasets.__doc__
     for name in datasets.__all__:
@@ -471,6 +471,7 @@ def test_public_api():
 
 def test_module_imports_only_skeleton_and_exceptions():
     from sklearn_pycc.datasets import (
+        _buildings,
         _generation,
         _lab_records,
         _oscillators,
@@ -479,7 +480,7 @@ def test_module_imports_only_skeleton_and_exceptions():
     )
 
     for module in (datasets, _oscillators, _lab_records, _process_records, _generation,
-                   _sensor_noise):
+                   _sensor_noise, _buildings):
         _check_imports(module)
 
 
@@ -492,11 +493,14 @@ def _check_imports(module):
         if isinstance(node, ast.ImportFrom) and node.level > 0:
             allowed = ("_generation",)
             if module is datasets:  # the package gathers its modules' generators
-                allowed = ("_oscillators", "_lab_records", "_process_records", "_sensor_noise")
+                allowed = ("_oscillators", "_lab_records", "_process_records", "_sensor_noise",
+                           "_buildings")
             if module.__name__.endswith("_oscillators"):
                 allowed += ("skeleton", "effects")
             if module.__name__.endswith("_process_records"):  # the signals of the lab's
                 allowed += ("_lab_records",)
+            if module.__name__.endswith("_buildings"):  # the process records' held input
+                allowed += ("_lab_records", "_process_records")
             assert node.module in allowed, (module.__name__, node.module)
         if isinstance(node, ast.ImportFrom) and node.module:
             assert "estimators" not in node.module

@@ -34,9 +34,18 @@ sampled in closed loop, few samples per period, dropped samples):
 - :func:`make_positioning_axis`: a positioning axis under a sampled PD
   controller, read by an incremental encoder;
 - :func:`make_resonator`: a lightly damped hardening oscillator driven by a
-  multisine and sampled at about ten samples per period.
+  multisine and sampled at about ten samples per period;
+
+and records of plants and buildings, with states no sensor reads:
+
+- :func:`make_two_tanks`: a cascade of two tanks, the upper level unmeasured;
+- :func:`make_heated_tank`: a stirred tank heated through a pipe, its power
+  read a transport delay late;
+- :func:`make_rooms`: rooms in a row heated through their walls, the walls'
+  temperatures unmeasured, time in hours, minutes or seconds.
 """
 
+from ._buildings import make_rooms
 from ._lab_records import make_pendulum, make_positioning_axis, make_resonator
 from ._oscillators import (  # and the table make_oscillator's docs point to
     HIDDEN_DEFAULTS as HIDDEN_DEFAULTS,
@@ -63,6 +72,7 @@ __all__ = [
     "make_pendulum",
     "make_positioning_axis",
     "make_resonator",
+    "make_rooms",
     "make_stick_slip",
     "make_two_dof",
     "make_two_tanks",

@@ -60,6 +60,21 @@ class LimitTrial:
     failure: str = ""
 
 
+def _starts_line(starts: pd.DataFrame | None) -> str:
+    """Which start of the output-error fit was kept, and where the others ended, in words."""
+    if starts is None or not len(starts) or not starts["kept"].any():
+        return ""
+    kept = starts[starts["kept"]].iloc[0]
+    others = starts[~starts["kept"]]
+    text = (f"The fit tried {len(starts)} start{'s' * (len(starts) > 1)}; "
+            f"'{kept.start}' was kept (NRMSE {kept.nrmse:.3g})")
+    if len(others):
+        text += "; the others ended at NRMSE " + ", ".join(
+            f"{row.nrmse:.3g}" + (" (on trial)" if row.polished == "trial" else "")
+            for row in others.itertuples())
+    return text + "."
+
+
 @dataclass(repr=False)
 class UnmeasuredDiagnosis(Diagnosis):
     """A :class:`Diagnosis` of a model with unmeasured states (see :func:`diagnose`).
@@ -89,6 +104,9 @@ class UnmeasuredDiagnosis(Diagnosis):
                          f"(NRMSE {row.nrmse:.3g})")
         for d in self.divergences:
             lines.append(f"    FAILURE: {d}")
+        starts = _starts_line(getattr(model, "starts_", None))
+        if starts:
+            lines.append(starts)
         lines.append("")
         if self.best is None:
             lines.append("Nothing is missing among the limits tried: " + (

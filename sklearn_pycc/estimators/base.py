@@ -306,6 +306,14 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         whole experiments), ``unseen`` (directions the measurements cannot
         fix, in words) and ``whole_record_starts`` (the starts of the last,
         whole-record pass; the best is kept).
+    starts_ : DataFrame
+        Only after an output-error fit with unmeasured states: one row per
+        start of the whole-record pass (``start``: where it came from;
+        ``nrmse_start`` and ``nrmse``: the measured states' normalised RMSE
+        simulated from it and after polishing; ``polished``: "whole", or
+        "trial" for a start dropped after a few evaluations; ``kept``). Two
+        starts that simulate the record equally well at different parameters
+        raise a :class:`~sklearn_pycc.StartsWarning`.
     n_features_in_ : int
         Number of columns of ``X`` seen in ``fit``.
     feature_names_in_ : ndarray

@@ -23,8 +23,9 @@ from .projected_start import projected_start
 from .whole_record import ESCAPED, WholeRecord, state_bounds, within_limits, zero_curves
 
 __all__ = ["START_FACTORS", "along_hidden_scale", "check_visible", "hidden_trajectories",
-           "initial_table", "limit_start", "opened_limits", "rates_on", "ratio_start",
+           "initial_table", "limit_start", "opened_limits", "rate_span", "rates_on", "ratio_start",
            "rescaled", "scale_family", "scaled_start", "settled_error", "single_shooting",
+           "start_factors",
            "starting_params", "unseen_directions", "whole_record_covariance"]
 
 
@@ -120,8 +121,42 @@ def initial_table(problem: Problem, first: np.ndarray, states: Sequence[str]) ->
                         columns=list(problem.hidden))
 
 
-#: common factors of the starting parameters tried before output error (param_init aside)
+#: common factors of the starting parameters tried before output error (param_init aside),
+#: for a record sampled every time unit over a thousand: :func:`start_factors` moves them
+#: to the record's own time scales
 START_FACTORS = 10.0 ** np.arange(-4.0, 2.01, 0.5)
+
+
+def rate_span(problem: Problem) -> tuple[float, float] | None:
+    """Powers of ten of the slowest and the fastest rate the record can show, in its time unit.
+
+    A tenth of one over its longest experiment, and one over its median
+    sampling step (a state faster than that settles within a sample); None
+    for a record with fewer than two times. Grids laid from the slow end in
+    steps of a fixed size sit at the same places whatever the unit of time.
+    """
+    timed = [e for e in problem.experiments if e.n_samples > 1]
+    steps = np.concatenate([np.diff(e.t) for e in timed]) if timed else np.zeros(0)
+    steps = steps[steps > 0]
+    if not steps.size:
+        return None
+    longest = max(float(e.t[-1] - e.t[0]) for e in timed)
+    return float(np.log10(0.1 / longest)), float(np.log10(1.0 / float(np.median(steps))))
+
+
+def start_factors(problem: Problem) -> np.ndarray:
+    """Common factors of the default start, spanning the rates the record can show.
+
+    The default start (every parameter 1) runs at one per time unit, so
+    the factors follow the unit the time is written in: half decades from
+    the slow end of :func:`rate_span` to half a decade past its fast end.
+    """
+    span = rate_span(problem)
+    if span is None:
+        return START_FACTORS
+    slow, fast = span
+    return 10.0 ** (slow + np.arange(0.0, fast - slow + 0.51, 0.5))
+
 
 #: common factors of the multiple-shooting estimate tried before the whole-record pass
 RESCALE_FACTORS = 10.0 ** (np.arange(-10, 11) / 10)
@@ -165,7 +200,7 @@ def scaled_start(problem: Problem, params: Mapping[str, float],
 
     An unmeasured state leaves no equation error to start from, and the
     default start (every parameter 1) may run the model on another time
-    scale than the record's. Each factor of :data:`START_FACTORS` is tried
+    scale than the record's. Each factor of :func:`start_factors` is tried
     on the parameters ``param_init`` did not give, by simulating every
     experiment whole from rest; the factor of the smallest error wins.
     """
@@ -177,7 +212,7 @@ def scaled_start(problem: Problem, params: Mapping[str, float],
         return limit_start(problem, params, given)
     whole = WholeRecord(problem)
     best, best_error = dict(params), np.inf
-    for factor in START_FACTORS:
+    for factor in start_factors(problem):
         trial = _scaled(problem, params, free, factor)
         error = np.inf if trial is None else settled_error(whole, problem, trial)[0]
         if error < best_error:
@@ -195,8 +230,11 @@ def ratio_start(problem: Problem, params: Mapping[str, float],
     where the skeleton has no linear parameters to project out.
     """
     whole = WholeRecord(problem)
+    span = rate_span(problem)
+    # whole decades over the rates the record can show (the default start is 1 each)
+    grid = None if span is None else span[0] + np.arange(0.0, span[1] - span[0] + 0.01)
     found = projected_start(problem, params, given,
-                            lambda trial: settled_error(whole, problem, trial)[0])
+                            lambda trial: settled_error(whole, problem, trial)[0], grid=grid)
     return None if found is None else found[0]
 
 
@@ -297,7 +335,8 @@ WHOLE_RECORD_FTOL = 1e-6
 
 
 def single_shooting(problem: Problem, params: Mapping[str, float], first: np.ndarray,
-                    substeps: int, max_iterations: int
+                    substeps: int, max_iterations: int, *,
+                    max_evaluations: int | None = None
                     ) -> tuple[dict, np.ndarray, float, list[str]]:
     """Polish the parameters and each experiment's initial state by whole-record simulation.
 
@@ -306,6 +345,8 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     model misses; simulating every experiment whole from its initial state
     makes the trajectory exact. Only the free parameters and the initial
     states are unknowns (a skeleton with unmeasured states has no curves).
+    At most ``max_iterations`` times the unknowns plus one evaluations of the
+    record, or ``max_evaluations`` where given (a start polished on trial).
 
     Returns
     -------
@@ -324,8 +365,12 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     z0 = np.clip(np.r_[[float(params[a]) for a in names], first.ravel()], low, high)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
+        # each unknown bumped by a share of itself (diff_step), the same in any unit
         solution = least_squares(residuals, z0, bounds=(low, high), x_scale="jac",
-                                 max_nfev=int(max_iterations) * (len(z0) + 1),
+                                 diff_step=1.5e-8,
+                                 max_nfev=(int(max_iterations) * (len(z0) + 1)
+                                           if max_evaluations is None
+                                           else int(max_evaluations)),
                                  ftol=WHOLE_RECORD_FTOL)
     z = solution.x if solution.cost <= 0.5 * float(np.sum(residuals(z0) ** 2)) else z0
     # a start beyond a fitted limit (x1(0) above a rim a5) simulates as one at it: say so

@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ...exceptions import RankDeficiencyWarning
+from ...exceptions import RankDeficiencyWarning, StartsWarning
 from ...simulation.integration import INPUT_HOLDS
 from ..problem import FitResult, Problem
 from .hidden import (
@@ -24,11 +24,11 @@ from .hidden import (
     opened_limits,
     ratio_start,
     rescaled,
-    single_shooting,
     starting_params,
     whole_record_covariance,
 )
 from .shooting import ShootingPlan, fit_shooting
+from .starts import StartContest, noise_floor
 from .swapped_speeds import swapped_starts
 from .whole_record import WholeRecord
 
@@ -70,51 +70,69 @@ def fit_hidden(problem: Problem, result: FitResult, *,
     init = param_init or {}
     given = list(init)
     guessed = any(a not in init and a not in limits for a in problem.free_params)
-    other = None
-    if guessed:
+
+    def second_start() -> dict | None:
         defaults = {**starting_params(problem, init),
                     **{a: result.params[a] for a in limits if a in result.params}}
         # the ratios set the level an unmeasured state runs at: its limit is placed
         # on the course of the start found with them, the limit open meanwhile
         defaults.update(opened_limits(problem, [a for a in hidden_limits
                                                 if a not in given]))
-        other = ratio_start(problem, defaults, given)
-        if other is not None:
-            other = limit_start(problem, other, given)
+        found = ratio_start(problem, defaults, given)
+        return None if found is None else limit_start(problem, found, given)
+
+    # a limit on an unmeasured state is placed with the second start's ratios, found
+    # first; otherwise that start is searched only where the others leave more to win
+    other = second_start() if guessed and hidden_limits else None
     pinned = {a: float((result.params if other is None else other)[a])
               for a in hidden_limits}
     inner = problem if not pinned else replace(
         problem, fixed_params={**problem.fixed_params, **pinned})
     start = {a: v for a, v in result.params.items() if a not in pinned}
     others = [] if other is None else [{a: v for a, v in other.items() if a not in pinned}]
-    params, first, info = _multistart(inner, result.functions, start, window, iterations,
-                                      guessed=guessed, others=others)
-    unseen = info.pop("unseen")
-    if pinned:
-        params, first, nrmse, unseen = single_shooting(
-            problem, {**params, **pinned}, first, info["substeps"], iterations)
-        info["nrmse_whole"] = nrmse
-    if guessed:  # a cascade's stages may have settled in each other's speed
-        for swapped, initial in swapped_starts(problem, params, first, info["substeps"]):
-            found = single_shooting(problem, swapped, initial, info["substeps"], iterations)
-            if found[2] < info["nrmse_whole"]:
-                params, first, info["nrmse_whole"], unseen = found
+    contest, info = _multistart(inner, result.functions, start, window, iterations,
+                                guessed=guessed, others=others)
+    if guessed and not hidden_limits and not contest.settled:
+        other = second_start()
+        if other is not None:
+            first = WholeRecord(inner).first_states(_compiled(inner, result.functions, other))
+            contest.try_all([("the parameters' ratios", inner, other, first, False)])
+    contest.decide()
+    params, first = contest.best[0], contest.best[1]
+    if pinned:  # the limits freed: one more start, polished whole
+        contest = StartContest(info["substeps"], iterations, rows=contest.rows,
+                               floor=contest.floor)
+        contest.enter(problem, "limits freed", {**params, **pinned}, first)
+    if guessed and not contest.settled:  # a cascade's stages may sit in each other's speed
+        for k, (swapped, initial) in enumerate(swapped_starts(problem, contest.best[0],
+                                                               contest.best[1],
+                                                               info["substeps"])):
+            contest.enter(problem, f"stages' speeds swapped {k + 1}", swapped, initial)
         # a state below a known limit its scale should have reached
+        params, first = contest.best[0], contest.best[1]
         moved = along_hidden_scale(problem, params, first, info["substeps"], iterations)
         if moved is not None:
-            params, first, info["nrmse_whole"], unseen = moved
-    hold = problem.input_hold
+            contest.rows.append({"start": "along the hidden state's scale",
+                                 "nrmse_start": np.nan, "nrmse": moved[2],
+                                 "polished": "whole", "kept": False})
+            contest.best, contest.problem = moved, problem
+            for row in contest.rows:
+                row["kept"] = row is contest.rows[-1]
     if problem.hold_chosen:  # a held pump or a smooth one: the record tells
-        for other_hold in INPUT_HOLDS:
-            if other_hold == hold:
-                continue
-            trial_problem = replace(problem, input_hold=other_hold)
-            found = single_shooting(trial_problem, params, first, info["substeps"],
-                                    iterations)
-            if found[2] < info["nrmse_whole"]:
-                params, first, info["nrmse_whole"], unseen = found
-                problem, hold = trial_problem, other_hold
-    info.update(initial_states=first, unseen=unseen)
+        params, first = contest.best[0], contest.best[1]
+        contest.try_all([(f"input hold {hold!r}", replace(problem, input_hold=hold), params,
+                          first, True) for hold in INPUT_HOLDS if hold != problem.input_hold])
+        contest.decide()
+    problem = contest.problem or problem
+    hold = problem.input_hold
+    params, first, info["nrmse_whole"], unseen = contest.best
+    disagreement = contest.disagreement()
+    info.update(initial_states=first, unseen=unseen, whole_record_starts=len(contest.rows))
+    if disagreement and not unseen:
+        warnings.warn(f"The starts of the fit disagree: {disagreement}. The record cannot "
+                      "tell the two apart; see starts_, and measure longer, with a richer "
+                      "input, or write a known value into the skeleton.",
+                      StartsWarning, stacklevel=6)
     for words in unseen:
         warnings.warn(
             f"{', '.join(problem.hidden)} not measured, and the measurements cannot fix "
@@ -122,7 +140,8 @@ def fit_hidden(problem: Problem, result: FitResult, *,
             "values found are one of many). Write a known value or ratio into the "
             "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=6)
     table = initial_table(problem, first, problem.skeleton.states)
-    attributes = {"shooting_": info, "initial_states_": table, "input_hold_": hold}
+    attributes = {"shooting_": info, "initial_states_": table, "input_hold_": hold,
+                  "starts_": contest.table()}
     covariance = None if unseen else whole_record_covariance(problem, params, first,
                                                               info["substeps"])
     if covariance is not None:
@@ -130,21 +149,23 @@ def fit_hidden(problem: Problem, result: FitResult, *,
     return FitResult(result.functions, params, attributes)
 
 
+def _compiled(problem: Problem, functions: Mapping, params: Mapping[str, float]):
+    return problem.skeleton.compile(functions, {**problem.fixed_params, **params})
+
+
 def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float], window: int,
                 iterations: int, *, guessed: bool = True,
-                others: Sequence[Mapping[str, float]] = ()) -> tuple[dict, np.ndarray, dict]:
-    """The best whole-record fit of ``problem`` from ``start`` and its estimates.
+                others: Sequence[Mapping[str, float]] = ()) -> tuple[StartContest, dict]:
+    """The whole-record fits of ``problem`` from ``start`` and its estimates, as a contest.
 
     Multiple shooting, then every experiment simulated whole from ``start``,
     from each estimate and from each of ``others`` (more starts, simulated
-    whole only). Where ``start`` was ``guessed`` (not a fitted model's
-    parameters), multiple shooting runs twice with state limits (once
-    holding the windows' starts within them, once not), the start's own
-    whole-record pass is left to its estimates, and each estimate's best
-    common rescaling is tried too.
-    Returns the parameters, each experiment's initial state and the
-    stage's summary (with ``unseen``, the directions the measurements do
-    not see).
+    whole only), polished as far as each earns (:class:`StartContest`).
+    Where ``start`` was ``guessed`` (not a fitted model's parameters),
+    multiple shooting runs twice with state limits (once holding the
+    windows' starts within them, once not), the start's own whole-record
+    pass is left to its estimates, and each estimate's best common
+    rescaling is tried too. Returns the contest and the stage's summary.
     """
     names = list(problem.free_params)
 
@@ -161,7 +182,7 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
     whole = WholeRecord(problem)
     first = whole.first_states(first_system)
     whole.choose_substeps(first_system, first)
-    estimates = [(theta0, first)]  # the start itself, simulated whole
+    estimates = [("the start", theta0, first)]  # the start itself, simulated whole
     info = {"substeps": whole.windows.substeps}
     if any(s in problem.measured for s in problem.skeleton.states):
         plan = ShootingPlan(problem, window, hidden=hidden_trajectories(problem, first_system))
@@ -173,29 +194,32 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
         for limit_starts in (True, False) if both else (True,):
             theta, info = fit_shooting(plan, system_for, theta0, iterations,
                                        bounds=(low, high), limit_starts=limit_starts)
-            estimates.append((theta, info["initial_states"]))
+            label = "multiple shooting" + ("" if not both else
+                                           " (starts within limits)" if limit_starts
+                                           else " (starts free)")
+            estimates.append((label, theta, info["initial_states"]))
         if guessed:  # its multiple-shooting estimates stand for it
             estimates = estimates[1:]
-    substeps = info["substeps"]
     # the windows' joins are soft: a last pass simulates every experiment whole, from
     # each estimate and from its best common rescaling (multiple shooting may settle
     # on the wrong time scale); the best whole-record fit is kept
     starts, seen = [], []
-    for theta, initial in estimates:
+    for label, theta, initial in estimates:
         theta = np.asarray(theta, dtype=float)
         if any(np.allclose(theta, other, rtol=1e-9, atol=0.0) for other in seen):
             continue  # both multiple-shooting passes may end at the same point
         seen.append(theta)
-        params = dict(zip(names, theta.tolist()))
-        starts.append((params, initial))
-        other = rescaled(problem, params, initial) if guessed else None
-        if other is not None:
-            starts.append(other)
+        starts.append((label, dict(zip(names, theta.tolist())), initial))
     for other in others:  # their time scale was searched with their ratios
         theta = np.clip(np.array([other[a] for a in names], dtype=float), low, high)
-        starts.append((dict(zip(names, theta.tolist())), whole.first_states(system_for(theta))))
-    params, first, nrmse, unseen = min(
-        (single_shooting(problem, p, f, substeps, iterations) for p, f in starts),
-        key=lambda found: found[2])
-    info.update(nrmse_whole=nrmse, unseen=unseen, whole_record_starts=len(starts))
-    return params, first, info
+        starts.append(("the parameters' ratios", dict(zip(names, theta.tolist())),
+                       whole.first_states(system_for(theta))))
+    entries = [(label, problem, params, initial, False) for label, params, initial in starts]
+    contest = StartContest(info["substeps"], iterations, floor=noise_floor(problem))
+    contest.try_all(entries)
+    if guessed and not contest.settled:  # multiple shooting may sit on the wrong time scale
+        for label, params, initial in starts[:len(seen)]:
+            other = rescaled(problem, params, initial)
+            if other is not None:
+                contest.try_all([(f"{label}, rescaled", problem, *other, False)])
+    return contest, info

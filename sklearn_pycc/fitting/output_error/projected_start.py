@@ -48,7 +48,8 @@ JUDGED = 8
 
 
 def projected_start(problem: Problem, params: Mapping[str, float], given: Sequence[str],
-                    judge: Callable[[Mapping[str, float]], float]
+                    judge: Callable[[Mapping[str, float]], float], *,
+                    grid: Sequence[float] | None = None
                     ) -> tuple[dict[str, float], float] | None:
     """The best start found by projecting out the measured equations' linear parameters.
 
@@ -63,6 +64,10 @@ def projected_start(problem: Problem, params: Mapping[str, float], given: Sequen
         Parameters ``param_init`` gave: they stay.
     judge : callable
         ``judge(params) -> error`` of a whole-record simulation.
+    grid : sequence of float, optional
+        Powers of ten the searched parameters' starting values are scaled
+        by on the coarse grid (the rates the record can show); by default
+        :data:`COARSE`.
 
     Returns
     -------
@@ -86,7 +91,8 @@ def projected_start(problem: Problem, params: Mapping[str, float], given: Sequen
         found = None if course is None else linear(outer, course)
         return None if found is None else (found[1], {**params, **outer, **found[0]}, powers)
 
-    coarse = [point for point in map(completed, itertools.product(COARSE, repeat=len(searched)))
+    grid = COARSE if grid is None else grid
+    coarse = [point for point in map(completed, itertools.product(grid, repeat=len(searched)))
               if point is not None]
     # the equation error ranks the grid; the few best are judged by simulation
     coarse.sort(key=lambda point: point[0])

@@ -266,7 +266,8 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
         # forward differences: each parameter bumped, then each state's starts
         systems, starts, steps = [system], [start], []
         for i in range(p):
-            steps.append(1.5e-8 * max(abs(theta[i]), 1.0))
+            # a share of the parameter itself: the same in any unit of time
+            steps.append(1.5e-8 * (abs(theta[i]) or 1.0))
             bumped = theta.copy()
             bumped[i] += steps[-1]
             systems.append(system_for(bumped))

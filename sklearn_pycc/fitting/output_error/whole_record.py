@@ -58,9 +58,19 @@ def equilibrium(system, hidden: Sequence[str], values: Mapping[str, float]) -> d
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            solution = least_squares(rates, np.ones(len(hidden)), max_nfev=200)
+            # the rates over how fast they change with the states: a number of states, the
+            # same whatever the unit of time (a rate per second is 3600 times one per hour,
+            # and the solver's tolerances are absolute)
+            z0 = np.ones(len(hidden))
+            r0 = rates(z0)
+            slopes = [np.abs(rates(z0 + 1e-6 * np.eye(len(hidden))[j]) - r0) / 1e-6
+                      for j in range(len(hidden))]
+            scale = float(np.max(slopes)) if len(hidden) else 1.0
+            scale = scale if np.isfinite(scale) and 0 < scale < 1e6 else 1.0
+            solution = least_squares(lambda z: rates(z) / scale, z0, max_nfev=200)
             z = solution.x
-            if np.all(np.isfinite(z)) and np.all(np.abs(rates(z)) < 1e-6 * (1 + np.abs(z))):
+            if np.all(np.isfinite(z)) and np.all(np.abs(rates(z)) / scale
+                                                 < 1e-6 * (1 + np.abs(z))):
                 return dict(zip(hidden, z.tolist()))
         except (ValueError, ArithmeticError, np.linalg.LinAlgError):
             pass
