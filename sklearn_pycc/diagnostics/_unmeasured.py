@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -29,9 +29,11 @@ from ..measurements.experiments import TIME, TRAJECTORY, split_experiments
 from ..measurements.measurement import Measurement
 from ..measurements.reconstruct import unmeasured_states
 from ..model_selection._scoring import pooled_nrmse
+from ._decide import suggestion_for
 from ._held_out import HeldOut
 from ._metrics import error_table_row
 from ._refit import prepared
+from ._unmeasured_moves import MoveTrial, law_trials
 from .report import Diagnosis, Suggestion
 
 __all__ = ["UnmeasuredDiagnosis", "diagnose_unmeasured"]
@@ -109,7 +111,7 @@ class UnmeasuredDiagnosis(Diagnosis):
             lines.append(starts)
         lines.append("")
         if self.best is None:
-            lines.append("Nothing is missing among the limits tried: " + (
+            lines.append("Nothing is missing among the limits and laws tried: " + (
                 "; ".join(f"'{r.suggested_term}' {self._why(r)}"
                           for r in self.ranking.itertuples())
                 or "every state has its limits") + ".")
@@ -303,8 +305,8 @@ def _held_out(model, trial_skeleton, X: pd.DataFrame, init: dict, cache: dict
 
 def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
                         bic_threshold: float, held_out: bool, units: dict,
-                        notes: list[str],
-                        measurement: Measurement | None = None) -> UnmeasuredDiagnosis:
+                        notes: list[str], measurement: Measurement | None = None,
+                        quantities=None) -> UnmeasuredDiagnosis:
     """Diagnose a model whose skeleton has states ``X`` does not measure (see module)."""
     skeleton = model.skeleton_
     hidden = unmeasured_states(skeleton, {c: X[c] for c in X.columns if X[c].notna().any()})
@@ -361,6 +363,18 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
         delta = (2 * n * math.log(error / base) + math.log(n)
                  if comparable and error > 0 else math.nan)
         trials.append(LimitTrial(state, term, refit, error, delta, removed))
+    # laws in place of the skeleton's terms, in the equations of every state
+    course = None
+    if simulated is not None:
+        course = simulated.reset_index(drop=True).copy()
+        for name in skeleton.inputs:
+            if name != TIME and name in X.columns:
+                course[name] = X[name].to_numpy(dtype=float)
+    if quantities is None:
+        quantities = model.get_params().get("quantities")
+    moves = law_trials(model, X, course, base=base, n=n, quantities=quantities,
+                       units=units, nrmse=_nrmse)
+    trials = [*trials, *moves]
     trials.sort(key=lambda t: (not math.isfinite(t.delta_bic), t.delta_bic))
     best, cache = None, dict(_fold_errors(model, X, measurement))
     for trial in trials:
@@ -369,6 +383,7 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
         if not (math.isfinite(trial.delta_bic) and trial.delta_bic < -bic_threshold) \
                 or (trial.removed < min_improvement and not held_out):
             continue
+        errors = {}
         if held_out:
             trial.held_out, errors = _held_out(model, trial.refit.skeleton_, X,
                                                dict(trial.refit.params_), cache)
@@ -377,16 +392,13 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
             _fold_errors(trial.refit, X, measurement).update(errors)
         trial.refit = _as_asked(model, trial.refit, X)
         _fold_errors(trial.refit, X, measurement).update(errors)
-        best = _limit_suggestion(trial)
+        best = (_move_suggestion(trial, model) if isinstance(trial, MoveTrial)
+                else _limit_suggestion(trial))
         break
-    ranking = pd.DataFrame([{
-        "equation": f"{t.state}_dot", "variable": t.state, "effect": OVERFLOW[0], "move": "limit",
-        "suggested_term": t.term, "simulation_nrmse": t.nrmse, "delta_bic": t.delta_bic,
-        "error_removed": t.removed,
-        "held_out_change": math.nan if t.held_out is None else t.held_out.change(),
-        "failure": t.failure} for t in trials],
-        columns=["equation", "variable", "effect", "move", "suggested_term", "simulation_nrmse",
-                 "delta_bic", "error_removed", "held_out_change", "failure"])
+    ranking = pd.DataFrame([_ranking_row(t) for t in trials],
+                           columns=["equation", "variable", "effect", "move", "suggested_term",
+                                    "simulation_nrmse", "delta_bic", "error_removed",
+                                    "held_out_change", "failure"])
     diagnosis = UnmeasuredDiagnosis(
         model, pd.DataFrame(columns=["rmse", "nrmse", "r2", "fit_percent"]), trajectories,
         frame, pd.DataFrame(), divergences, pd.DataFrame(), pd.DataFrame(), {}, ranking, best,
@@ -435,6 +447,30 @@ def _as_asked(model, refit, X: pd.DataFrame):
         warnings.simplefilter("ignore")
         again = prepared(refit, param_init=refit.params_, n_bootstrap=wanted).fit(X)
     return again
+
+
+def _ranking_row(trial: LimitTrial | MoveTrial) -> dict:
+    """A limit or a law tried, as a row of the diagnosis's ranking."""
+    held = math.nan if trial.held_out is None else trial.held_out.change()
+    if isinstance(trial, MoveTrial):
+        c = trial.candidate
+        return {"equation": c.roles.derivative, "variable": c.variable, "effect": c.effect.name,
+                "move": c.move, "suggested_term": c.term if c.extended is not None else "",
+                "simulation_nrmse": trial.nrmse, "delta_bic": trial.delta_bic,
+                "error_removed": trial.removed, "held_out_change": held,
+                "failure": trial.failure}
+    return {"equation": f"{trial.state}_dot", "variable": trial.state, "effect": OVERFLOW[0],
+            "move": "limit", "suggested_term": trial.term, "simulation_nrmse": trial.nrmse,
+            "delta_bic": trial.delta_bic, "error_removed": trial.removed,
+            "held_out_change": held, "failure": trial.failure}
+
+
+def _move_suggestion(trial: MoveTrial, model) -> Suggestion:
+    """A law in place of terms of the skeleton, fitted by output error to the whole record."""
+    c = trial.candidate
+    c.refit, c.removed, c.delta_bic = trial.refit, trial.removed, trial.delta_bic
+    c.simulation_rmse, c.held_out = trial.nrmse, trial.held_out
+    return replace(suggestion_for(c, model.skeleton_, model), refit=trial.refit)
 
 
 def _limit_suggestion(trial: LimitTrial) -> Suggestion:

@@ -274,7 +274,9 @@ class HypothesisLoop:
             # the same windows every round, so that their errors compare: say where they came from
             report.horizon = replace(report.horizon, why=f"round 0's: {first.why}")
         best = report.best
-        judge = "held-out simulation" if report.horizon is not None else "held-out derivatives"
+        # a model with unmeasured states is judged by simulating each experiment whole
+        judge = ("held-out simulation" if report.horizon is not None
+                 or getattr(report, "hidden", None) else "held-out derivatives")
         likelihood = None
         by_filter = getattr(model, "fit_mode_", None) == "filter"
         if by_filter:

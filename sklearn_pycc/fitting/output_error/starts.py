@@ -36,6 +36,10 @@ CONTENDING = 1.25
 #: two starts disagree when a parameter differs by more than this share of the larger
 DISAGREEING = 0.1
 
+#: rounds of trial a far start may have while its error falls by STILL_FALLING a round
+TRIAL_ROUNDS = 6
+STILL_FALLING = 0.1
+
 #: a fit whose error is within this factor of the record's noise floor has nothing left
 #: for another start to win
 SETTLED = 1.1
@@ -162,7 +166,8 @@ class StartContest:
         for label, problem, params, first, near in entries:
             row = {"start": label, "nrmse_start": self.screen(problem, params, first)}
             found = single_shooting(problem, params, first, self.substeps, self.iterations,
-                                    max_evaluations=TRIAL_EVALUATIONS // (1 + near))
+                                    max_evaluations=min(TRIAL_EVALUATIONS // (1 + near),
+                                                        self.iterations))
             row.update(nrmse=found[2], polished="trial", kept=False)
             self.rows.append(row)
             self.waiting.append((row, problem, found, near))
@@ -172,19 +177,14 @@ class StartContest:
 
         A start contends when its trial ends within :data:`CONTENDING` of
         the leader's error away from the leader's minimum (it has not
-        :data:`JOINED` it); a ``near`` one within chance of it.
+        :data:`JOINED` it); a ``near`` one within chance of it. A far start
+        still falling fast is tried further first (:meth:`_trial_rounds`).
         """
         waiting, self.waiting = sorted(self.waiting, key=lambda w: w[2][2]), []
         for row, problem, found, near in waiting:
             if self.best is not None:
-                if near:
-                    unknowns = len(found[0]) + found[1].size
-                    chance = 2.0 * unknowns / max(_residuals(problem), 1)
-                    contends = found[2] ** 2 <= self.best[2] ** 2 * (1 + chance)
-                else:
-                    joined = _largest_gap(found[0], self.best[0])[0] <= JOINED
-                    contends = found[2] <= CONTENDING * self.best[2] and not joined
-                if not contends:
+                found = self._trial_rounds(row, problem, found, near)
+                if found is None:
                     continue
             found = self._polish(problem, found[0], found[1])
             row.update(nrmse=found[2], polished="whole")
@@ -192,6 +192,35 @@ class StartContest:
                 self.best, self.problem = found, problem
                 for other in self.rows:
                     other["kept"] = other is row
+
+    def _contends(self, problem: Problem, found: tuple, near: bool) -> bool:
+        if near:
+            unknowns = len(found[0]) + found[1].size
+            chance = 2.0 * unknowns / max(_residuals(problem), 1)
+            return found[2] ** 2 <= self.best[2] ** 2 * (1 + chance)
+        joined = _largest_gap(found[0], self.best[0])[0] <= JOINED
+        return found[2] <= CONTENDING * self.best[2] and not joined
+
+    def _trial_rounds(self, row: dict, problem: Problem, found: tuple,
+                      near: bool) -> tuple | None:
+        """A tried start that contends with the leader, tried further while it falls fast.
+
+        A far start (not ``near``) that does not contend yet but whose error
+        fell by :data:`STILL_FALLING` or more in its last round of trial is
+        tried another round, up to :data:`TRIAL_ROUNDS`. None where it drops
+        out (the row keeps its last trial's error).
+        """
+        before = row["nrmse_start"]
+        for _ in range(1 if near else TRIAL_ROUNDS):
+            if self._contends(problem, found, near):
+                return found
+            if near or not found[2] <= (1 - STILL_FALLING) * before:
+                break
+            before = found[2]
+            found = single_shooting(problem, found[0], found[1], self.substeps,
+                                    self.iterations, max_evaluations=TRIAL_EVALUATIONS)
+            row.update(nrmse=found[2])
+        return found if self._contends(problem, found, near) else None
 
     def enter(self, problem: Problem, label: str, params: Mapping[str, float],
               first: np.ndarray) -> None:

@@ -1,0 +1,165 @@
+"""Laws in place of a skeleton's terms, for a model with states no sensor reads.
+
+A model whose states are not all measured has no derivative residual to
+screen a catalogue effect on: each move is judged by simulating the record.
+The moves are the replacements of the skeleton's own terms by the laws the
+catalogue says may take their place (a linear outflow by Torricelli's, with
+the flow it carries into the next tank; a linear heat path by a radiating
+one), in the equations of measured and unmeasured states alike. Each starts
+where the model is: its own numbers, and the new law's matched to the terms
+it replaces along the model's simulated course. Every move is refitted on
+trial (a few evaluations of the record by output error), the few best to the
+end, and :func:`~sklearn_pycc.diagnostics._unmeasured.diagnose_unmeasured`
+weighs them beside the state limits.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import least_squares
+
+from ._candidates import Candidate, enumerate_moves, extend
+from ._refit import prepared
+from ._roles import equation_roles
+
+__all__ = ["LEADERS", "MoveTrial", "law_trials"]
+
+#: moves refitted to the end, the best on trial
+LEADERS = 3
+
+#: the output-error iterations of a trial refit
+TRIAL_ITERATIONS = 1
+
+
+@dataclass
+class MoveTrial:
+    """One replacement tried: the candidate, its refitted model and its simulation errors."""
+
+    candidate: Candidate
+    refit: object | None
+    nrmse: float
+    delta_bic: float = math.nan
+    removed: float = math.nan
+    held_out: object = None
+    failure: str = ""
+
+
+def _matched_start(model, candidate: Candidate, course: pd.DataFrame) -> dict[str, float]:
+    """The model's numbers, and the new law's fitted to the rates it replaces on ``course``.
+
+    ``course`` holds every state simulated by the model, the inputs and
+    ``t``. The new parameters are chosen so that the changed equations'
+    rates follow the model's along that course (least squares, each
+    equation over its spread); a parameter the law brings starts at 1
+    where that fails.
+    """
+    skeleton, extended = model.skeleton_, candidate.extended
+    kept = {a: float(v) for a, v in model.params_.items() if a in extended.params}
+    new = list(candidate.new_params)
+    if not new:
+        return kept
+    columns = {name: course[name].to_numpy(dtype=float) for name in course.columns}
+    n = len(course)
+    changed = sorted({k for k, _ in (*candidate.additions, *candidate.removals)})
+    with np.errstate(all="ignore"):
+        target = skeleton.compile(model.functions_, model.params_).evaluate(columns, n)[:, changed]
+    spread = np.nanstd(target, axis=0)
+    spread = np.where(spread > 0, spread, 1.0)
+    bounds = extended.bounds
+    low = np.array([bounds.get(a, (-np.inf, np.inf))[0] for a in new], dtype=float)
+    high = np.array([bounds.get(a, (-np.inf, np.inf))[1] for a in new], dtype=float)
+
+    def misfit(theta: np.ndarray) -> np.ndarray:
+        values = {**kept, **dict(zip(new, theta))}
+        with np.errstate(all="ignore"):
+            rates = extended.compile({}, values).evaluate(columns, n)[:, changed]
+        out = ((rates - target) / spread).ravel()
+        return np.where(np.isfinite(out), out, 1e3)
+
+    start = np.clip(np.ones(len(new)), low, high)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            found = least_squares(misfit, start, bounds=(low, high), x_scale="jac",
+                                  max_nfev=100 * len(new)).x
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+        found = start
+    return {**kept, **dict(zip(new, (float(v) for v in found)))}
+
+
+def _fit(model, X: pd.DataFrame, skeleton, init: dict, **settings):
+    estimator = prepared(model, equations=skeleton, param_init=init, hold_as_fitted=True,
+                         **settings)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return estimator.fit(X)
+
+
+def law_trials(model, X: pd.DataFrame, course: pd.DataFrame | None, *, base: float, n: int,
+               quantities, units: dict, nrmse) -> list[MoveTrial]:
+    """Every law in place of the skeleton's terms, tried on the record and refitted.
+
+    Parameters
+    ----------
+    model : CCRegressor
+        The fitted model with unmeasured states.
+    X : DataFrame
+        The record.
+    course : DataFrame or None
+        Every state simulated by the model over the record (None: it escaped,
+        and nothing is tried).
+    base : float
+        The model's simulation error (normalised RMSE of what is measured).
+    n : int
+        The measured samples, for the information criterion.
+    quantities, units : mapping
+        What each state measures, naming the laws in its field's words.
+    nrmse : callable
+        ``nrmse(model, X)``: the simulation error a refit is judged by.
+
+    Returns
+    -------
+    list of MoveTrial
+        The :data:`LEADERS` best by their trial refit, each refitted to the
+        end and scored (``delta_bic`` against the model, ``removed``: the
+        share of its simulation error), then the others as tried.
+    """
+    skeleton = model.skeleton_
+    if course is None or "t" not in X.columns:
+        return []
+    roles = equation_roles(skeleton, quantities, units)
+    candidates = [c for c in enumerate_moves(skeleton, roles, True) if c.move == "replace"]
+    trials = []
+    for candidate in candidates:
+        try:
+            extend(skeleton, candidate)
+            init = _matched_start(model, candidate, course)
+            refit = _fit(model, X, candidate.extended, init,
+                         shooting_iterations=TRIAL_ITERATIONS)
+            error = float(refit.shooting_["nrmse_whole"])
+        except Exception as exc:  # a move that cannot be fitted is reported, not raised
+            trials.append(MoveTrial(candidate, None, math.nan, failure=str(exc)))
+            continue
+        trials.append(MoveTrial(candidate, refit, error))
+    trials.sort(key=lambda t: (not math.isfinite(t.nrmse), t.nrmse))
+    for trial in trials[:LEADERS]:
+        if trial.refit is None:
+            continue
+        try:
+            trial.refit = _fit(model, X, trial.candidate.extended,
+                               {a: float(v) for a, v in trial.refit.params_.items()})
+        except Exception as exc:
+            trial.refit, trial.failure = None, str(exc)
+            continue
+        trial.nrmse = nrmse(trial.refit, X)
+        comparable = math.isfinite(trial.nrmse) and math.isfinite(base) and base > 0
+        if comparable and trial.nrmse > 0:
+            trial.removed = 1 - trial.nrmse / base
+            trial.delta_bic = (2 * n * math.log(trial.nrmse / base)
+                               + trial.candidate.n_change * math.log(n))
+    return trials

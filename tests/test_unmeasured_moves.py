@@ -1,0 +1,85 @@
+"""The loop through states nobody measures: laws in place of terms, judged by simulation."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets, diagnose
+from sklearn_pycc.diagnostics._candidates import enumerate_moves, extend
+from sklearn_pycc.diagnostics._roles import equation_roles
+from sklearn_pycc.diagnostics._unmeasured import simulate_record
+from sklearn_pycc.diagnostics._unmeasured_moves import _matched_start
+from sklearn_pycc.model_selection import make_simulation_scorer
+
+LINEAR = ["x1_dot = a1 u - a2 x1", "x2_dot = a3 x1 - a4 x2"]
+POSITIVE = ["a1 >= 0", "a2 >= 0", "a3 >= 0", "a4 >= 0"]
+TORRICELLI = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
+
+
+@pytest.fixture(scope="module")
+def linear_cascade():
+    """Two tanks below their rims, the lower level only, fitted with linear outflows."""
+    frame, _ = datasets.make_two_tanks(n_samples=400, rims=(100.0, 100.0), random_state=3,
+                                       return_truth=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=LINEAR, constraints=POSITIVE).fit(frame)
+    return frame, model
+
+
+def test_a_law_starts_where_the_terms_it_replaces_were(linear_cascade):
+    frame, model = linear_cascade
+    roles = equation_roles(model.skeleton_, {"x1": "level", "x2": "level"})
+    moves = [c for c in enumerate_moves(model.skeleton_, roles, True)
+             if c.move == "replace" and c.effect.name == "square_root_outflow"
+             and len(c.removals) == 2]
+    assert moves, "Torricelli's law with the flow it carries into the lower tank"
+    candidate = moves[0]
+    extend(model.skeleton_, candidate)
+    course = simulate_record(model, frame).reset_index(drop=True)
+    course["u"] = frame["u"].to_numpy()
+    start = _matched_start(model, candidate, course)
+    assert set(start) == set(candidate.extended.params)
+    columns = {name: course[name].to_numpy() for name in course.columns}
+    old = model.skeleton_.compile({}, model.params_).evaluate(columns, len(course))
+    new = candidate.extended.compile({}, start).evaluate(columns, len(course))
+    unit = candidate.extended.compile({}, {**start, **dict.fromkeys(candidate.new_params,
+                                                                     1.0)})
+    worse = unit.evaluate(columns, len(course))
+    # the matched law follows the outflows it replaces far closer than a law of unit size
+    assert np.sqrt(np.mean((new - old) ** 2)) < 0.2 * np.sqrt(np.mean((worse - old) ** 2))
+    assert all(start[a] > 0 for a in candidate.new_params)
+
+
+@pytest.mark.slow
+def test_the_loop_names_torricelli_s_law_in_the_tank_nobody_measures():
+    frame, truth = datasets.make_two_tanks(n_samples=1024, rims=(100.0, 100.0),
+                                           random_state=0, return_truth=True)
+    fresh = datasets.make_two_tanks(n_samples=1024, rims=(100.0, 100.0), random_state=10)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = HypothesisLoop(PolyCCRegressor(equations=LINEAR, constraints=POSITIVE), frame,
+                              quantities={"x1": "level", "x2": "level"}).run()
+        true = PolyCCRegressor(equations=TORRICELLI, constraints=POSITIVE).fit(frame)
+    first = loop.rounds[0].diagnosis.best
+    assert first is not None and first.effect == "square_root_outflow"
+    assert first.equation == "x1_dot" and first.called == "Torricelli outflow"
+    scorer = make_simulation_scorer()
+    assert scorer.nrmse(loop.model, fresh) < 2 * scorer.nrmse(true, fresh)
+
+
+def test_a_model_that_lacks_nothing_gets_no_law(linear_cascade):
+    frame, _ = linear_cascade
+    # the record of a linear cascade, fitted with its own skeleton: every law is refused
+    X = frame.copy()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=LINEAR, constraints=POSITIVE).fit(X)
+        simulated = simulate_record(model, X)
+        X["x2"] = simulated["x2"].to_numpy() + np.random.default_rng(0).normal(
+            0, 0.01 * X["x2"].std(), len(X))
+        clean = PolyCCRegressor(equations=LINEAR, constraints=POSITIVE).fit(X)
+        report = diagnose(clean, X)
+    assert report.best is None
+    assert (report.ranking["move"] == "replace").any()
