@@ -27,13 +27,43 @@ from ._candidates import Candidate, enumerate_moves, extend
 from ._refit import prepared
 from ._roles import equation_roles
 
-__all__ = ["LEADERS", "MoveTrial", "law_trials"]
+__all__ = ["LEADERS", "MoveTrial", "law_trials", "noise_share", "thinned"]
 
 #: moves refitted to the end, the best on trial
-LEADERS = 3
+LEADERS = 2
 
 #: the output-error iterations of a trial refit
 TRIAL_ITERATIONS = 1
+
+#: a trial refit reads at most about this many samples (every k-th row of the record)
+TRIAL_SAMPLES = 400
+
+#: no law is tried where the model simulates the record within this factor of its noise
+AT_NOISE = 1.2
+
+
+def thinned(X: pd.DataFrame) -> pd.DataFrame:
+    """Every k-th row of the record, k the least that leaves about :data:`TRIAL_SAMPLES`."""
+    return X.iloc[::max(1, len(X) // TRIAL_SAMPLES)]
+
+
+def noise_share(X: pd.DataFrame, names) -> float:
+    """The measured signals' white noise over their spread (as the simulation error reads them).
+
+    Each signal's noise read from its second differences, robustly (their
+    median absolute value: a switched input's kink here and there does not
+    count); noise correlated in time reads low, so laws are never skipped
+    on it. The root mean square over the signals.
+    """
+    shares = []
+    for name in names:
+        values = X[name].to_numpy(dtype=float)
+        second = np.diff(values[np.isfinite(values)], 2)
+        spread = float(np.nanstd(values))
+        if second.size and spread > 0:
+            level = 1.4826 * float(np.median(np.abs(second))) / np.sqrt(6.0)
+            shares.append((level / spread) ** 2)
+    return float(np.sqrt(np.mean(shares))) if shares else 0.0
 
 
 @dataclass
@@ -125,13 +155,21 @@ def law_trials(model, X: pd.DataFrame, course: pd.DataFrame | None, *, base: flo
     Returns
     -------
     list of MoveTrial
-        The :data:`LEADERS` best by their trial refit, each refitted to the
-        end and scored (``delta_bic`` against the model, ``removed``: the
-        share of its simulation error), then the others as tried.
+        The :data:`LEADERS` best by their trial refit (on every k-th row,
+        :data:`TRIAL_SAMPLES`), each refitted to the whole record and scored
+        (``delta_bic`` against the model, ``removed``: the share of its
+        simulation error), then the others as tried; none where the model
+        already simulates the record within :data:`AT_NOISE` of its noise
+        (:func:`noise_share`).
     """
     skeleton = model.skeleton_
     if course is None or "t" not in X.columns:
         return []
+    measured = [c for c in [*skeleton.states, *skeleton.outputs] if c in X.columns]
+    if base <= AT_NOISE * noise_share(X, measured):
+        return []  # the model follows the record to its noise: no law has anything to take
+    # the trials read every k-th row (the few best are refitted on the whole record)
+    trial_rows = thinned(X)
     roles = equation_roles(skeleton, quantities, units)
     candidates = [c for c in enumerate_moves(skeleton, roles, True) if c.move == "replace"]
     trials = []
@@ -139,7 +177,7 @@ def law_trials(model, X: pd.DataFrame, course: pd.DataFrame | None, *, base: flo
         try:
             extend(skeleton, candidate)
             init = _matched_start(model, candidate, course)
-            refit = _fit(model, X, candidate.extended, init,
+            refit = _fit(model, trial_rows, candidate.extended, init,
                          shooting_iterations=TRIAL_ITERATIONS)
             error = float(refit.shooting_["nrmse_whole"])
         except Exception as exc:  # a move that cannot be fitted is reported, not raised
