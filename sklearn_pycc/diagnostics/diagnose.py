@@ -264,9 +264,8 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
             raise ValueError(f"{', '.join(hidden)} not measured: the diagnosis simulates the "
                              "model, and X has no time column 't'")
         return diagnose_unmeasured(model, X, min_improvement=min_improvement,
-                                   bic_threshold=bic_threshold, held_out=held_out,
-                                   units=units, notes=[], measurement=measurement,
-                                   quantities=quantities)
+                                   bic_threshold=bic_threshold, held_out=held_out, units=units,
+                                   notes=[], measurement=measurement, quantities=quantities)
     settings = model.get_params()
     data = read_measurements(skeleton, record, None if measurement is not None else y,
                              settings.get("differentiation", "auto"),
