@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
+from ..measurements.noise import second_difference_level
 from ._candidates import Candidate, enumerate_moves, extend
 from ._refit import prepared
 from ._roles import equation_roles
@@ -50,18 +51,17 @@ def thinned(X: pd.DataFrame) -> pd.DataFrame:
 def noise_share(X: pd.DataFrame, names) -> float:
     """The measured signals' white noise over their spread (as the simulation error reads them).
 
-    Each signal's noise read from its second differences, robustly (their
-    median absolute value: a switched input's kink here and there does not
-    count); noise correlated in time reads low, so laws are never skipped
-    on it. The root mean square over the signals.
+    Each signal's noise read from its second differences
+    (:func:`~sklearn_pycc.measurements.noise.second_difference_level`); noise
+    correlated in time reads low, so laws are never skipped on it. The root
+    mean square over the signals.
     """
     shares = []
     for name in names:
         values = X[name].to_numpy(dtype=float)
-        second = np.diff(values[np.isfinite(values)], 2)
+        level = second_difference_level([values[np.isfinite(values)]])
         spread = float(np.nanstd(values))
-        if second.size and spread > 0:
-            level = 1.4826 * float(np.median(np.abs(second))) / np.sqrt(6.0)
+        if np.isfinite(level) and spread > 0:
             shares.append((level / spread) ** 2)
     return float(np.sqrt(np.mean(shares))) if shares else 0.0
 

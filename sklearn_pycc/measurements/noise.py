@@ -30,6 +30,7 @@ from scipy import ndimage, optimize, signal
 from .spectral import CLEAN_RATIO, FLOOR_BAND
 
 __all__ = ["NoiseReading", "SignalNoise", "multitaper_density", "read_noise",
+           "second_difference_level",
            "slow_memory"]
 
 #: a coloured reading this many times quieter than the signal (in power, 80 dB) is the
@@ -590,6 +591,23 @@ def read_frame_noise(frame, columns) -> dict[str, SignalNoise]:
         out[str(name)] = read_noise(grid.fill(times, values), grid.step, name=str(name),
                                     quantum=find_quantum(values))
     return out
+
+
+def second_difference_level(pieces) -> float:
+    """The level of a signal's white noise, read from its second differences, robustly.
+
+    ``pieces`` are the signal's stretches (each experiment's samples), each
+    differenced on its own. White noise of level sigma gives second
+    differences of spread sqrt(6) sigma; their median absolute value is read,
+    so a kink here and there (a heater switched on) does not count. Noise
+    correlated in time reads low (its second differences cancel): a bound
+    from below. NaN where no stretch has three finite samples.
+    """
+    second = [np.diff(np.asarray(piece, dtype=float), 2) for piece in pieces]
+    second = np.concatenate([d[np.isfinite(d)] for d in second] or [np.zeros(0)])
+    if not second.size:
+        return float("nan")
+    return 1.4826 * float(np.median(np.abs(second))) / np.sqrt(6.0)
 
 
 def slow_memory(residuals: np.ndarray) -> float:

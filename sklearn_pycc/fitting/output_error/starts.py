@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from ...measurements.noise import second_difference_level
 from ..problem import Problem
 from .hidden import single_shooting
 from .whole_record import WholeRecord, zero_curves
@@ -72,8 +73,8 @@ def noise_floor(problem: Problem) -> float | None:
     """The normalised RMSE a perfect model would leave: the measured states' white noise.
 
     Each measured state's noise level read from its second differences
-    within each experiment (robustly: their median absolute value, so a
-    heater switched on or a kink here and there does not count), over its
+    within each experiment
+    (:func:`~sklearn_pycc.measurements.noise.second_difference_level`), over its
     RMS as :class:`~sklearn_pycc.fitting.output_error.whole_record.WholeRecord`
     scales the errors. Noise correlated in time reads low here (its second
     differences cancel), so a fit is never taken as settled too early; None
@@ -86,13 +87,9 @@ def noise_floor(problem: Problem) -> float | None:
     shares = []
     for s in measured:
         values = np.asarray(problem.measured[s], dtype=float)
-        second = np.concatenate([np.diff(values[e.rows], 2) for e in problem.experiments
-                                 if e.n_samples > 2] or [np.zeros(0)])
-        second = second[np.isfinite(second)]
-        if not second.size:
+        level = second_difference_level([values[e.rows] for e in problem.experiments])
+        if not np.isfinite(level):
             return None
-        # white noise of level sigma gives second differences of spread sqrt(6) sigma
-        level = 1.4826 * float(np.median(np.abs(second))) / np.sqrt(6.0)
         scale = float(np.sqrt(np.nanmean(values ** 2))) or 1.0
         shares.append((level / scale) ** 2)
     floor = float(np.sqrt(np.mean(shares)))
