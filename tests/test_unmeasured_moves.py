@@ -82,4 +82,5 @@ def test_a_model_that_lacks_nothing_gets_no_law(linear_cascade):
         clean = PolyCCRegressor(equations=LINEAR, constraints=POSITIVE).fit(X)
         report = diagnose(clean, X)
     assert report.best is None
-    assert (report.ranking["move"] == "replace").any()
+    # it simulates the record to its noise: no law has anything to take, none is tried
+    assert set(report.ranking["move"]) == {"limit"}
