@@ -102,9 +102,10 @@ def test_where_an_unmeasured_state_cannot_be_fitted_the_error_says_why(tanks):
     with pytest.raises(ValueError, match="x1 is not measured and cannot be seen from the "
                                          "measurements: no other equation reads it"):
         PolyCCRegressor(equations=["x1_dot = a1 u - a2 x1", "x2_dot = a3 u - a4 x2"]).fit(frame)
-    with pytest.raises(ValueError, match=r"X has no column 'x1'.*the curves \(f1\) have none"):
-        PolyCCRegressor(equations=["x1_dot = a1 u - f1(x1)",
-                                   "x2_dot = a2 x1 - a3 sqrt(x2)"]).fit(frame)
+    with pytest.raises(ValueError, match=r"X has no column 'x1'.*NeuralBackend does not fit "
+                                         r"curves \(f1\) that way: use PolyCCRegressor"):
+        NeuralCCRegressor(equations=["x1_dot = a1 u - f1(x1)",
+                                     "x2_dot = a2 x1 - a3 sqrt(x2)"]).fit(frame)
     with pytest.raises(ValueError, match=r"X has no column 'x1'.*LeastSquaresCCRegressor "
                                          r"reads every state from X"):
         LeastSquaresCCRegressor(equations=CASCADE).fit(frame)

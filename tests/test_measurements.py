@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from sklearn_pycc import PolyCCRegressor, Skeleton, datasets, diagnose
+from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, Skeleton, datasets, diagnose
 from sklearn_pycc.measurements import (
     DIFFERENTIATION_METHODS,
     estimate_states,
@@ -170,8 +170,8 @@ def test_short_experiment_and_uneven_sampling_for_savgol_are_named():
 def test_missing_state_without_kinematic_equation_is_named():
     frame = datasets.make_duffing(n_samples=200)
     with pytest.raises(ValueError, match="X has no column 'x2', which the skeleton uses"):
-        PolyCCRegressor(equations=["x1_dot = a1 x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
-                        degree=3).fit(frame[["t", "x1", "F_ext"]])
+        NeuralCCRegressor(equations=["x1_dot = a1 x2", "x2_dot = F_ext - f1(x2) - f2(x1)"],
+                          max_epochs=1).fit(frame[["t", "x1", "F_ext"]])
     with pytest.raises(ValueError, match="requires y to be passed"):
         PolyCCRegressor(equations=SECOND_ORDER).fit(frame[["x1", "F_ext"]])
 

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..fitting.numbers import Numbers, parameters_only
 from ..fitting.problem import FitResult, Problem
-from ..skeleton.curves import as_curve
+from ..skeleton.curves import ZeroCurve, as_curve
 
 __all__ = ["RESERVED_ATTRIBUTES", "Backend", "FitResult", "Problem", "check_fit_result"]
 
@@ -67,6 +67,10 @@ class Backend(ABC):
     output_error: ClassVar[bool] = False
     #: it implements :meth:`curve_sd` and :meth:`draws` for a model it fitted
     uncertainty: ClassVar[bool] = False
+    #: it implements :meth:`written_curve` and :meth:`written_degrees`: its curves are fitted
+    #: through unmeasured states, written out as polynomials
+    #: (:mod:`~sklearn_pycc.fitting.output_error.hidden_curves`)
+    hidden_curves: ClassVar[bool] = False
     #: joblib's ``prefer`` for refits on resamples: "threads" when the work
     #: releases the GIL (LAPACK), else "processes"
     resample_in: ClassVar[str] = "processes"
@@ -160,11 +164,28 @@ class Backend(ABC):
         The same for every backend: a skeleton with unmeasured states has
         parameters only (:func:`~sklearn_pycc.fitting.output_error.hidden_fit.fit_hidden`).
         """
+        from ..fitting.output_error.hidden_curves import fit_hidden_curves
         from ..fitting.output_error.hidden_fit import fit_hidden
 
+        if problem.free_functions:
+            result = fit_hidden_curves(
+                problem, degrees=self.written_degrees(problem), make_curve=self.written_curve,
+                held={name: ZeroCurve() for name in problem.zeroed},
+                param_init=getattr(self, "param_init", None), window=window,
+                iterations=iterations)
+            return check_fit_result(self, problem, result, "fit_hidden_curves")
         start = check_fit_result(self, problem, self.hidden_start(problem), "hidden_start")
         return fit_hidden(problem, start, param_init=getattr(self, "param_init", None),
                           window=window, iterations=iterations)
+
+    def written_degrees(self, problem: Problem) -> dict[str, int]:
+        """Each free curve's degree as a polynomial through unmeasured states."""
+        raise ValueError(f"{type(self).__name__} does not fit curves through unmeasured states")
+
+    def written_curve(self, series: np.ndarray, center: float, half: float,
+                      domain: tuple[float, float]):
+        """The backend's curve for a power series in ``u = (x - center) / half`` on ``domain``."""
+        raise ValueError(f"{type(self).__name__} does not fit curves through unmeasured states")
 
     def hidden_start(self, problem: Problem) -> FitResult:
         """Where the output-error fit of a problem with unmeasured states starts.
@@ -175,7 +196,6 @@ class Backend(ABC):
         the curves pinned to zero by the gauge.
         """
         from ..fitting.output_error.hidden import scaled_start, starting_params
-        from ..skeleton.curves import ZeroCurve
 
         init = getattr(self, "param_init", None)
         params = scaled_start(problem, starting_params(problem, init), list(init or {}))

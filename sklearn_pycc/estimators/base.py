@@ -25,6 +25,7 @@ from ..fitting.filter.noises import check_process_noise
 from ..fitting.filter.stage import filter_stage
 from ..fitting.fingerprint import fit_fingerprint
 from ..fitting.output_error.hidden import check_visible
+from ..fitting.output_error.hidden_curves import hidden_level_gauge
 from ..fitting.output_error.noise_model import NOISE_MODELS, fit_noise_model
 from ..fitting.problem import (
     GAUGES,
@@ -313,7 +314,16 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         simulated from it and after polishing; ``polished``: "whole", or
         "trial" for a start dropped after a few evaluations; ``kept``). Two
         starts that simulate the record equally well at different parameters
-        raise a :class:`~sklearn_pycc.StartsWarning`.
+        raise a :class:`~sklearn_pycc.StartsWarning`. With curves through
+        unmeasured states a column ``stage`` says which fit each start
+        belongs to: "straight lines" (every curve a line, its law) or
+        "curves" (of their degree, started on the lines).
+    written_curves_ : dict
+        Only after a fit with curves through unmeasured states (backends
+        with ``hidden_curves``): for each free curve, a
+        :class:`~sklearn_pycc.fitting.output_error.hidden_curves.WrittenCurve`,
+        the polynomial form it was fitted as (over ``domain``, monotone there
+        where the curve is constrained so) and its numbers.
     n_features_in_ : int
         Number of columns of ``X`` seen in ``fit``.
     feature_names_in_ : ndarray
@@ -427,7 +437,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                              hidden_ok=self.fit_mode != "equation")
         _warn_crossed_limits(skeleton, record)
         if record.hidden:  # every limit is then fitted by output error
-            _check_hidden(skeleton, record.hidden)
+            _check_hidden(skeleton, record.hidden, backend)
+            constraints, gauge = hidden_level_gauge(skeleton, record.hidden, constraints, gauge)
         else:
             fixed = {**fixed, **_measured_limits(skeleton, record)}
             if self.fit_mode in ("simulation", "filter"):
@@ -726,8 +737,11 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         params = {a: float(all_params[a]) for a in skeleton.params}
         params.update(facts.get("delays_") or {})
         functions = {f: result.functions[f] for f in skeleton.functions}
+        attributes = dict(result.attributes)
+        # a scale of an unmeasured state the fit pinned (curves through it): the gauge's too
+        gauge = {**problem.gauge, **attributes.pop("written_gauge_", {})}
         self._set_fitted({
-            **facts, **result.attributes, "skeleton_": skeleton, "gauge_": dict(problem.gauge),
+            **facts, **attributes, "skeleton_": skeleton, "gauge_": gauge,
             "params_": params, "functions_": functions,
             "curve_ranges_": _argument_ranges(problem, params, functions)})
         self._set_fitted({"n_parameters_": len(problem.free_params)
@@ -975,17 +989,17 @@ def _warn_crossed_limits(skeleton: Skeleton, record) -> None:
                     "out", UserWarning, stacklevel=4)
 
 
-def _check_hidden(skeleton: Skeleton, hidden) -> None:
+def _check_hidden(skeleton: Skeleton, hidden, backend: Backend) -> None:
     """Refuse unmeasured states where they cannot be fitted, saying why."""
     _check_simulable(skeleton, outputs_ok=True)
     check_visible(skeleton, hidden)
-    if skeleton.functions:
+    if skeleton.functions and not backend.hidden_curves:
         raise ValueError(
             f"X has no column {hidden[0]!r}, which the skeleton uses (or only missing values "
             f"in it), and no kinematic equation reconstructs it: an unmeasured state is "
-            f"fitted by output error from starting values of the parameters, and the curves "
-            f"({', '.join(skeleton.functions)}) have none: write them as parametric terms "
-            "(a1 x1 + a2 x1^3, a1 tanh(a2 x2), ...) or measure every state")
+            f"fitted by output error, and {type(backend).__name__} does not fit curves "
+            f"({', '.join(skeleton.functions)}) that way: use PolyCCRegressor, write them as "
+            "parametric terms (a1 x1 + a2 x1^3, a1 tanh(a2 x2), ...), or measure every state")
 
 
 def _check_simulable(skeleton: Skeleton, *, outputs_ok: bool = False) -> None:
@@ -1038,11 +1052,19 @@ def check_equation_weights(weights, skeleton: Skeleton,
 
 def _argument_ranges(problem: Problem, params: Mapping,
                      functions: Mapping) -> dict[str, tuple[float, float]]:
-    """Range of every curve's argument over the fitted data."""
+    """Range of every curve's argument over the fitted data.
+
+    A curve of an unmeasured state ran over the range its fit wrote it out
+    on (its ``domain``).
+    """
     ranges = {}
     for f in problem.skeleton.functions:
         values = problem.argument_values(f, params, functions)
-        ranges[f] = (float(values.min()), float(values.max())) if values.size else (0.0, 0.0)
+        if values.size:
+            ranges[f] = (float(values.min()), float(values.max()))
+        else:
+            domain = getattr(functions.get(f), "domain", None) if problem.hidden else None
+            ranges[f] = (0.0, 0.0) if domain is None else tuple(float(v) for v in domain)
     return ranges
 
 

@@ -19,6 +19,7 @@ from ..backends.poly.linear import curve_arguments, linearize, split_parameters
 from ..exceptions import IdentifiabilityError, RankDeficiencyWarning
 from ..fitting.lstsq import LstsqResult, bounded_lstsq, constrained_lstsq
 from ..fitting.numbers import Numbers, parameters_only
+from ..fitting.output_error.hidden_curves import written_numbers
 from ..fitting.output_error.shooting import ShootingPlan, fit_shooting
 from ..fitting.problem import FitResult, Problem, residual_scale, thinned
 from ..fitting.uncertainty.covariance import DeferredCovariance, sandwich
@@ -195,6 +196,7 @@ class PolyBackend(Backend):
 
     output_error = True
     uncertainty = True
+    hidden_curves = True
     #: the refits' least squares run in LAPACK, which releases the GIL
     resample_in = "threads"
 
@@ -311,6 +313,15 @@ class PolyBackend(Backend):
                                              "covariance_": covariance})
 
     # -- output error ----------------------------------------------------------
+    def written_degrees(self, problem: Problem) -> dict[str, int]:
+        """Each free curve's ``degree``, as through measured states."""
+        return self._degrees(problem.free_functions)
+
+    def written_curve(self, series: np.ndarray, center: float, half: float,
+                      domain: tuple[float, float]) -> PolyCurve:
+        """A :class:`PolyCurve` of the series, extrapolated as ``extrapolation`` says."""
+        return PolyCurve(series, center, half, domain, self._beyond)
+
     def numbers(self, problem: Problem, result: FitResult) -> Numbers:
         """The free parameters and the curves' coefficients as one vector.
 
@@ -320,6 +331,8 @@ class PolyBackend(Backend):
         fit shaped it. The labelled numbers are the parameters and each
         curve's power series (``f1[k]``), as ``covariance_`` names them.
         """
+        if "written_curves_" in result.attributes:  # curves through unmeasured states
+            return written_numbers(problem, result, self.written_curve)
         if not problem.free_functions:  # parameters alone (a fit with unmeasured states)
             return parameters_only(problem, result)
         functions, params = result.functions, result.params
@@ -450,6 +463,9 @@ class PolyBackend(Backend):
 
     def n_numbers(self, problem: Problem, result: FitResult, name: str) -> int:
         """Coefficients of the basis, less one per point value they must satisfy."""
+        written = result.attributes.get("written_curves_") or {}
+        if name in written:  # written out through unmeasured states: its own numbers
+            return len(written[name].numbers)
         coefficients = result.attributes["coefficients_"][name]
         return max(len(coefficients) - len(problem.points(name)), 0)
 

@@ -16,7 +16,7 @@ from ..skeleton import Skeleton
 from ..skeleton.compiler import compile_expression
 from ..skeleton.constraints import Constraint, parse_constraints
 from ..skeleton.equations import Equation, unknown_names
-from ..skeleton.nodes import Node, Unknown, walk
+from ..skeleton.nodes import Node, Symbol, Unknown, walk
 
 __all__ = ["GAUGES", "FitResult", "Problem", "active_residuals", "build_skeleton",
            "gauge_skeleton", "parity_of", "points_of", "residual_scale"]
@@ -273,13 +273,15 @@ class Problem:
     def argument_values(self, function: str, params, functions=None) -> np.ndarray:
         """Finite values of every argument of ``function`` on the data.
 
-        Arguments that apply a curve missing from ``functions`` are skipped.
+        Arguments that apply a curve missing from ``functions``, or read a
+        state the data do not hold (an unmeasured one), are skipped.
         """
         slots, env = self.environment()
         functions = functions or {}
         chunks = []
         for arg in self.arguments(function):
-            if any(isinstance(node, Unknown) and node.name not in functions
+            if any((isinstance(node, Unknown) and node.name not in functions)
+                   or (isinstance(node, Symbol) and node.name in self.hidden)
                    for node in walk(arg)):
                 continue
             with np.errstate(all="ignore"):

@@ -37,7 +37,7 @@ __all__ = ["fit_hidden"]
 
 def fit_hidden(problem: Problem, result: FitResult, *,
                param_init: Mapping[str, float] | None, window: int,
-               iterations: int) -> FitResult:
+               iterations: int, initial: np.ndarray | None = None) -> FitResult:
     """Output error from ``result`` (a backend's ``hidden_start``), unmeasured states simulated.
 
     The same for every backend: a skeleton with unmeasured states has parameters only. Multiple
@@ -60,7 +60,8 @@ def fit_hidden(problem: Problem, result: FitResult, *,
     (:func:`~sklearn_pycc.fitting.output_error.hidden.along_hidden_scale`); the best
     whole-record fit wins. Where the problem's hold is to be chosen (``input_hold="auto"``),
     the fit is last polished under each other input hold, and the hold of the best whole-record
-    fit is kept (``input_hold_``).
+    fit is kept (``input_hold_``). ``initial`` gives every state at the start of each
+    experiment for the given start (a fit's own), else they are found at rest.
     """
     limits = problem.skeleton.limit_params
     hidden_limits = [a for a in problem.free_params
@@ -91,7 +92,7 @@ def fit_hidden(problem: Problem, result: FitResult, *,
     start = {a: v for a, v in result.params.items() if a not in pinned}
     others = [] if other is None else [{a: v for a, v in other.items() if a not in pinned}]
     contest, info = _multistart(inner, result.functions, start, window, iterations,
-                                guessed=guessed, others=others)
+                                guessed=guessed, others=others, initial=initial)
     if guessed and not hidden_limits and not contest.settled:
         other = second_start()
         if other is not None:
@@ -142,8 +143,8 @@ def fit_hidden(problem: Problem, result: FitResult, *,
     table = initial_table(problem, first, problem.skeleton.states)
     attributes = {"shooting_": info, "initial_states_": table, "input_hold_": hold,
                   "starts_": contest.table()}
-    covariance = None if unseen else whole_record_covariance(problem, params, first,
-                                                              info["substeps"])
+    covariance = None if unseen or not problem.covariance else whole_record_covariance(
+        problem, params, first, info["substeps"])
     if covariance is not None:
         attributes["covariance_"] = covariance
     return FitResult(result.functions, params, attributes)
@@ -155,7 +156,8 @@ def _compiled(problem: Problem, functions: Mapping, params: Mapping[str, float])
 
 def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float], window: int,
                 iterations: int, *, guessed: bool = True,
-                others: Sequence[Mapping[str, float]] = ()) -> tuple[StartContest, dict]:
+                others: Sequence[Mapping[str, float]] = (),
+                initial: np.ndarray | None = None) -> tuple[StartContest, dict]:
     """The whole-record fits of ``problem`` from ``start`` and its estimates, as a contest.
 
     Multiple shooting, then every experiment simulated whole from ``start``,
@@ -180,7 +182,8 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
     theta0 = np.clip(theta0, low, high)
     first_system = system_for(theta0)
     whole = WholeRecord(problem)
-    first = whole.first_states(first_system)
+    first = (whole.first_states(first_system) if initial is None
+             else np.asarray(initial, dtype=float))
     whole.choose_substeps(first_system, first)
     estimates = [("the start", theta0, first)]  # the start itself, simulated whole
     info = {"substeps": whole.windows.substeps}
