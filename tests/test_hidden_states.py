@@ -338,3 +338,11 @@ def test_a_coarsely_sampled_record_is_not_trusted_for_derivatives():
         assert auto.fit_mode_ == ("simulation" if h == 1.0 else "equation")
         assert auto.params_["a1"] == pytest.approx(0.5, rel=0.05)
     assert fits[1.0].params_["a1"] < 0.7 * 0.5  # what the warning is about
+
+
+def test_a_hidden_state_that_runs_away_is_named():
+    frame = datasets.make_two_tanks(n_samples=300, rims=(100.0, 100.0), random_state=0)
+    # the upper tank written without an outflow of its own: its level can only grow
+    with pytest.warns(UserWarning, match=r"x1 \(not measured\) runs away in the fitted model"):
+        PolyCCRegressor(equations=["x1_dot = a1 u",
+                                   "x2_dot = a3 sqrt(abs(x1)) - a4 sqrt(x2)"]).fit(frame)

@@ -3,9 +3,11 @@
 import warnings
 
 import numpy as np
+import pandas as pd
 import pytest
 
-from sklearn_pycc import HypothesisLoop, PolyCCRegressor, datasets, diagnose
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, Skeleton, datasets, diagnose
+from sklearn_pycc.datasets._generation import add_noise
 from sklearn_pycc.diagnostics._candidates import enumerate_moves, extend
 from sklearn_pycc.diagnostics._roles import equation_roles
 from sklearn_pycc.diagnostics._unmeasured import simulate_record
@@ -84,3 +86,37 @@ def test_a_model_that_lacks_nothing_gets_no_law(linear_cascade):
     assert report.best is None
     # it simulates the record to its noise: no law has anything to take, none is tried
     assert set(report.ranking["move"]) == {"limit"}
+
+
+PUMP_TRUTH = ["x1_dot = a1 a5 tanh(u / a5) + a6 - a2 sqrt(x1)",
+              "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
+
+
+def _pump_tanks(n_samples, seed):
+    """Two tanks whose pump levels off (at 6 V) and leaks (a constant outflow), x2 logged."""
+    frame, truth = datasets.make_two_tanks(n_samples=n_samples, rims=(100.0, 100.0),
+                                           random_state=seed, return_truth=True, noise=None,
+                                           pump=(2.0, 12.0))
+    params = {**truth.params, "a5": 6.0, "a6": -0.04}
+    t, u = frame.t.to_numpy(), frame.u.to_numpy()
+    levels = Skeleton(PUMP_TRUTH).simulate(t, list(truth.y0), params=params, inputs={"u": u},
+                                           input_hold="zoh")
+    record = pd.DataFrame({"t": t, "u": u, "x2": levels["x2"].to_numpy()})
+    return add_noise(record, 40.0, ["x2"], np.random.default_rng(seed + 7))
+
+
+@pytest.mark.slow
+def test_a_pump_that_levels_off_and_leaks_in_front_of_a_hidden_tank_is_named():
+    frame = _pump_tanks(1024, 0)
+    levels = {"x1": "level", "x2": "level"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=TORRICELLI, constraints=POSITIVE,
+                                quantities=levels).fit(frame)
+        first = diagnose(model, frame).best
+    assert first is not None and first.effect == "input_saturation"
+    assert first.equation == "x1_dot" and first.move == "replace"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        second = diagnose(first.refit, frame).best
+    assert second is not None and second.effect == "offset" and second.equation == "x1_dot"

@@ -111,10 +111,16 @@ class UnmeasuredDiagnosis(Diagnosis):
             lines.append(starts)
         lines.append("")
         if self.best is None:
+            rows = list(self.ranking.itertuples())
+            # those refitted to the whole record, or that failed; the others fell on trial
+            judged = [r for r in rows if np.isfinite(r.error_removed)
+                      or (isinstance(r.failure, str) and r.failure)]
+            dropped = len(rows) - len(judged)
             lines.append("Nothing is missing among the limits and laws tried: " + (
-                "; ".join(f"'{r.suggested_term}' {self._why(r)}"
-                          for r in self.ranking.itertuples())
-                or "every state has its limits") + ".")
+                "; ".join(f"'{r.suggested_term}' {self._why(r)}" for r in judged)
+                or "every state has its limits")
+                + (f"; {dropped} more fell behind on trial (ranking)" if dropped else "")
+                + ".")
         else:
             best = self.best
             lines.append(f"Missing effect: {best.effect} of {best.variable} ({best.description})"

@@ -1,13 +1,16 @@
-"""Laws in place of a skeleton's terms, for a model with states no sensor reads.
+"""Laws in place of a skeleton's terms, and effects added, for a model with states no sensor reads.
 
 A model whose states are not all measured has no derivative residual to
 screen a catalogue effect on: each move is judged by simulating the record.
 The moves are the replacements of the skeleton's own terms by the laws the
 catalogue says may take their place (a linear outflow by Torricelli's, with
 the flow it carries into the next tank; a linear heat path by a radiating
-one), in the equations of measured and unmeasured states alike. Each starts
-where the model is: its own numbers, and the new law's matched to the terms
-it replaces along the model's simulated course. Every move is refitted on
+one), the inputs read another way (a pump that levels off, a valve's
+characteristic, a delay) and the catalogue's effects added (an offset, a
+drift, another outflow), in the equations of measured and unmeasured states
+alike. Each starts where the model is: its own numbers, and the new law's
+matched to the terms it changes along the model's simulated course (an added
+effect starts where it changes the least). Every move is refitted on
 trial (a few evaluations of the record by output error), the few best to the
 end, and :func:`~sklearn_pycc.diagnostics._unmeasured.diagnose_unmeasured`
 weighs them beside the state limits.
@@ -24,7 +27,13 @@ import pandas as pd
 from scipy.optimize import least_squares
 
 from ..measurements.noise import second_difference_level
-from ._candidates import Candidate, enumerate_moves, extend
+from ._candidates import (
+    Candidate,
+    enumerate_candidates,
+    enumerate_input_moves,
+    enumerate_moves,
+    extend,
+)
 from ._refit import prepared
 from ._roles import equation_roles
 
@@ -34,7 +43,7 @@ __all__ = ["LEADERS", "MoveTrial", "law_trials", "noise_share", "thinned"]
 LEADERS = 2
 
 #: the output-error iterations of a trial refit
-TRIAL_ITERATIONS = 1
+TRIAL_ITERATIONS = 3
 
 #: a trial refit reads at most about this many samples (every k-th row of the record)
 TRIAL_SAMPLES = 400
@@ -132,7 +141,7 @@ def _fit(model, X: pd.DataFrame, skeleton, init: dict, **settings):
 
 def law_trials(model, X: pd.DataFrame, course: pd.DataFrame | None, *, base: float, n: int,
                quantities, units: dict, nrmse) -> list[MoveTrial]:
-    """Every law in place of the skeleton's terms, tried on the record and refitted.
+    """Every law in place of the skeleton's terms, and every effect added, tried and refitted.
 
     Parameters
     ----------
@@ -171,11 +180,20 @@ def law_trials(model, X: pd.DataFrame, course: pd.DataFrame | None, *, base: flo
     # the trials read every k-th row (the few best are refitted on the whole record)
     trial_rows = thinned(X)
     roles = equation_roles(skeleton, quantities, units)
-    candidates = [c for c in enumerate_moves(skeleton, roles, True) if c.move == "replace"]
+    # the own terms' laws everywhere; inputs read another way and effects added in the
+    # equations of the states no sensor reads, where no residual can show them
+    inside = {eq.index for eq in skeleton.parsed
+              if eq.state not in X.columns or not X[eq.state].notna().any()}
+    candidates = [*(c for c in enumerate_moves(skeleton, roles, True) if c.move == "replace"),
+                  *(c for c in [*enumerate_input_moves(skeleton, roles),
+                                *enumerate_candidates(skeleton, roles, True)]
+                    if {k for k, _ in c.additions} <= inside)]
     trials = []
     for candidate in candidates:
         try:
             extend(skeleton, candidate)
+            if candidate.extended.delay_params:
+                continue  # a delay is searched by equation error, which no hidden state allows
             init = _matched_start(model, candidate, course)
             refit = _fit(model, trial_rows, candidate.extended, init,
                          shooting_iterations=TRIAL_ITERATIONS)

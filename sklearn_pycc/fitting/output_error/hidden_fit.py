@@ -140,6 +140,7 @@ def fit_hidden(problem: Problem, result: FitResult, *,
             f"every parameter: {words}, so only combinations of those are determined (the "
             "values found are one of many). Write a known value or ratio into the "
             "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=6)
+    _warn_runaway(problem, result.functions, params, first, info["substeps"])
     table = initial_table(problem, first, problem.skeleton.states)
     attributes = {"shooting_": info, "initial_states_": table, "input_hold_": hold,
                   "starts_": contest.table()}
@@ -226,3 +227,64 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
             if other is not None:
                 contest.try_all([(f"{label}, rescaled", problem, *other, False)])
     return contest, info
+
+
+#: a hidden state runs away where its last tenth lies beyond the range of its first half by
+#: more than this share of that range (and by far more than any measured state does),
+#: still moving away at the end
+RUNAWAY = 0.5
+
+
+def _beyond(values: np.ndarray) -> tuple[float, float, float]:
+    """How far the last tenth of ``values`` lies beyond the first half's range, over that range.
+
+    With the first half's least and largest values.
+    """
+    early, late = values[: values.size // 2], values[-max(values.size // 10, 2):]
+    low, high = float(early.min()), float(early.max())
+    span = max(high - low, 1e-12 * max(abs(low), abs(high), 1.0))
+    return max(float(late.max()) - high, low - float(late.min()), 0.0) / span, low, high
+
+
+def _still_moving(values: np.ndarray) -> bool:
+    """Whether ``values`` move away at their end at least half as fast as over the whole."""
+    rows = np.arange(values.size, dtype=float)
+    overall = np.polyfit(rows, values, 1)[0]
+    tail = max(values.size // 10, 3)
+    late = np.polyfit(rows[-tail:], values[-tail:], 1)[0]
+    return bool(overall != 0 and late / overall >= 0.5)
+
+
+def _warn_runaway(problem: Problem, functions: Mapping, params: Mapping[str, float],
+                  first: np.ndarray, substeps: int) -> None:
+    """Warn where the fit's unmeasured state runs away over the record, naming it.
+
+    The fitted model simulates each experiment whole: an unmeasured state
+    whose end lies far beyond the range of its first half and still moves
+    away (a tank filling without end, a wall warming past any room), where
+    no measured signal drifts alike, fits what is measured by a course no
+    sensor checked.
+    """
+    whole = WholeRecord(problem)
+    whole.windows.substeps = substeps
+    try:
+        course = whole.course(_compiled(problem, functions, params), first)
+    except (ValueError, ArithmeticError):
+        return
+    seen = [np.asarray(v, dtype=float) for v in problem.measured.values()]
+    drift = max([_beyond(v[np.isfinite(v)])[0] for v in seen if np.isfinite(v).sum() >= 20]
+                or [0.0])
+    for state in problem.hidden:
+        values = np.asarray(course[state], dtype=float)
+        values = values[np.isfinite(values)]
+        if values.size < 20:
+            continue
+        ratio, low, high = _beyond(values)
+        if ratio > max(RUNAWAY, 3 * drift) and _still_moving(values):
+            warnings.warn(
+                f"{state} (not measured) runs away in the fitted model: it ends at "
+                f"{float(values[-1]):.4g}, still moving, where over the record's first half "
+                f"it held {low:.4g} to {high:.4g}; no measured signal drifts so. What is "
+                "measured is fitted by a course no sensor checks: check the skeleton's "
+                f"equation of {state} and its parameters' signs (bounds such as 'a1 >= 0').",
+                UserWarning, stacklevel=6)
