@@ -131,6 +131,13 @@ def _matched_start(model, candidate: Candidate, course: pd.DataFrame) -> dict[st
     return {**kept, **dict(zip(new, (float(v) for v in found)))}
 
 
+def _kind(candidate: Candidate) -> str:
+    """"law" (the skeleton's own terms replaced), "input" (an input read another way), "added"."""
+    if candidate.move != "replace":
+        return "added"
+    return "input" if candidate.effect.acts_through == "input" else "law"
+
+
 def _fit(model, X: pd.DataFrame, skeleton, init: dict, **settings):
     estimator = prepared(model, equations=skeleton, param_init=init, hold_as_fitted=True,
                          **settings)
@@ -165,7 +172,9 @@ def law_trials(model, X: pd.DataFrame, course: pd.DataFrame | None, *, base: flo
     -------
     list of MoveTrial
         The :data:`LEADERS` best by their trial refit (on every k-th row,
-        :data:`TRIAL_SAMPLES`), each refitted to the whole record and scored
+        :data:`TRIAL_SAMPLES`), and the best of each kind of move (a law of
+        the skeleton's terms, an input read another way, an effect added),
+        each refitted to the whole record and scored
         (``delta_bic`` against the model, ``removed``: the share of its
         simulation error), then the others as tried; none where the model
         already simulates the record within :data:`AT_NOISE` of its noise
@@ -203,7 +212,15 @@ def law_trials(model, X: pd.DataFrame, course: pd.DataFrame | None, *, base: flo
             continue
         trials.append(MoveTrial(candidate, refit, error))
     trials.sort(key=lambda t: (not math.isfinite(t.nrmse), t.nrmse))
-    for trial in trials[:LEADERS]:
+    # the best few, and the best of each kind of move: a law of the skeleton's own terms, an
+    # input read another way, an effect added (an offset may mimic a law's curvature on trial)
+    leaders = trials[:LEADERS]
+    for kind in ("law", "input", "added"):
+        best = next((t for t in trials if t.refit is not None and _kind(t.candidate) == kind),
+                    None)
+        if best is not None and best not in leaders:
+            leaders.append(best)
+    for trial in leaders:
         if trial.refit is None:
             continue
         try:

@@ -13,6 +13,7 @@ and says when two starts end equally well at different parameters.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -56,17 +57,39 @@ def _residuals(problem: Problem) -> int:
     return sum(e.n_samples for e in problem.experiments) * max(signals, 1)
 
 
-def _largest_gap(params: Mapping[str, float], other: Mapping[str, float]) -> tuple[float, str]:
-    """The largest relative difference of a parameter both give, and its name."""
-    gap, name = 0.0, ""
+def _largest_gap(params: Mapping[str, float], other: Mapping[str, float],
+                 forms: Mapping | None = None) -> tuple[float, str, float, float]:
+    """The largest relative difference of a parameter both give: its name and both values.
+
+    A curve written out through unmeasured states (``forms``, each a
+    :class:`~sklearn_pycc.fitting.output_error.hidden_curves.CurveForm`) is
+    compared as a curve, not number by number (many numbers make much the
+    same curve): its largest difference over its range, relative to its
+    largest value there, named at that point (``f1(3.2)``).
+    """
+    forms = forms or {}
+    numbers = {n for form in forms.values() for n in form.names}
+    gap, name, mine, theirs = 0.0, "", math.nan, math.nan
     for a, value in params.items():
-        if a not in other:
+        if a not in other or a in numbers:
             continue
         scale = max(abs(value), abs(other[a]))
         relative = abs(value - other[a]) / scale if scale > 0 else 0.0
         if relative > gap:
-            gap, name = relative, a
-    return gap, name
+            gap, name, mine, theirs = relative, a, value, other[a]
+    for form in forms.values():
+        if not all(n in params and n in other for n in form.names):
+            continue
+        x = np.linspace(*form.domain, 50)
+        u = (x - form.center) / form.half
+        a = np.polynomial.Polynomial(form.series(params))(u)
+        b = np.polynomial.Polynomial(form.series(other))(u)
+        scale = max(float(np.max(np.abs(a))), float(np.max(np.abs(b))))
+        k = int(np.argmax(np.abs(a - b)))
+        relative = abs(a[k] - b[k]) / scale if scale > 0 else 0.0
+        if relative > gap:
+            gap, name, mine, theirs = relative, f"{form.name}({x[k]:.4g})", a[k], b[k]
+    return gap, name, float(mine), float(theirs)
 
 
 def noise_floor(problem: Problem) -> float | None:
@@ -249,12 +272,13 @@ class StartContest:
         unknowns = len(best_params) + self.best[1].size
         chance = 2.0 * unknowns / max(_residuals(self.problem), 1)
         worst = None
+        forms = getattr(self.problem.skeleton, "forms", None) if self.problem else None
         for error, params in self.finished:
             if not error ** 2 <= best_error ** 2 * (1 + chance):
                 continue
-            gap, name = _largest_gap(best_params, params)
+            gap, name, mine, theirs = _largest_gap(best_params, params, forms)
             if gap > DISAGREEING and (worst is None or gap > worst[0]):
-                worst = (gap, name, best_params[name], params[name], error)
+                worst = (gap, name, mine, theirs, error)
         if worst is None:
             return None
         _, name, mine, value, error = worst
