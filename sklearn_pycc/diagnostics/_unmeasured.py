@@ -163,7 +163,9 @@ class UnmeasuredDiagnosis(Diagnosis):
             ax.plot(frame[TIME], frame[f"{name}_sim"], lw=1,
                     label="simulated" + (" (not measured)" if name in self.hidden else ""))
             label_axis(ax, "y", name, self.units)
-            ax.legend(loc="upper right", fontsize="small")
+            # above the panel, where no sample lies under it
+            ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=2, fontsize="small",
+                      frameon=False, borderaxespad=0.1)
         label_axis(axes[-1, 0], "x", TIME, self.units)
         fig.tight_layout()
         return {"simulation": fig}
