@@ -354,7 +354,7 @@ def line_laws(problem: Problem) -> tuple[Skeleton, dict[str, LineLaw]]:
     return written, laws
 
 
-def _argument_ranges(skeleton: Skeleton, course: Mapping[str, np.ndarray],
+def _ranges_on(skeleton: Skeleton, course: Mapping[str, np.ndarray],
                      params: Mapping[str, float],
                      functions: Mapping[str, Callable]) -> dict[str, tuple[float, float]]:
     """The range of each curve's arguments over ``course`` (states, inputs and ``t`` by name)."""
@@ -444,7 +444,7 @@ def fit_hidden_curves(problem: Problem, *, degrees: Mapping[str, int],
         problem = replace(problem, fixed_params={**problem.fixed_params, **pins})
         course = whole.course(lined.compile({}, values), first_states)
     curves = {**held, **{f: (lambda x, law=law_: law(x, values)) for f, law_ in laws.items()}}
-    ranges = _argument_ranges(problem.skeleton, course, {**problem.fixed_params, **values},
+    ranges = _ranges_on(problem.skeleton, course, {**problem.fixed_params, **values},
                               curves)
     widened = {f: (lo - MARGIN * (hi - lo), hi + MARGIN * (hi - lo))
                for f, (lo, hi) in ranges.items()}
@@ -553,8 +553,6 @@ def written_numbers(problem: Problem, result: FitResult, make_curve: MakeCurve) 
     within their bounds; the labelled numbers are the parameters and each
     curve's power series (``f1[k]``), as ``covariance_`` names them.
     """
-    from scipy.linalg import block_diag
-
     written = result.attributes["written_curves_"]
     forms = {name: w.form for name, w in written.items()}
     skeleton = CurvesWrittenOut(problem.skeleton, forms, make_curve,
@@ -576,16 +574,28 @@ def written_numbers(problem: Problem, result: FitResult, make_curve: MakeCurve) 
             for name, form in forms.items()}
         return FitResult(skeleton.curves(numbers), {a: numbers[a] for a in free}, kept)
 
-    labels = list(free)
-    for name, form in forms.items():
-        labels += [f"{name}[{k}]" for k in range(len(form.constant))]
+    labels, to_labels = _series_labels(free, forms)
     return Numbers(
         theta0=np.array([start[n] for n in names], dtype=float),
         low=np.array([bounds.get(n, (-np.inf, np.inf))[0] for n in names], dtype=float),
         high=np.array([bounds.get(n, (-np.inf, np.inf))[1] for n in names], dtype=float),
         system_for=lambda theta: skeleton.compile({}, values(theta)),
-        result_for=result_for, labels=labels,
-        to_labels=block_diag(np.eye(len(free)), *(f.directions for f in forms.values())))
+        result_for=result_for, labels=labels, to_labels=to_labels)
+
+
+def _series_labels(params: Sequence[str], forms: Mapping[str, CurveForm]):
+    """The parameters and each curve's power series (``f1[k]``), and the map to them.
+
+    The map is linear from the parameters, then each form's numbers in
+    order: the series are the forms' directions times their numbers (plus
+    a constant no covariance sees).
+    """
+    from scipy.linalg import block_diag
+
+    labels = list(params)
+    for name, form in forms.items():
+        labels += [f"{name}[{k}]" for k in range(len(form.constant))]
+    return labels, block_diag(np.eye(len(params)), *(f.directions for f in forms.values()))
 
 
 def _series_covariance(covariance, params: Sequence[str], forms: Mapping[str, CurveForm]):
@@ -595,20 +605,11 @@ def _series_covariance(covariance, params: Sequence[str], forms: Mapping[str, Cu
     series are linear in the numbers, so theirs follows exactly.
     """
     import pandas as pd
-    from scipy.linalg import block_diag
 
-    names = list(covariance.index)
-    labels = list(params)
-    blocks = [np.eye(len(params))]
-    order = list(params)
-    for name, form in forms.items():
-        labels += [f"{name}[{k}]" for k in range(len(form.constant))]
-        blocks.append(form.directions)
-        order += form.names
-    index = [names.index(n) for n in order]
-    inner = covariance.to_numpy()[np.ix_(index, index)]
-    to_labels = block_diag(*blocks)
-    out = to_labels @ inner @ to_labels.T
+    order = [*params, *(n for form in forms.values() for n in form.names)]
+    index = [list(covariance.index).index(n) for n in order]
+    labels, to_labels = _series_labels(params, forms)
+    out = to_labels @ covariance.to_numpy()[np.ix_(index, index)] @ to_labels.T
     frame = pd.DataFrame(0.5 * (out + out.T), index=labels, columns=labels)
     frame.attrs.update(covariance.attrs)
     return frame
