@@ -83,3 +83,51 @@ def test_systems_that_differ_in_their_limits_are_not_stacked():
     systems = [skeleton.compile({}, {"a1": 1.0, "a2": high}) for high in (2.0, 3.0)]
     assert stack_systems(systems, 4) is None
     assert stack_systems(systems[:1] * 2, 4) is not None
+
+
+GENERATED_CASES = [
+    # a limited cascade reading t: rates held at the limits, states clipped after each step
+    (["x1_dot = a1 u - a2 sqrt(x1) + 0.001 t", "x2_dot = 1.25 a2 sqrt(x1) - a3 sqrt(x2)"],
+     ["x1 <= 12", "0 <= x2 <= 13"], {"a1": 0.3, "a2": 0.4, "a3": 0.45}),
+    # powers written out (a square and a cube kept once), a power of a parameter, folded
+    # constants, a negated sum, a curve and an elementary function of a sum
+    (["x1_dot = a1 u - a2 x1^3 + (a1 a2)^2 - (x2 - x1)^2 / 50 + x1^5 / 1e6",
+      "x2_dot = -(a3 x2 + f1(x1)) + 0.1 tanh(x1 - x2) + x2^a4 / 100"],
+     ["x2 >= 0"], {"a1": 0.02, "a2": 0.001, "a3": 0.045, "a4": 1.5}),
+    # a model that escapes part way: the general path takes the window over
+    (["x1_dot = a1 u + a2 x1^2", "x2_dot = a3 sqrt(x1) - a3 x2"], [],
+     {"a1": 0.02, "a2": 0.05, "a3": 0.045}),
+    # a square root read below zero: the general path says so
+    (["x1_dot = a1 - a2 sqrt(x1)", "x2_dot = x1 - x2"], [], {"a1": -0.5, "a2": 0.1}),
+]
+
+
+@pytest.mark.parametrize("case", range(len(GENERATED_CASES)))
+def test_generated_steps_give_the_general_float_path_s_numbers(monkeypatch, case):
+    from sklearn_pycc.simulation.float_steps import float_integrator
+
+    equations, limits, params = GENERATED_CASES[case]
+    skeleton = Skeleton(equations, limits)
+    curves = {"f1": lambda x: 0.01 * x} if "f1" in skeleton.functions else {}
+    system = skeleton.compile(curves, params)
+    assert float_integrator(system) is not None
+    start = np.array([[3.0, 7.0]])
+    fast = _windows("zoh", 1)
+    states, escaped = fast.simulate(system, start)
+    steps = fast.escape_step.copy()
+    monkeypatch.setattr(windows_module, "float_integrator", lambda system: None)
+    general = _windows("zoh", 1)
+    expected, escaped_expected = general.simulate(system, start)
+    assert np.array_equal(states, expected)
+    assert np.array_equal(escaped, escaped_expected)
+    assert np.array_equal(steps, general.escape_step)
+    assert np.ptp(states[0, :, 1]) > 0.1  # the states do move
+
+
+def test_an_equation_solved_for_its_derivative_has_no_generated_steps():
+    from sklearn_pycc.simulation.float_steps import float_integrator
+
+    system = Skeleton(["2 x1_dot + x1 = u"]).compile({}, {})
+    assert float_integrator(system) is None
+    states, escaped = _windows("zoh", 1).simulate(system, np.array([[1.0]]))
+    assert not escaped.any() and np.isfinite(states).all()

@@ -21,6 +21,7 @@ from numbers import Real
 import numpy as np
 
 from ..exceptions import SimulationError
+from .float_steps import float_integrator
 from .integration import Diverged, InputSignals, fitted_hold
 
 __all__ = ["Divergence", "Horizon", "Windows", "choose_horizon", "jacobian_eigenvalues",
@@ -240,18 +241,16 @@ class Windows:
         escaped = np.zeros(K, dtype=bool)
         escape_step = np.full(K, L + 1)
         signals = [name for name in fine if name in system.slots]
-        columns = [fine[name].T.copy() for name in signals]  # (stage, K): contiguous rows
+        # (stage, copies * K): contiguous rows, every copy reading the same input at a stage
+        columns = [np.tile(fine[name].T, (1, copies)) for name in signals]
         # the later stages of a step read a held input's value before it steps
-        lefts = columns if ends is fine else [ends[name].T.copy() for name in signals]
+        lefts = columns if ends is fine else [np.tile(ends[name].T, (1, copies))
+                                              for name in signals]
         evaluate = system.batch_rhs(K, signals)
         steps = np.tile(self.h / m, (copies, 1))
 
-        if copies == 1:
-            def rhs(state, column, source=columns):
-                return evaluate(state, [values[column] for values in source])
-        else:  # every copy reads the same input at a stage
-            def rhs(state, column, source=columns):
-                return evaluate(state, [np.tile(values[column], copies) for values in source])
+        def rhs(state, column, source=columns):
+            return evaluate(state, [values[column] for values in source])
 
         limited = bool(getattr(system, "limits", None))
 
@@ -296,11 +295,19 @@ class Windows:
         right = stage_values(fine)
         left = right if ends is fine else stage_values(ends)
         times = fine[TIME][k].tolist() if TIME in fine else [0.0] * n_stages
+        bound = self.bound.tolist()
+        steps = (self.h[k] / m).tolist()
+        run = float_integrator(system)
+        if run is not None:  # the same steps, generated as one function
+            try:
+                rows = run([float(v) for v in start], right, left, times, steps[:L], m, bound)
+            except Exception:  # the general path below says what went wrong, and where
+                rows = None
+            if rows is not None:
+                return np.array(rows), False, L + 1
         now: list = [None]
         rhs = system.make_rhs(lambda t: now[0], list_states=True)
         limited = bool(getattr(system, "limits", None))
-        bound = self.bound.tolist()
-        steps = (self.h[k] / m).tolist()
 
         def f(x, c, source):
             now[0] = source[c]

@@ -30,7 +30,7 @@ from .curves import as_curve
 from .functions import ELEMENTARY
 from .nodes import Apply, BinOp, Neg, Node, Number, Param, Symbol, Unknown
 
-__all__ = ["compile_expression", "degree_in"]
+__all__ = ["compile_expression", "constant_value", "degree_in", "fold"]
 
 Compiled = Callable[[object], object]
 
@@ -52,6 +52,21 @@ def _folded(op, left: float, right: float) -> float:
     """
     with np.errstate(all="ignore"):
         return float(op(np.float64(left), np.float64(right)))
+
+
+def constant_value(node: Node, params: Mapping[str, object]) -> float | None:
+    """The value of a number or of a parameter of one value; None for anything else."""
+    if isinstance(node, Number):
+        return node.value
+    if isinstance(node, Param):
+        value = params[node.name]
+        return None if isinstance(value, np.ndarray) else float(value)
+    return None
+
+
+def fold(op: str, left: float, right: float) -> float:
+    """``left op right`` (``op`` one of ``+ - * / ^``) of two constants, as compiled."""
+    return _folded(np.power if op == "^" else _BINARY[op], left, right)
 
 
 def _int_power(fn: Compiled, n: int, scalar: bool) -> Compiled:
@@ -131,12 +146,7 @@ class _Compiler:
 
     def constant(self, node: Node) -> float | None:
         """Return the value of ``node`` if it needs no data, else None."""
-        if isinstance(node, Number):
-            return node.value
-        if isinstance(node, Param):
-            value = self.params[node.name]
-            return None if isinstance(value, np.ndarray) else float(value)
-        return None
+        return constant_value(node, self.params)
 
     def compile(self, node: Node) -> tuple[Compiled, float | None]:
         """Return ``(closure, constant_value_or_None)``."""

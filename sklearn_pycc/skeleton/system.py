@@ -13,6 +13,7 @@ from ..simulation.integration import Diverged
 from .compiler import compile_expression
 from .curves import stack_curves
 from .equations import TIME, Equation, evaluation_order
+from .python_source import ExpressionWriter
 
 __all__ = ["CompiledSystem", "stack_systems"]
 
@@ -120,6 +121,43 @@ class CompiledSystem:
         self.outputs = [eq.output for eq in static]
         self._static = [compile_expression(eq.rhs, self.slots, params, functions, mode="array")
                         for eq in static]
+
+    @property
+    def held_rates(self) -> list[tuple[int, int, float, float]]:
+        """``(state position, rate position, low, high)`` of each state with limits."""
+        return list(self._limited)
+
+    def rate_statements(self) -> tuple[list[str], list[str], dict] | None:
+        """The scalar right-hand side as Python statements over locals ``v{slot}``.
+
+        The statements read the states, inputs and ``t`` from their slots'
+        locals (``v0`` is the first state) and compute every derivative's
+        in evaluation order, with the scalar plan's arithmetic (see
+        :mod:`.python_source`). For a generated integrator.
+
+        Returns
+        -------
+        (statements, rates, namespace) or None
+            ``rates`` names the locals of the derivatives in equation order;
+            ``namespace`` binds the numbers and functions the statements
+            read. None where an equation must be solved for its derivative
+            or the system stacks variants.
+        """
+        equations, params, functions = self._source
+        if not all(eq.explicit for eq in equations):
+            return None
+        try:
+            writer = ExpressionWriter(self.slots, params, functions)
+        except ValueError:  # stacked variants: arrays only
+            return None
+        statements = []
+        for i in evaluation_order(equations):
+            eq = equations[i]
+            source, _ = writer.write(eq.expression)
+            statements.extend(writer.lines)
+            writer.lines.clear()
+            statements.append(f"v{self.slots[eq.derivative]} = {source}")
+        return statements, [f"v{slot}" for slot in self._output_slots], writer.namespace
 
     # -- vectorised evaluation ----------------------------------------------
     def _env(self, data: Mapping[str, np.ndarray]) -> list:
