@@ -3,7 +3,7 @@
 Run from the repository root::
 
     python asv_benchmarks/rooms_study.py                 # 20 draws a case, 2 jobs
-    python asv_benchmarks/rooms_study.py --draws 5 --samples 3000
+    python asv_benchmarks/rooms_study.py --draws 5 --samples 3000 --rooms 2
 
 Each case is ``datasets.make_rooms`` (one or two rooms, five-minute samples,
 the walls unmeasured) with 40 dB of white noise or AR(1) noise of pole 0.9
@@ -53,11 +53,13 @@ def main() -> None:
     parser.add_argument("--draws", type=int, default=20)
     parser.add_argument("--samples", type=int, default=1500)
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--rooms", type=int, nargs="+", default=[1, 2],
+                        help="the cases of these numbers of rooms only")
     args = parser.parse_args()
     print(f"rooms with unmeasured walls, {args.samples} samples, {args.draws} draws a case")
     print(f"{'rooms':>5} {'noise':>10} {'unit':>4} {'within 10 %':>12} {'median worst':>13} "
           f"{'median s':>9}  warnings", flush=True)
-    for case in CASES:  # a case at a time: each line as soon as its draws are fitted
+    for case in [c for c in CASES if c[0] in args.rooms]:  # each line once its draws are fitted
         rows = Parallel(n_jobs=args.jobs)(delayed(one_fit)(*case, seed, args.samples)
                                           for seed in range(args.draws))
         within = sum(r["worst"] <= 0.10 for r in rows)

@@ -96,3 +96,46 @@ def test_starts_that_fit_equally_well_at_other_numbers_are_told():
     assert words is not None and words.startswith("a2 is 0.3 in the fit kept and 0.5")
     contest.finished = contest.finished[::2]  # only a worse one differs
     assert contest.disagreement() is None
+
+
+def test_rates_that_carry_a_state_toward_another_are_read_from_the_skeleton():
+    from sklearn_pycc import Skeleton
+    from sklearn_pycc.fitting.output_error.couplings import coupling_rates
+
+    _, truth = datasets.make_rooms(50, n_rooms=2, return_truth=True)
+    found = coupling_rates(Skeleton(truth.equations).parsed)
+    assert found["a1"] == ("T1_dot", "T1", "W1") and found["a4"] == ("W1_dot", "W1", "T1")
+    assert found["a11"] == ("T1_dot", "T1", "T2") and found["a10"] == ("W2_dot", "W2", "To")
+    assert not {"a3", "a8"} & set(found)  # the heaters' gains move nothing toward anything
+    # written with the difference the other way round, negated: still toward
+    skeleton = Skeleton(["x1_dot = a1 u - a2 (x1 - x2)", "x2_dot = -a3 (x2 - x1) - a4 x2",
+                         "x3_dot = a5 (x3 - x1)"])
+    assert set(coupling_rates(skeleton.parsed)) == {"a2", "a3"}  # a5 pushes x3 away
+
+
+def test_a_rate_that_drives_heat_uphill_is_named():
+    from sklearn_pycc.fitting.output_error.hidden_fit import _warn_against_gradient
+    from sklearn_pycc.estimators.base import make_problem
+
+    frame, truth = datasets.make_rooms(200, n_rooms=1, random_state=0, return_truth=True)
+    problem = make_problem(PolyCCRegressor(equations=truth.equations), frame)
+    with pytest.warns(UserWarning, match=r"a4 is -0.1 .*drives W1 away from T1"):
+        _warn_against_gradient(problem, {**truth.params, "a4": -0.1})
+    bounded = make_problem(PolyCCRegressor(equations=truth.equations,
+                                           constraints=["a4 >= -1"]), frame)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a bound the user wrote is theirs
+        _warn_against_gradient(bounded, {**truth.params, "a4": -0.1})
+
+
+@pytest.mark.slow
+def test_two_rooms_whose_first_estimate_sends_heat_uphill_are_fitted():
+    # multiple shooting alone ends with the walls of room 1 cut off (a1 = 0, a4 = -138)
+    frame, truth = datasets.make_rooms(3000, n_rooms=2, noise=40.0, random_state=5,
+                                       return_truth=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=truth.equations).fit(frame)
+    assert "multiple shooting (couplings positive)" in set(model.starts_["start"])
+    for name, value in truth.params.items():
+        assert model.params_[name] == pytest.approx(value, rel=0.1), name

@@ -1,5 +1,7 @@
 """Windows integrated side by side and one by one in floats give the same numbers."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -131,3 +133,33 @@ def test_an_equation_solved_for_its_derivative_has_no_generated_steps():
     assert float_integrator(system) is None
     states, escaped = _windows("zoh", 1).simulate(system, np.array([[1.0]]))
     assert not escaped.any() and np.isfinite(states).all()
+
+
+@pytest.mark.parametrize("case", range(len(GENERATED_CASES)))
+def test_the_generated_right_hand_side_gives_the_general_one_s_numbers_and_errors(case):
+    from sklearn_pycc.exceptions import SimulationError
+
+    equations, limits, params = GENERATED_CASES[case]
+    skeleton = Skeleton(equations, limits)
+    curves = {"f1": lambda x: 0.01 * x} if "f1" in skeleton.functions else {}
+    system = skeleton.compile(curves, params)
+    fast = system.make_rhs(lambda t: [2.0 + t], list_states=True)
+    general = system.make_rhs(lambda t: [2.0 + t])  # on arrays: the closures of each node
+    assert fast.__code__.co_filename == "<generated rhs>"
+    rng = np.random.default_rng(case)
+    # states within and at the limits, beyond them, and below zero under a square root
+    points = [*rng.uniform(0.0, 14.0, (20, 2)), [12.0, 0.0], [12.5, 13.0], [-1.0, 2.0],
+              [3.0, -1e-3], [0.0, 0.0]]
+    outcomes = raised = 0
+    for t, state in zip(np.linspace(0.0, 30.0, len(points)), points):
+        try:
+            expected = list(general(float(t), np.asarray(state, dtype=float)))
+        except (ArithmeticError, ValueError, SimulationError) as error:
+            raised += 1
+            with pytest.raises(type(error), match=re.escape(str(error))):
+                fast(float(t), [float(v) for v in state])
+            continue
+        assert fast(float(t), [float(v) for v in state]) == expected
+        outcomes += 1
+    assert outcomes >= 20
+    assert raised == (case != 1)  # a square root read below zero, not at a limit, fails

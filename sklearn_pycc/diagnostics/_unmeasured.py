@@ -33,7 +33,7 @@ from ._decide import suggestion_for
 from ._held_out import HeldOut
 from ._metrics import error_table_row
 from ._refit import prepared
-from ._unmeasured_moves import MoveTrial, law_trials
+from ._unmeasured_moves import TRIAL_ITERATIONS, MoveTrial, law_trials, thinned
 from .report import Diagnosis, Suggestion
 
 __all__ = ["UnmeasuredDiagnosis", "diagnose_unmeasured"]
@@ -216,14 +216,16 @@ def _fresh_param(skeleton) -> str:
     return f"a{max(numbers) + 1}"
 
 
-def _refit(model, X: pd.DataFrame, skeleton, init: dict):
+def _refit(model, X: pd.DataFrame, skeleton, init: dict, **settings):
     """``model`` refitted with ``skeleton`` from the starting values ``init``.
 
     The input hold an ``"auto"`` model chose is kept: ``init`` was fitted
     with it, and a limit's search from there stays on that course. The
     refit is judged by its errors alone, so it makes no refits on resamples.
+    ``settings`` are more parameters of the estimator (a trial's iterations).
     """
-    estimator = prepared(model, equations=skeleton, param_init=init, hold_as_fitted=True)
+    estimator = prepared(model, equations=skeleton, param_init=init, hold_as_fitted=True,
+                         **settings)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return estimator.fit(X)
@@ -419,25 +421,30 @@ def _limit_refit(model, X: pd.DataFrame, extended, base: float,
                  bar: float) -> tuple[object, float]:
     """The model refitted with a limit added, and its simulation error.
 
-    Refitted first from the model's parameters. Where that takes less than
-    ``bar`` of the error, the search may have stayed on the course the
+    Tried first (a few iterations on every k-th row, as the laws are) from
+    the model's parameters. Where that takes less than ``bar`` of the
+    model's error on trial, the search may have stayed on the course the
     limitless model found (with an unmeasured state's scale free, that
     course may never reach any level a rim could sit at): the skeleton is
-    then also fitted from the backend's default start (under the model's
-    input hold, without resamples), and the better of the two is kept; a
-    failure of that second fit leaves the first.
+    then also tried from the backend's default start (under the model's
+    input hold), and the better of the two is refitted to the whole record
+    from where its trial ended; a failure of that second trial leaves the
+    first.
     """
-    refit = _refit(model, X, extended, dict(model.params_))
-    error = _nrmse(refit, X)
-    if not (math.isfinite(base) and base > 0 and error <= (1 - bar) * base):
+    rows = thinned(X)
+    trial = _refit(model, rows, extended, dict(model.params_),
+                   shooting_iterations=TRIAL_ITERATIONS)
+    before = float(getattr(model, "shooting_", {}).get("nrmse_whole", math.nan))
+    after = float(trial.shooting_.get("nrmse_whole", math.nan))
+    if not (math.isfinite(before) and before > 0 and after <= (1 - bar) * before):
         try:
-            fresh = _refit(model, X, extended, {})
-        except Exception:  # the first fit stands, whatever this one meets
-            return refit, error
-        fresh_error = _nrmse(fresh, X)
-        if fresh_error < error:
-            return fresh, fresh_error
-    return refit, error
+            fresh = _refit(model, rows, extended, {}, shooting_iterations=TRIAL_ITERATIONS)
+        except Exception:  # the first trial stands, whatever this one meets
+            fresh = None
+        if fresh is not None and fresh.shooting_.get("nrmse_whole", math.inf) < after:
+            trial = fresh
+    refit = _refit(model, X, extended, dict(trial.params_))
+    return refit, _nrmse(refit, X)
 
 
 def _as_asked(model, refit, X: pd.DataFrame):

@@ -21,14 +21,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from types import CodeType
+
+from .._utils.generated import generated_function
 
 __all__ = ["float_integrator"]
-
-#: generated source -> its compiled code (a refit compiles the same skeleton many times,
-#: with other numbers bound to the same names)
-_CODE: dict[str, CodeType] = {}
-_MOST_CODES = 256
 
 
 @dataclass
@@ -105,16 +101,7 @@ def float_integrator(system) -> Callable | None:
         return None
     layout = _Layout(len(system.states), len(system.inputs), written[0], written[1],
                      [(q, j) for q, j, _, _ in system.held_rates])
-    source = layout.source()
-    code = _CODE.get(source)
-    if code is None:
-        if len(_CODE) >= _MOST_CODES:
-            _CODE.clear()
-        # our own statements, written from the parsed tree (see the module's docstring)
-        code = _CODE[source] = compile(source, "<generated steps>", "exec")
-    namespace = {**written[2], "isfinite": math.isfinite, "min": min, "max": max,
-                 "abs": abs, "range": range, "len": len}
+    namespace = {**written[2], "isfinite": math.isfinite}
     for k, (_, _, low, high) in enumerate(system.held_rates):
         namespace[f"lo{k}"], namespace[f"hi{k}"] = float(low), float(high)
-    exec(code, namespace)
-    return namespace["run"]
+    return generated_function(layout.source(), namespace, "run")

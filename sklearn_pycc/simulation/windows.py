@@ -147,8 +147,21 @@ class Windows:
         self.initial = values[rows[:, 0]]
         self._experiments = list(experiments)
         self._signals = {name: np.asarray(signals[name], dtype=float) for name in self.inputs}
-        self.substeps = 1
         self._fine: dict[str, dict[str, np.ndarray]] = {}
+        #: the fine signals of a window as lists of floats, for the float path
+        self._floats: dict[tuple, list] = {}
+        self.substeps = 1
+
+    @property
+    def substeps(self) -> int:
+        """Runge-Kutta steps per sample interval."""
+        return self._substeps
+
+    @substeps.setter
+    def substeps(self, value: int) -> None:
+        if int(value) != getattr(self, "_substeps", None):
+            self._fine, self._floats = {}, {}  # the stage times move with the substeps
+        self._substeps = int(value)
 
     # -- integration ---------------------------------------------------------
     def choose_substeps(self, system, data: Mapping[str, np.ndarray]) -> int:
@@ -165,7 +178,6 @@ class Windows:
         need = max(1.5 * h * float(np.abs(eigenvalues).max()) / RK4_STABLE,
                    h * float(np.abs(eigenvalues.imag).max()) / RK4_PHASE)
         self.substeps = int(np.clip(np.ceil(need), 1, MAX_SUBSTEPS))
-        self._fine = {}
         return self.substeps
 
     def fine_signals(self, left: bool = False) -> dict[str, np.ndarray]:
@@ -287,14 +299,21 @@ class Windows:
         n_stages = 2 * L * m + 1
         inputs = list(system.inputs)
 
-        def stage_values(signals):
+        def stage_values(signals, side: str):
             if not inputs:
                 return [[]] * n_stages
-            return np.column_stack([signals[name][k] for name in inputs]).tolist()
+            key = (side, tuple(inputs), k)  # the same lists for every simulation
+            if key not in self._floats:
+                self._floats[key] = np.column_stack([signals[name][k]
+                                                     for name in inputs]).tolist()
+            return self._floats[key]
 
-        right = stage_values(fine)
-        left = right if ends is fine else stage_values(ends)
-        times = fine[TIME][k].tolist() if TIME in fine else [0.0] * n_stages
+        right = stage_values(fine, "right")
+        left = right if ends is fine else stage_values(ends, "left")
+        if ("t", k) not in self._floats:
+            self._floats["t", k] = (fine[TIME][k].tolist() if TIME in fine
+                                    else [0.0] * n_stages)
+        times = self._floats["t", k]
         bound = self.bound.tolist()
         steps = (self.h[k] / m).tolist()
         run = float_integrator(system)

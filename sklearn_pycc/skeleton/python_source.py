@@ -25,7 +25,7 @@ from .curves import as_curve
 from .functions import ELEMENTARY
 from .nodes import Apply, BinOp, Neg, Node, Param, Symbol, Unknown
 
-__all__ = ["ExpressionWriter"]
+__all__ = ["ExpressionWriter", "rhs_source"]
 
 
 class ExpressionWriter:
@@ -137,3 +137,36 @@ class ExpressionWriter:
             return "(" + " * ".join([value] * n) + ")"
         return f"{self.bind(math.pow, 'F')}({base}, {self.bind(float(n), 'k')})"
 
+
+
+def rhs_source(n_states: int, n_inputs: int, statements: list[str], rates: list[str],
+               holds: list[tuple[int, int]]) -> str:
+    """The source of ``rhs(t, y)``: the rates at ``t`` and the states ``y`` (floats), a list.
+
+    ``statements`` compute the locals ``rates`` from the states' locals
+    (``v0``...), the inputs' (read by ``input_at(t)``) and ``t``'s, as a
+    compiled system lays its slots out. Hold ``k``, ``(q, j)``, zeroes rate
+    ``j`` where it would carry state ``q`` beyond ``lo{k}`` or ``hi{k}``
+    (numbers in the namespace). Anything out of the ordinary (a domain error, a
+    division by zero, a rate not finite) is handed to ``general(t, y)``,
+    which says what and where.
+    """
+    lines = ["def rhs(t, y):",
+             "    try:",
+             "        " + "".join(f"v{q}, " for q in range(n_states)) + "= y"]
+    if n_inputs:
+        lines.append("        " + "".join(f"v{n_states + i}, " for i in range(n_inputs))
+                     + "= input_at(t)")
+    lines.append(f"        v{n_states + n_inputs} = float(t)")
+    lines += ["        " + line for line in statements]
+    lines.append("    except (ValueError, ArithmeticError):")
+    lines.append("        return general(t, y)")
+    lines.append(f"    if not isfinite({' + '.join(rates)}):")
+    lines.append("        return general(t, y)")
+    out = [f"r{j}" for j in range(len(rates))]
+    lines += [f"    {r} = {name}" for r, name in zip(out, rates)]
+    for k, (q, j) in enumerate(holds):
+        lines.append(f"    if (v{q} >= hi{k} and r{j} > 0) or (v{q} <= lo{k} and r{j} < 0): "
+                     f"r{j} = 0.0")
+    lines.append(f"    return [{', '.join(out)}]")
+    return "\n".join(lines) + "\n"

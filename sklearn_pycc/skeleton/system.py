@@ -4,16 +4,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from functools import cached_property
 from operator import itemgetter
 
 import numpy as np
 
+from .._utils.generated import generated_function
 from ..exceptions import SkeletonError
 from ..simulation.integration import Diverged
 from .compiler import compile_expression
 from .curves import stack_curves
 from .equations import TIME, Equation, evaluation_order
-from .python_source import ExpressionWriter
+from .python_source import ExpressionWriter, rhs_source
 
 __all__ = ["CompiledSystem", "stack_systems"]
 
@@ -99,28 +101,46 @@ class CompiledSystem:
         names = [*self.states, *self.inputs, TIME, *self.derivatives]
         self.slots = {name: i for i, name in enumerate(names)}
         self.n_env = len(names)
-        self._plan_scalar = []
-        self._plan_array = []
+        self._order = []
         for i in evaluation_order(equations):
             eq = equations[i]
-            slot = self.slots[eq.derivative]
             if not eq.solvable:
                 raise SkeletonError(
                     f"cannot solve for {eq.derivative}: it does not enter the equation "
                     "linearly, so the model can be fitted as written but not simulated",
                     equation=eq.index, position=0, text=eq.text)
-            node = eq.expression
-            scalar = compile_expression(node, self.slots, params, functions, mode="scalar")
-            array = compile_expression(node, self.slots, params, functions, mode="array")
-            self._plan_scalar.append((slot, scalar, eq.explicit))
-            self._plan_array.append((slot, array, eq.explicit))
+            self._order.append(eq)
         first = len(self.states) + len(self.inputs) + 1
         self._derivative_slots = list(range(first, first + len(self.derivatives)))
         # the state order of the output follows the equations; map to slots
         self._output_slots = [self.slots[d] for d in self.derivatives]
         self.outputs = [eq.output for eq in static]
-        self._static = [compile_expression(eq.rhs, self.slots, params, functions, mode="array")
-                        for eq in static]
+        self._static_equations = list(static)
+
+    # each form is compiled when first read: a fit compiles a system for every trial of
+    # its numbers, and most are only simulated, by one form
+    def _plan(self, mode: str) -> list:
+        _, params, functions = self._source
+        return [(self.slots[eq.derivative],
+                 compile_expression(eq.expression, self.slots, params, functions, mode=mode),
+                 eq.explicit) for eq in self._order]
+
+    @cached_property
+    def _plan_scalar(self) -> list:
+        """``(slot, closure on floats, explicit)`` of each equation, in evaluation order."""
+        return self._plan("scalar")
+
+    @cached_property
+    def _plan_array(self) -> list:
+        """``(slot, closure on arrays, explicit)`` of each equation, in evaluation order."""
+        return self._plan("array")
+
+    @cached_property
+    def _static(self) -> list:
+        """The static equations' right-hand sides, compiled on arrays."""
+        _, params, functions = self._source
+        return [compile_expression(eq.rhs, self.slots, params, functions, mode="array")
+                for eq in self._static_equations]
 
     @property
     def held_rates(self) -> list[tuple[int, int, float, float]]:
@@ -151,8 +171,7 @@ class CompiledSystem:
         except ValueError:  # stacked variants: arrays only
             return None
         statements = []
-        for i in evaluation_order(equations):
-            eq = equations[i]
+        for eq in self._order:
             source, _ = writer.write(eq.expression)
             statements.extend(writer.lines)
             writer.lines.clear()
@@ -350,7 +369,17 @@ class CompiledSystem:
             return out
 
         limited = self._limited
-        return rhs
+        written = self.rate_statements() if list_states else None
+        if written is None or not written[1]:
+            return rhs
+        statements, rates, namespace = written
+        source = rhs_source(len(states), len(self.inputs), statements, rates,
+                            [(q, j) for q, j, _, _ in limited])
+        namespace = {**namespace, "input_at": input_at, "general": rhs, "isfinite": isfinite}
+        for k, (_, _, low, high) in enumerate(limited):
+            namespace[f"lo{k}"], namespace[f"hi{k}"] = float(low), float(high)
+        # the same floats as rhs, written out as one function (rhs takes over the unusual)
+        return generated_function(source, namespace, "rhs")
 
 
 def _end(value) -> float | np.ndarray:

@@ -16,6 +16,7 @@ import numpy as np
 from ...exceptions import RankDeficiencyWarning, StartsWarning
 from ...simulation.integration import INPUT_HOLDS
 from ..problem import FitResult, Problem
+from .couplings import coupling_rates
 from .hidden import (
     along_hidden_scale,
     hidden_trajectories,
@@ -141,6 +142,7 @@ def fit_hidden(problem: Problem, result: FitResult, *,
             "values found are one of many). Write a known value or ratio into the "
             "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=6)
     _warn_runaway(problem, result.functions, params, first, info["substeps"])
+    _warn_against_gradient(problem, params)
     table = initial_table(problem, first, problem.skeleton.states)
     attributes = {"shooting_": info, "initial_states_": table, "input_hold_": hold,
                   "starts_": contest.table()}
@@ -149,6 +151,29 @@ def fit_hidden(problem: Problem, result: FitResult, *,
     if covariance is not None:
         attributes["covariance_"] = covariance
     return FitResult(result.functions, params, attributes)
+
+
+def _against_gradient(problem: Problem, params: Mapping[str, float]) -> list[str]:
+    """The free rates of terms ``a (y - x)`` in the equation of ``x`` that are negative.
+
+    Only those with no lower bound written: a bound the user set is theirs.
+    """
+    rates = coupling_rates(problem.dynamic)
+    return [a for a in rates if a in params and params[a] < 0
+            and problem.bounds.get(a, (-np.inf, np.inf))[0] == -np.inf]
+
+
+def _warn_against_gradient(problem: Problem, params: Mapping[str, float]) -> None:
+    """Warn, naming each, where the fit keeps a rate that drives a state away from another."""
+    rates = coupling_rates(problem.dynamic)
+    for a in _against_gradient(problem, params):
+        derivative, state, other = rates[a]
+        warnings.warn(
+            f"{a} is {params[a]:.4g} in the fit: its term {a} ({other} - {state}) of "
+            f"{derivative} then drives {state} away from {other}, a flow against its gradient "
+            "(heat from cold to warm, water uphill), which no physical path makes. The fit may "
+            f"sit in a wrong minimum (see starts_): write '{a} >= 0' into the constraints, or "
+            "check the skeleton's signs.", UserWarning, stacklevel=6)
 
 
 def _compiled(problem: Problem, functions: Mapping, params: Mapping[str, float]):
@@ -202,6 +227,16 @@ def _multistart(problem: Problem, functions: Mapping, start: Mapping[str, float]
                                            " (starts within limits)" if limit_starts
                                            else " (starts free)")
             estimates.append((label, theta, info["initial_states"]))
+        # a rate moving a state toward another that came out negative (heat from the walls
+        # to the warmer room): once more, such rates held positive
+        against = _against_gradient(problem, dict(zip(names, theta))) if guessed else []
+        if against:
+            low_positive = low.copy()
+            low_positive[[names.index(a) for a in against]] = 0.0
+            theta, more = fit_shooting(plan, system_for, np.clip(theta0, low_positive, high),
+                                       iterations, bounds=(low_positive, high))
+            estimates.append(("multiple shooting (couplings positive)", theta,
+                              more["initial_states"]))
         if guessed:  # its multiple-shooting estimates stand for it
             estimates = estimates[1:]
     # the windows' joins are soft: a last pass simulates every experiment whole, from
