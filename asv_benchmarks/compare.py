@@ -816,7 +816,34 @@ def _tank_timings() -> list[Timing]:
                           f"{ratio[0]:.2f} on the exact level, {ratio[1]:.3f} on the "
                           "measured one (both from estimate_initial_state)"))
     out.append(_tank_loop_timing())
+    out.append(_cascade_law_loop_timing())
     return out
+
+
+def _cascade_law_loop_timing() -> Timing:
+    """The loop from linear outflows on a cascade below its rims: Torricelli's law named."""
+    from sklearn_pycc import HypothesisLoop
+    from sklearn_pycc.model_selection import make_simulation_scorer
+
+    linear = ["x1_dot = a1 u - a2 x1", "x2_dot = a3 x1 - a4 x2"]
+    positive = ["a1 >= 0", "a2 >= 0", "a3 >= 0", "a4 >= 0"]
+    torricelli = ["x1_dot = a1 u - a2 sqrt(x1)", "x2_dot = a3 sqrt(x1) - a4 sqrt(x2)"]
+    frame = datasets.make_two_tanks(n_samples=1024, rims=(100.0, 100.0), random_state=0)
+    fresh = datasets.make_two_tanks(n_samples=1024, rims=(100.0, 100.0), random_state=1000)
+
+    def run():
+        return HypothesisLoop(PolyCCRegressor(equations=linear, constraints=positive), frame,
+                              quantities={"x1": "level", "x2": "level"}).run()
+
+    loop = run()
+    named = ", then ".join(f"{r.added.effect} in {r.added.equation}" for r in loop.rounds
+                           if r.added is not None) or "nothing"
+    scorer = make_simulation_scorer()
+    true = PolyCCRegressor(equations=torricelli, constraints=positive).fit(frame)
+    ratio = scorer.nrmse(loop.model, fresh) / scorer.nrmse(true, fresh)
+    return Timing("w. HypothesisLoop from linear outflows, cascade below its rims, x1 "
+                  "unmeasured, n=1024", run, 60_000.0,
+                  f"named {named}; fresh record's NRMSE / the true skeleton's {ratio:.2f}")
 
 
 def _tank_loop_timing() -> Timing:

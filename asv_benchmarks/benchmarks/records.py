@@ -200,3 +200,38 @@ class UnmeasuredTankLoop:
     def track_rounds(self):
         """Rounds until nothing is missing (3: the overflow of each tank, then stop)."""
         return len(self._run().rounds)
+
+
+class CascadeLawLoop:
+    """The loop from linear outflows on a cascade below its rims, the upper level unmeasured.
+
+    1,024 samples every 4 s, the states told as levels; the loop names
+    Torricelli's law in the upper tank's equation, then stops. Goal: 60 s.
+    """
+
+    processes = 1
+    repeat = (1, 2, 300.0)
+    timeout = 600
+    skeleton = ["x1_dot = a1 u - a2 x1", "x2_dot = a3 x1 - a4 x2"]
+
+    def setup(self):
+        self._limits = threadpool_limits(limits=1)
+        warnings.simplefilter("ignore")
+        self.frame = datasets.make_two_tanks(n_samples=1024, rims=(100.0, 100.0),
+                                             random_state=0)
+
+    def teardown(self):
+        self._limits.restore_original_limits()
+
+    def _run(self):
+        estimator = PolyCCRegressor(equations=self.skeleton,
+                                    constraints=["a1 >= 0", "a2 >= 0", "a3 >= 0", "a4 >= 0"])
+        return HypothesisLoop(estimator, self.frame,
+                              quantities={"x1": "level", "x2": "level"}).run()
+
+    def time_loop(self):
+        self._run()
+
+    def track_rounds(self):
+        """Rounds until nothing is missing (2: Torricelli's law, then stop)."""
+        return len(self._run().rounds)
