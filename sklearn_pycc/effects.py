@@ -28,6 +28,14 @@ Placeholders in the templates:
     term is an interaction of the two (a reaction between two species, a
     predator's catch of its prey). Each such effect is tried with ``{s}`` the
     equation's own state and the other state, and the other way round.
+``{s}`` and ``{r}`` of a link (``acts_through="link"``)
+    two first-order states of one quantity joined by a path: the term is
+    the flow from ``{s}`` to ``{r}`` (heat through a wall or a door, water
+    through a pipe or an orifice, current through a resistor), subtracted
+    from the equation of ``{s}`` and, with its own coefficient (the two
+    capacities differ), added to that of ``{r}``: what leaves one enters the
+    other. Each pair of states is tried once, whether the skeleton joins them
+    yet or not.
 ``{i}``
     an input the skeleton reads: an effect acting through it changes how
     the skeleton's own terms read the input rather than adding a term. Its
@@ -82,6 +90,7 @@ ACTS_THROUGH: dict[str, tuple[str, ...]] = {
     "difference": ("u",),
     "state": ("s",),
     "interaction": ("s", "r"),
+    "link": ("s", "r"),
     "input": ("i",),
     "time": (),
     "none": (),
@@ -183,7 +192,7 @@ class Effect:
         if self.field != "mechanics" and self.acts_through in MECHANICAL_PLACES:
             raise ValueError(f"effect {self.name!r} acts through a {self.acts_through}, which "
                              "only a mechanical state has: give it field='mechanics'")
-        if self.field == "mechanics" and self.acts_through in ("state", "interaction"):
+        if self.field == "mechanics" and self.acts_through in FIRST_ORDER_PLACES:
             raise ValueError(f"effect {self.name!r}: an effect acting through a first-order "
                              "state's own value ({s}) belongs to a field other than mechanics")
         for pair in self.names:
@@ -243,7 +252,7 @@ class Effect:
         """
         if self.field == "mechanics":
             return tuple(q for q in QUANTITIES if is_mechanical(q))
-        if self.acts_through in ("state", "interaction") or self.field != "any":
+        if self.acts_through in FIRST_ORDER_PLACES or self.field != "any":
             return tuple(q for q, field in QUANTITIES.items() if not is_mechanical(q)
                          and self.field in ("any", field))
         return tuple(QUANTITIES)
@@ -330,6 +339,8 @@ _RULES = {
 
 #: the places only a mechanical state has
 MECHANICAL_PLACES = ("velocity", "position", "position_velocity", "difference")
+#: the places of first-order states' own laws: their value, an interaction of two, a link
+FIRST_ORDER_PLACES = ("state", "interaction", "link")
 
 
 _CATALOGUE: dict[str, Effect] = {}
@@ -561,6 +572,25 @@ for _effect in (
                   ("amount", "saturating reaction (Michaelis-Menten in a reactant)"),
                   ("population", "Holling type II predation")),
            shape="product saturating in one state"),
+    # a path between two first-order states of one quantity: the flow from {s} to {r}
+    Effect("linear_link", "a flow between two states in proportion to their difference "
+           "(heat conducted through a wall or an open door, water through a pipe, current "
+           "through a resistor, transfer between compartments)", "link", "a1 ({s} - {r})",
+           bounds=_POSITIVE,
+           names=(("temperature", "heat path (conduction)"), ("level", "pipe between tanks"),
+                  ("volume", "pipe between tanks"), ("pressure", "laminar flow path"),
+                  ("voltage", "resistor between nodes"),
+                  ("concentration", "exchange between compartments"),
+                  ("amount", "exchange between compartments")),
+           shape="linear path between two states"),
+    Effect("orifice_link", "a flow between two levels or pressures through an orifice, growing "
+           "with the square root of their difference (Torricelli's law between two tanks)",
+           "link", "a1 sign({s} - {r}) sqrt(abs({s} - {r}))", bounds=_POSITIVE,
+           replaces=("linear_link",), field="process",
+           names=(("level", "orifice between tanks (Torricelli)"),
+                  ("volume", "orifice between tanks (Torricelli)"),
+                  ("pressure", "orifice flow between two pressures")),
+           shape="square-root path between two states"),
 ):
     register(_effect)
 del _effect, _POSITIVE

@@ -163,6 +163,13 @@ def _assignments(effect: catalogue.Effect, roles: EquationRoles, has_time: bool)
             for variable, term in _interaction_readings(effect, own, other):
                 yield variable, [(k, term)]
                 yield variable, [(k, term), (partner, term)]
+    elif kind == "link":
+        # the flow from the state to another leaves its equation and enters the other's,
+        # each with a coefficient of its own (their capacities differ)
+        own = roles.position
+        for other, partner in roles.links:
+            yield " - ".join(sorted((own, other))), [
+                (k, effect.term_for(s=own, r=other)), (partner, effect.term_for(s=other, r=own))]
     elif kind == "velocity":
         v = roles.velocity
         yield v, [(k, effect.term_for(v=v))]
@@ -216,7 +223,7 @@ def fits_field(effect: catalogue.Effect, roles: EquationRoles) -> bool:
     """
     if effect.field == "mechanics":
         return roles.second_order or roles.mechanical
-    own_rate = effect.acts_through in ("state", "interaction")
+    own_rate = effect.acts_through in catalogue.FIRST_ORDER_PLACES
     if own_rate and (roles.second_order or roles.mechanical):
         return False
     if not own_rate and effect.field == "any":
@@ -299,8 +306,11 @@ def _effect_of(node: Node, roles: EquationRoles, has_time: bool) -> tuple[catalo
     key = _shape_key(node)
     for effect in catalogue.catalogue():
         for variable, additions in _assignments(effect, roles, has_time):
-            if len(additions) == 1 and _shape_key(
-                    parse_expression(additions[0][1], kind="term")) == key:
+            # a path is known by its flow either way round (the skeleton may write the
+            # inflow of one state as the other's difference)
+            terms = additions if effect.acts_through == "link" else additions[:1]
+            if (len(additions) == 1 or effect.acts_through == "link") and any(
+                    _shape_key(parse_expression(t, kind="term")) == key for _, t in terms):
                 return effect, variable
     return UNNAMED, ", ".join(sorted(symbols_in(node)))
 
@@ -334,9 +344,10 @@ def enumerate_moves(skeleton: Skeleton, roles: list[EquationRoles],
                     removing = removed
                     if nodes is not None:
                         removing = _removal(skeleton, nodes)
-                    elif len(additions) > 1 and effect.acts_through == "interaction":
-                        # an interaction the user wrote in both states' equations is
-                        # replaced in both at once
+                    elif len(additions) > 1 and effect.acts_through in ("interaction",
+                                                                          "link"):
+                        # an interaction or a path the user wrote in both states'
+                        # equations is replaced in both at once
                         partner = additions[1][0]
                         twin = _twin(skeleton, by_index[partner], old, node, inputs=inputs,
                                      has_time=has_time)

@@ -44,6 +44,9 @@ class EquationRoles:
         a first-order state of that kind may interact with (a reaction between
         two species), with the index of their equation; empty for a mechanical
         equation.
+    links : tuple of (str, int)
+        Those of the partners a path may join the state to: of the same
+        quantity, or either of an unknown one (two temperatures, two levels).
     """
 
     index: int
@@ -56,6 +59,7 @@ class EquationRoles:
     velocity_quantity: str | None = "velocity"
     mechanical: bool = True
     partners: tuple[tuple[str, int], ...] = ()
+    links: tuple[tuple[str, int], ...] = ()
 
     def quantity_of(self, acts_through: str) -> str | None:
         """The quantity of the variable an effect acting through ``acts_through`` reads."""
@@ -107,7 +111,9 @@ def equation_roles(skeleton: Skeleton, quantities: Mapping[str, str] | None = No
         else:
             mechanical = is_mechanical(measures[state])
             partners = () if mechanical else tuple(p for p in first_order if p[0] != state)
+            links = tuple(p for p in partners if None in (measures[p[0]], measures[state])
+                          or measures[p[0]] == measures[state])
             out.append(EquationRoles(eq.index, eq.derivative, state, state, (), False,
                                      measures[state], measures[state], mechanical=mechanical,
-                                     partners=partners))
+                                     partners=partners, links=links))
     return out

@@ -1,0 +1,113 @@
+"""Paths between two states of a network: a flow that leaves one and enters the other."""
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, Skeleton, diagnose, effects
+from sklearn_pycc.datasets._generation import add_noise
+from sklearn_pycc.diagnostics._candidates import enumerate_candidates, enumerate_moves, extend
+from sklearn_pycc.diagnostics._roles import equation_roles
+from sklearn_pycc.model_selection import make_simulation_scorer
+
+#: three rooms in a row, each losing heat to the outdoors, heated, joined to its neighbours;
+#: the first and the last are joined too (a door between them), which BASE leaves out
+TRUE = ["T1_dot = a1 (To - T1) + a2 Q1 + a3 (T2 - T1) + a7 (T3 - T1)",
+        "T2_dot = a4 (To - T2) + a5 Q2 + a3 (T1 - T2) + a3 (T3 - T2)",
+        "T3_dot = a6 (To - T3) + a5 Q3 + a3 (T2 - T3) + a7 (T1 - T3)"]
+BASE = ["T1_dot = a1 (To - T1) + a2 Q1 + a3 (T2 - T1)",
+        "T2_dot = a4 (To - T2) + a5 Q2 + a6 (T1 - T2) + a7 (T3 - T2)",
+        "T3_dot = a8 (To - T3) + a9 Q3 + a10 (T2 - T3)"]
+PARAMS = {"a1": 0.3, "a2": 0.8, "a3": 0.4, "a4": 0.25, "a5": 0.7, "a6": 0.35, "a7": 0.5}
+ROOMS = {"T1": "temperature", "T2": "temperature", "T3": "temperature"}
+
+
+def _rooms(seed: int, n: int = 1500) -> pd.DataFrame:
+    """The three rooms every five minutes (time in hours), 40 dB on each temperature."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 12.0
+
+    def heater():
+        out, k = np.zeros(n), 0
+        while k < n:
+            length = int(rng.integers(12, 48))
+            out[k:k + length] = rng.choice([0.0, 1.5, 3.0])
+            k += length
+        return out
+
+    inputs = {"To": 5 + 5 * np.sin(2 * np.pi * t / 24 + rng.uniform(0, 2 * np.pi)),
+              "Q1": heater(), "Q2": heater(), "Q3": heater()}
+    states = Skeleton(TRUE).simulate(t, [18.0, 17.0, 16.0], params=PARAMS, inputs=inputs,
+                                     input_hold="zoh")
+    frame = pd.DataFrame({"t": t, **inputs, **{s: states[s].to_numpy() for s in ROOMS}})
+    return add_noise(frame, 40.0, list(ROOMS), np.random.default_rng(seed + 100))
+
+
+def _links(equations, quantities):
+    skeleton = Skeleton(equations)
+    roles = equation_roles(skeleton, quantities)
+    return [c for c in enumerate_candidates(skeleton, roles, True)
+            if c.effect.acts_through == "link"]
+
+
+def test_a_path_is_tried_once_between_every_two_states_of_one_quantity():
+    found = _links(BASE, ROOMS)
+    pairs = {(c.effect.name, c.variable) for c in found}
+    # every pair, the one the skeleton does not join yet (T1 - T3) included, once each
+    assert pairs == {("linear_link", v) for v in ("T1 - T2", "T1 - T3", "T2 - T3")}
+    door = next(c for c in found if c.variable == "T1 - T3")
+    # what leaves one room enters the other: subtracted from each as its own flow out
+    assert door.additions == [(0, "a1 (T1 - T3)"), (2, "a1 (T3 - T1)")]
+    extend(Skeleton(BASE), door)
+    assert door.added == [(0, "a11*(T1 - T3)"), (2, "a12*(T3 - T1)")]  # capacities differ
+
+
+def test_a_path_joins_states_of_one_quantity_only_and_is_named_in_their_words():
+    mixed = {"T1": "temperature", "T2": "level", "T3": "level"}
+    assert {c.variable for c in _links(BASE, mixed)} == {"T2 - T3"}
+    assert _links(["x1_dot = x2", "x2_dot = u - a1 x2 - a2 x1", "x3_dot = - a3 x3"],
+                  {"x3": "level"}) == []
+    link, orifice = effects.get("linear_link"), effects.get("orifice_link")
+    assert link.called("temperature") == "heat path (conduction)"
+    assert link.called("voltage") == "resistor between nodes"
+    assert orifice.called("level") == "orifice between tanks (Torricelli)"
+    assert "level" in orifice.quantities and "temperature" not in orifice.quantities
+    # two tanks joined by a pipe: the linear path is there already, an orifice is tried
+    tanks = _links(["h1_dot = a1 u - a2 (h1 - h2)", "h2_dot = a3 (h1 - h2) - a4 h2"],
+                   {"h1": "level", "h2": "level"})
+    assert [c.effect.name for c in tanks] == ["orifice_link"]
+
+
+@pytest.mark.slow
+def test_the_loop_finds_the_heat_path_a_skeleton_of_rooms_leaves_out():
+    frame, fresh = _rooms(0), _rooms(50)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = HypothesisLoop(PolyCCRegressor(equations=BASE, quantities=ROOMS), frame).run()
+        true = PolyCCRegressor(equations=TRUE, quantities=ROOMS).fit(frame)
+        control = diagnose(true, frame)
+    first = loop.rounds[0].diagnosis.best
+    assert first.effect == "linear_link" and first.variable == "T1 - T3"
+    assert first.called == "heat path (conduction)"
+    assert "'- a12*(T3 - T1)' to T3_dot" in str(first)  # both rooms, as one move
+    scorer = make_simulation_scorer()
+    assert scorer.nrmse(loop.model, fresh) < 2 * scorer.nrmse(true, fresh)
+    assert control.best is None  # the rooms as they are: nothing missing
+
+
+def test_a_linear_path_written_in_both_equations_is_replaced_in_both():
+    skeleton = Skeleton(["h1_dot = a1 u - a2 (h1 - h2)", "h2_dot = a3 (h1 - h2) - a4 h2"])
+    roles = equation_roles(skeleton, {"h1": "level", "h2": "level"})
+    moves = [c for c in enumerate_moves(skeleton, roles, True)
+             if c.move == "replace" and c.effect.name == "orifice_link"]
+    assert len(moves) == 1
+    move = moves[0]
+    assert move.removals == [(0, "a2*(h1 - h2)"), (1, "a3*(h1 - h2)")]
+    assert move.removed_params == ["a2", "a3"]
+    extend(skeleton, move)
+    # the flow from h1 leaves its equation and enters h2's (subtracted as h2's flow to h1)
+    assert move.extended.equations == (
+        "h1_dot = a1*u - a5*sign(h1 - h2)*sqrt(abs(h1 - h2))",
+        "h2_dot = -a4*h2 - a6*sign(h2 - h1)*sqrt(abs(h2 - h1))")
