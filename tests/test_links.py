@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from sklearn_pycc import HypothesisLoop, PolyCCRegressor, Skeleton, diagnose, effects
+from sklearn_pycc.datasets._buildings import _heater
 from sklearn_pycc.datasets._generation import add_noise
 from sklearn_pycc.diagnostics._candidates import enumerate_candidates, enumerate_moves, extend
 from sklearn_pycc.diagnostics._roles import equation_roles
@@ -28,17 +29,9 @@ def _rooms(seed: int, n: int = 1500) -> pd.DataFrame:
     """The three rooms every five minutes (time in hours), 40 dB on each temperature."""
     rng = np.random.default_rng(seed)
     t = np.arange(n) / 12.0
-
-    def heater():
-        out, k = np.zeros(n), 0
-        while k < n:
-            length = int(rng.integers(12, 48))
-            out[k:k + length] = rng.choice([0.0, 1.5, 3.0])
-            k += length
-        return out
-
+    # heaters switched as make_rooms switches them, a daily swing outdoors
     inputs = {"To": 5 + 5 * np.sin(2 * np.pi * t / 24 + rng.uniform(0, 2 * np.pi)),
-              "Q1": heater(), "Q2": heater(), "Q3": heater()}
+              **{f"Q{i}": _heater(n, rng) for i in (1, 2, 3)}}
     states = Skeleton(TRUE).simulate(t, [18.0, 17.0, 16.0], params=PARAMS, inputs=inputs,
                                      input_hold="zoh")
     frame = pd.DataFrame({"t": t, **inputs, **{s: states[s].to_numpy() for s in ROOMS}})
