@@ -104,3 +104,18 @@ def test_a_linear_path_written_in_both_equations_is_replaced_in_both():
     assert move.extended.equations == (
         "h1_dot = a1*u - a5*sign(h1 - h2)*sqrt(abs(h1 - h2))",
         "h2_dot = -a4*h2 - a6*sign(h2 - h1)*sqrt(abs(h2 - h1))")
+
+
+def test_a_reaction_of_two_species_is_tried_forming_a_third():
+    skeleton = Skeleton(["A_dot = a1 uA - a2 A", "B_dot = a3 uB - a4 B", "C_dot = - a5 C"])
+    roles = equation_roles(skeleton, dict.fromkeys("ABC", "concentration"))
+    tried = [(c.effect.name, c.variable, tuple(k for k, _ in c.additions))
+             for c in enumerate_candidates(skeleton, roles, True)]
+    # A + B -> C: the product enters the three balances, each with a yield of its own, once
+    assert tried.count(("mass_action", "A B", (0, 1, 2))) == 1
+    assert ("mass_action", "A C", (0, 2, 1)) in tried
+    reaction = next(c for c in enumerate_candidates(skeleton, roles, True)
+                    if c.effect.name == "mass_action" and c.variable == "A B"
+                    and len(c.additions) == 3)
+    extend(skeleton, reaction)
+    assert reaction.added == [(0, "a6*A*B"), (1, "a7*A*B"), (2, "a8*A*B")]

@@ -114,8 +114,8 @@ def test_rates_that_carry_a_state_toward_another_are_read_from_the_skeleton():
 
 
 def test_a_rate_that_drives_heat_uphill_is_named():
-    from sklearn_pycc.fitting.output_error.hidden_fit import _warn_against_gradient
     from sklearn_pycc.estimators.base import make_problem
+    from sklearn_pycc.fitting.output_error.hidden_fit import _warn_against_gradient
 
     frame, truth = datasets.make_rooms(200, n_rooms=1, random_state=0, return_truth=True)
     problem = make_problem(PolyCCRegressor(equations=truth.equations), frame)

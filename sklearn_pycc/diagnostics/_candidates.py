@@ -156,13 +156,18 @@ def _assignments(effect: catalogue.Effect, roles: EquationRoles, has_time: bool)
     if kind == "state":
         yield roles.position, [(k, effect.term_for(s=roles.position))]
     elif kind == "interaction":
-        # in the equation alone, and in the other state's too, with a coefficient of its
-        # own: what one species loses to the reaction another loses or gains, by a yield
+        # in the equation alone, in the other state's too and in a third's, with a
+        # coefficient of each one's own: what one species loses to the reaction another
+        # loses or gains, by a yield
         own = roles.position
         for other, partner in roles.partners:
             for variable, term in _interaction_readings(effect, own, other):
                 yield variable, [(k, term)]
                 yield variable, [(k, term), (partner, term)]
+                # and what the two form, a third state (A + B -> C), by a yield of its own
+                for _, third in roles.partners:
+                    if third != partner:
+                        yield variable, [(k, term), (partner, term), (third, term)]
     elif kind == "link":
         # the flow from the state to another leaves its equation and enters the other's,
         # each with a coefficient of its own (their capacities differ)
