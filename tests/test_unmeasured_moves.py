@@ -138,3 +138,15 @@ def test_torricelli_is_named_through_a_coloured_quantised_level_sensor():
         best = diagnose(model, frame).best
     assert best is not None and best.effect in ("square_root_outflow", "power_law_outflow")
     assert best.equation == "x1_dot" and best.held_out.confirmed
+
+
+def test_every_direction_the_record_leaves_free_is_said_in_one_warning():
+    from sklearn_pycc.exceptions import RankDeficiencyWarning
+
+    frame = _pump_tanks(400, 0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        PolyCCRegressor(equations=PUMP_TRUTH, constraints=POSITIVE).fit(frame)
+    said = [str(w.message) for w in caught if issubclass(w.category, RankDeficiencyWarning)]
+    assert len(said) == 1
+    assert said[0].count("leaves every measured state as it is") >= 2  # two directions, or more

@@ -110,7 +110,8 @@ def fit_hidden(problem: Problem, result: FitResult, *,
                                                                contest.best[1],
                                                                info["substeps"])):
             contest.enter(problem, f"stages' speeds swapped {k + 1}", swapped, initial)
-        # a state below a known limit its scale should have reached
+    if guessed:  # a state below a known limit its scale should have reached (at the noise
+        # floor too: the measured level hardly differs, the parameters do)
         params, first = contest.best[0], contest.best[1]
         moved = along_hidden_scale(problem, params, first, info["substeps"], iterations)
         if moved is not None:
@@ -135,12 +136,13 @@ def fit_hidden(problem: Problem, result: FitResult, *,
                       "tell the two apart; see starts_, and measure longer, with a richer "
                       "input, or write a known value into the skeleton.",
                       StartsWarning, stacklevel=6)
-    for words in unseen:
+    if unseen:  # one warning, every direction the measurements leave free in it
         warnings.warn(
             f"{', '.join(problem.hidden)} not measured, and the measurements cannot fix "
-            f"every parameter: {words}, so only combinations of those are determined (the "
-            "values found are one of many). Write a known value or ratio into the "
-            "skeleton, or measure the state once.", RankDeficiencyWarning, stacklevel=6)
+            f"every parameter: {'; '.join(unseen)}, so only combinations of those are "
+            "determined (the values found are one of many). Write a known value or ratio "
+            "into the skeleton, or measure the state once.", RankDeficiencyWarning,
+            stacklevel=6)
     _warn_runaway(problem, result.functions, params, first, info["substeps"])
     _warn_against_gradient(problem, params)
     table = initial_table(problem, first, problem.skeleton.states)
