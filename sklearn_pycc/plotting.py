@@ -13,10 +13,11 @@ import pandas as pd
 
 from ._utils.figures import pyplot
 from .skeleton.compiler import compile_expression
+from .skeleton.nodes import Symbol, walk
 from .skeleton.parser import parse_expression
 
 __all__ = ["plot_comparison", "plot_curves", "plot_diagnosis", "plot_innovations", "plot_loop",
-           "plot_noise"]
+           "plot_network", "plot_noise"]
 
 
 def label_axis(ax, axis: str, name: str, units: Mapping | None = None) -> None:
@@ -118,7 +119,8 @@ def plot_diagnosis(report) -> dict:
         effect; ``"map"``: the residual maps over position x velocity;
         ``"open_curve"`` (when something outside the catalogue is suggested):
         the free curve with its 95 % band beside the terms it would replace
-        and the formula proposed for it.
+        and the formula proposed for it; ``"network"`` (three states or more,
+        or a suggestion that joins two states): :func:`plot_network`.
     """
     plt = pyplot()
     figures = {}
@@ -130,7 +132,80 @@ def plot_diagnosis(report) -> dict:
     best = report.best
     if best is not None and best.curve is not None:
         figures["open_curve"] = _open_curve_figure(plt, report)
+    if len(report.model.skeleton_.states) >= 3 or _joins(best):
+        figures["network"] = plot_network(report.model.skeleton_, best)
     return figures
+
+
+def _joins(best) -> tuple[str, str] | None:
+    """The two states a suggestion joins (a path, a reaction), or None."""
+    if best is None:
+        return None
+    states = list(best.equations.states)
+    named = [name for name in best.variable.replace("-", " ").split() if name in states]
+    return (named[0], named[1]) if len(named) == 2 and named[0] != named[1] else None
+
+
+def _edges(skeleton) -> tuple[set, set]:
+    """Pairs of states one's equation reads the other in, and (input, state) pairs."""
+    states, inputs = set(skeleton.states), set(skeleton.inputs) - {"t"}
+    between, driven = set(), set()
+    for eq in skeleton.parsed:
+        read = {n.name for n in walk(eq.rhs) if isinstance(n, Symbol)}
+        between |= {tuple(sorted((eq.state, other))) for other in read & states
+                    if other != eq.state}
+        driven |= {(name, eq.state) for name in read & inputs}
+    return between, driven
+
+
+def plot_network(skeleton, suggestion=None):
+    """A skeleton as a network: its states in a ring, a line where an equation reads another.
+
+    Inputs are small squares joined to the states whose equations read them
+    (inside the ring when they drive several).
+    A suggestion that joins two states (a path, a reaction; ``diagnose``'s
+    ``best``) is drawn as a dashed red line between them, named in its
+    field's words.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    plt = pyplot()
+    states = list(skeleton.states)
+    between, driven = _edges(skeleton)
+    angles = np.pi / 2 - 2 * np.pi * np.arange(len(states)) / max(len(states), 1)
+    where = {name: (np.cos(a), np.sin(a)) for name, a in zip(states, angles)}
+    inputs = sorted({name for name, _ in driven})
+    shared = [name for name in inputs if sum(i == name for i, _ in driven) > 1]
+    for k, name in enumerate(shared):  # an input of several states inside the ring
+        where[name] = (0.0, 0.3 * (k - (len(shared) - 1) / 2))
+    for name in inputs:  # one of a single state outside the ring, beside it
+        if name not in shared:
+            x, y = where[next(state for i, state in driven if i == name)]
+            where[name] = (1.5 * x, 1.5 * y)
+    fig, ax = plt.subplots(figsize=(5.5, 5.5))
+    for a, b in sorted(between):
+        ax.plot(*zip(where[a], where[b]), color="0.45", lw=1.5, zorder=1)
+    for name, state in sorted(driven):
+        ax.plot(*zip(where[name], where[state]), color="0.7", lw=1, ls=":", zorder=1)
+    joined = _joins(suggestion)
+    if joined is not None:
+        ax.plot(*zip(where[joined[0]], where[joined[1]]), color="tab:red", lw=2.5, ls="--",
+                zorder=2, label=f"suggested: {suggestion.called or suggestion.effect}")
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, 1.08), frameon=False,
+                  fontsize="small")
+    for name in states:
+        ax.scatter(*where[name], s=900, color="white", edgecolor="tab:blue", lw=2, zorder=3)
+        ax.annotate(name, where[name], ha="center", va="center", zorder=4)
+    for name in inputs:
+        ax.scatter(*where[name], s=350, marker="s", color="0.92", edgecolor="0.5", zorder=3)
+        ax.annotate(name, where[name], ha="center", va="center", fontsize="small", zorder=4)
+    ax.set_aspect("equal")
+    ax.margins(0.15)
+    ax.axis("off")
+    fig.tight_layout()
+    return fig
 
 
 def _open_curve_figure(plt, report):

@@ -119,3 +119,22 @@ def test_a_reaction_of_two_species_is_tried_forming_a_third():
                     and len(c.additions) == 3)
     extend(skeleton, reaction)
     assert reaction.added == [(0, "a6*A*B"), (1, "a7*A*B"), (2, "a8*A*B")]
+
+
+def test_a_network_is_drawn_with_the_suggested_path_between_its_states():
+    from types import SimpleNamespace
+
+    from sklearn_pycc.plotting import plot_network
+
+    skeleton = Skeleton(BASE)
+    door = SimpleNamespace(equations=Skeleton(TRUE), variable="T1 - T3", effect="linear_link",
+                           called="heat path (conduction)")
+    fig = plot_network(skeleton, door)
+    lines = fig.axes[0].get_lines()
+    solid = [ln for ln in lines if ln.get_linestyle() == "-"]
+    assert len(solid) == 2  # T1-T2 and T2-T3: the rooms the skeleton joins
+    assert len([ln for ln in lines if ln.get_linestyle() == ":"]) == 6  # To thrice, Q1-Q3
+    suggested = [ln for ln in lines if ln.get_linestyle() == "--"]
+    assert len(suggested) == 1 and "heat path (conduction)" in suggested[0].get_label()
+    names = {t.get_text() for t in fig.axes[0].texts}
+    assert {"T1", "T2", "T3", "To", "Q1", "Q2", "Q3"} <= names
