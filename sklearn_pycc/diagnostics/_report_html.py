@@ -39,6 +39,8 @@ CAPTIONS = {
     "open_curve": "Outside the catalogue: the free curve (with its 95 % band where the "
                   "refit has one), the terms it would replace, and the formula proposed "
                   "for it.",
+    "network": "The skeleton as a network: its states, a line where one's equation reads "
+               "another, its inputs beside; a suggested path or reaction dashed in red.",
 }
 
 
