@@ -607,13 +607,17 @@ def absorbed(skeleton: Skeleton, candidate: Candidate) -> bool:
     ``x2`` alone (of its parity, if it has one), and ``f1(x1) x2`` absorbs
     any ``g(x1) x2``.
     """
+    # a path's flow is the same term either way round, (x1 - x2) or (x2 - x1)
+    link = candidate.effect.acts_through == "link"
     for k, text in candidate.additions:
         eq = skeleton.parsed[k]
         term_factors = product_factors(parse_expression(text, kind="term"))
+        shapes = [Counter(_shape(product_factors(parse_expression(t, kind="term"))))
+                  for _, t in candidate.additions] if link else [Counter(_shape(term_factors))]
         for existing in sum_terms(eq.rhs):
             factors = product_factors(existing)
             shape = _shape(factors)
-            if shape and Counter(shape) == Counter(_shape(term_factors)):
+            if shape and Counter(shape) in shapes:
                 return True
             curves = [f for f in factors if isinstance(f, Unknown)]
             if len(curves) != 1 or not isinstance(curves[0].arg, Symbol):
