@@ -99,9 +99,7 @@ def float_integrator(system) -> Callable | None:
     written = system.rate_statements()
     if written is None:
         return None
-    layout = _Layout(len(system.states), len(system.inputs), written[0], written[1],
-                     [(q, j) for q, j, _, _ in system.held_rates])
-    namespace = {**written[2], "isfinite": math.isfinite}
-    for k, (_, _, low, high) in enumerate(system.held_rates):
-        namespace[f"lo{k}"], namespace[f"hi{k}"] = float(low), float(high)
+    statements, rates, holds, namespace = written
+    layout = _Layout(len(system.states), len(system.inputs), statements, rates, holds)
+    namespace = {**namespace, "isfinite": math.isfinite}
     return generated_function(layout.source(), namespace, "run")

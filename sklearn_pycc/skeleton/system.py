@@ -142,12 +142,7 @@ class CompiledSystem:
         return [compile_expression(eq.rhs, self.slots, params, functions, mode="array")
                 for eq in self._static_equations]
 
-    @property
-    def held_rates(self) -> list[tuple[int, int, float, float]]:
-        """``(state position, rate position, low, high)`` of each state with limits."""
-        return list(self._limited)
-
-    def rate_statements(self) -> tuple[list[str], list[str], dict] | None:
+    def rate_statements(self) -> tuple[list[str], list[str], list, dict] | None:
         """The scalar right-hand side as Python statements over locals ``v{slot}``.
 
         The statements read the states, inputs and ``t`` from their slots'
@@ -157,11 +152,13 @@ class CompiledSystem:
 
         Returns
         -------
-        (statements, rates, namespace) or None
+        (statements, rates, holds, namespace) or None
             ``rates`` names the locals of the derivatives in equation order;
-            ``namespace`` binds the numbers and functions the statements
-            read. None where an equation must be solved for its derivative
-            or the system stacks variants.
+            ``holds`` gives ``(state position, rate position)`` of each state
+            with limits, hold ``k``'s ends bound as ``lo{k}`` and ``hi{k}``;
+            ``namespace`` binds those and the numbers and functions the
+            statements read. None where an equation must be solved for its
+            derivative or the system stacks variants.
         """
         equations, params, functions = self._source
         if not all(eq.explicit for eq in equations):
@@ -176,7 +173,11 @@ class CompiledSystem:
             statements.extend(writer.lines)
             writer.lines.clear()
             statements.append(f"v{self.slots[eq.derivative]} = {source}")
-        return statements, [f"v{slot}" for slot in self._output_slots], writer.namespace
+        namespace = dict(writer.namespace)
+        for k, (_, _, low, high) in enumerate(self._limited):
+            namespace[f"lo{k}"], namespace[f"hi{k}"] = float(low), float(high)
+        return (statements, [f"v{slot}" for slot in self._output_slots],
+                [(q, j) for q, j, _, _ in self._limited], namespace)
 
     # -- vectorised evaluation ----------------------------------------------
     def _env(self, data: Mapping[str, np.ndarray]) -> list:
@@ -372,12 +373,9 @@ class CompiledSystem:
         written = self.rate_statements() if list_states else None
         if written is None or not written[1]:
             return rhs
-        statements, rates, namespace = written
-        source = rhs_source(len(states), len(self.inputs), statements, rates,
-                            [(q, j) for q, j, _, _ in limited])
+        statements, rates, holds, namespace = written
+        source = rhs_source(len(states), len(self.inputs), statements, rates, holds)
         namespace = {**namespace, "input_at": input_at, "general": rhs, "isfinite": isfinite}
-        for k, (_, _, low, high) in enumerate(limited):
-            namespace[f"lo{k}"], namespace[f"hi{k}"] = float(low), float(high)
         # the same floats as rhs, written out as one function (rhs takes over the unusual)
         return generated_function(source, namespace, "rhs")
 
