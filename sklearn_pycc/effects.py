@@ -161,6 +161,12 @@ class Effect:
         The effect's shape in plain words (``"square-root law"``): its name on
         a state whose quantity is not known, or of another field. Empty: the
         catalogue name in words.
+    generalises : tuple of str
+        Catalogue effects this one holds as a special case or a limit (a
+        drift ``a1 + a2 t`` holds the offset ``a1``; a saturating reaction,
+        far from saturation, mass action): where both take an error alike, a
+        diagnosis names the simpler, and it screens this one only where the
+        simpler takes some of the error.
     """
 
     name: str
@@ -176,6 +182,7 @@ class Effect:
     field: str | None = None
     names: tuple[tuple[str, str], ...] = ()
     shape: str = ""
+    generalises: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():
@@ -499,7 +506,8 @@ for _effect in (
            names=(("temperature", "daily or periodic heat load"),),
            shape="unmeasured periodic input"),
     Effect("drift", "force or bias changing steadily over the record (a warming sensor, "
-           "a creeping load)", "time", "a1 + a2 t", shape="slow drift of a source or bias"),
+           "a creeping load)", "time", "a1 + a2 t", shape="slow drift of a source or bias",
+           generalises=("offset",)),
     # a first-order state's own rate of loss: outflow, consumption, decay
     Effect("linear_rate", "loss proportional to what is stored (a linear outflow, a "
            "first-order decay, Newton's cooling)", "state", "a1 {s}", "f1({s})",
@@ -568,6 +576,7 @@ for _effect in (
            "the first grows (a predator's saturating catch, Holling type II; a reaction "
            "limited by its catalyst)", "interaction", "a1 {s} {r}/(a2 + abs({s}))",
            bounds=("a2 >= 0",), replaces=("mass_action",), field="kinetics",
+           generalises=("mass_action",),
            names=(("concentration", "saturating reaction (Michaelis-Menten in a reactant)"),
                   ("amount", "saturating reaction (Michaelis-Menten in a reactant)"),
                   ("population", "Holling type II predation")),

@@ -1,17 +1,18 @@
 """The loop through states nobody measures: laws in place of terms, judged by simulation."""
 
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from sklearn_pycc import HypothesisLoop, PolyCCRegressor, Skeleton, datasets, diagnose
+from sklearn_pycc import HypothesisLoop, PolyCCRegressor, Skeleton, datasets, diagnose, effects
 from sklearn_pycc.datasets._generation import add_noise
-from sklearn_pycc.diagnostics._candidates import enumerate_moves, extend
+from sklearn_pycc.diagnostics._candidates import enumerate_candidates, enumerate_moves, extend
 from sklearn_pycc.diagnostics._roles import equation_roles
-from sklearn_pycc.diagnostics._unmeasured import simulate_record
-from sklearn_pycc.diagnostics._unmeasured_moves import _matched_start
+from sklearn_pycc.diagnostics._unmeasured import _simplest_first, simulate_record
+from sklearn_pycc.diagnostics._unmeasured_moves import MoveTrial, _matched_start, special_case
 from sklearn_pycc.model_selection import make_simulation_scorer
 
 LINEAR = ["x1_dot = a1 u - a2 x1", "x2_dot = a3 x1 - a4 x2"]
@@ -150,3 +151,77 @@ def test_every_direction_the_record_leaves_free_is_said_in_one_warning():
     said = [str(w.message) for w in caught if issubclass(w.category, RankDeficiencyWarning)]
     assert len(said) == 1
     assert said[0].count("leaves every measured state as it is") >= 2  # two directions, or more
+
+
+def _trial(effect: str, equations: list[int], delta_bic: float) -> MoveTrial:
+    candidate = SimpleNamespace(effect=effects.get(effect), move="add",
+                                additions=[(k, "a9") for k in equations])
+    return MoveTrial(candidate, None, 0.1, delta_bic=delta_bic)
+
+
+def test_a_source_that_holds_another_is_named_only_where_it_does_clearly_better():
+    assert effects.get("drift").generalises == ("offset",)
+    offset, drift = _trial("offset", [0], -500.0), _trial("drift", [0], -505.0)
+    assert special_case(offset.candidate, drift.candidate)
+    assert not special_case(drift.candidate, offset.candidate)
+    assert not special_case(offset.candidate, _trial("drift", [1], 0.0).candidate)
+    # the drift takes a little more error, as one more number always does: the load is named
+    assert _simplest_first([drift, offset], 10.0, {0}) == [offset, drift]
+    # a drift that takes clearly more than a constant load can is named
+    clear = _trial("drift", [0], -600.0)
+    assert _simplest_first([offset, clear], 10.0, {0}) == [clear, offset]
+
+
+def test_one_effect_the_record_cannot_place_is_named_in_the_measured_state_s_equation():
+    # a load on the walls (1, unmeasured) simulates the room as one on its air (0)
+    walls, air = _trial("offset", [1], -1972.56410), _trial("offset", [0], -1972.56408)
+    assert _simplest_first([walls, air], 10.0, {0}) == [air, walls]
+    better = _trial("offset", [1], -1990.0)
+    assert _simplest_first([air, better], 10.0, {0}) == [better, air]
+
+
+@pytest.fixture(scope="module")
+def loaded_room():
+    """One room, its walls unmeasured, time in seconds, heated by a load the skeleton lacks."""
+    unloaded, truth = datasets.make_rooms(600, time_unit="s", noise=None, random_state=4,
+                                          return_truth=True)
+    load = 1.5 / 3600  # K/s
+    equations = [truth.equations[0] + " + a6", truth.equations[1]]
+    t = unloaded["t"].to_numpy()
+    states = Skeleton(equations).simulate(
+        t, list(truth.y0), params={**truth.params, "a6": load}, input_hold="zoh",
+        inputs={n: unloaded[n].to_numpy() for n in ("To", "Q1")})
+    frame = add_noise(unloaded.assign(T1=states["T1"].to_numpy()), 40.0, ["T1"],
+                      np.random.default_rng(4))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=truth.equations,
+                                quantities={"T1": "temperature", "W1": "temperature"})
+        model.fit(frame)
+    return frame, model
+
+
+def test_a_source_added_to_a_measured_state_starts_at_exactly_zero(loaded_room):
+    frame, model = loaded_room
+    roles = equation_roles(model.skeleton_, {"T1": "temperature", "W1": "temperature"})
+    candidate = next(c for c in enumerate_candidates(model.skeleton_, roles, True)
+                     if c.effect.name == "offset" and c.additions[0][0] == 0)
+    extend(model.skeleton_, candidate)
+    course = simulate_record(model, frame).reset_index(drop=True)
+    for name in ("To", "Q1"):
+        course[name] = frame[name].to_numpy()
+    start = _matched_start(model, candidate, course)
+    # matched at a rounding error of zero it would never move: the fit steps a share of it
+    assert start[candidate.new_params[0]] == 0.0
+
+
+@pytest.mark.slow
+def test_a_forgotten_heat_load_in_a_room_with_unmeasured_walls_is_named(loaded_room):
+    frame, model = loaded_room
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        report = diagnose(model, frame)
+    best = report.best
+    assert best.effect == "offset" and best.equation == "T1_dot"
+    assert best.called == "constant heat load"
+    assert best.held_out.confirmed

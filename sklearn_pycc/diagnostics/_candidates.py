@@ -453,7 +453,7 @@ def _flows(effect: catalogue.Effect, roles: EquationRoles, own_term: tuple[float
         out.append((own, list(additions), list(nodes)))
         # the chain: each next storage's own term of the same law, and its own inflow twin
         visited, current = {roles.index}, k
-        while current not in visited:
+        while current not in visited and len(additions) < CHAIN_ADDITIONS:
             visited.add(current)
             drain = _own_term(skeleton, by_index[current], old, sign, inputs=inputs,
                               has_time=has_time)
@@ -474,6 +474,11 @@ def _flows(effect: catalogue.Effect, roles: EquationRoles, own_term: tuple[float
             nodes.append(onward)
             out.append((own, list(additions), list(nodes)))
     return out
+
+
+#: the most terms one law takes down a chain of storages (three storages): a longer chain is
+#: changed over several rounds, each judged on its own
+CHAIN_ADDITIONS = 5
 
 
 def _own_term(skeleton: Skeleton, roles: EquationRoles, old: catalogue.Effect, sign: float, *,
@@ -728,9 +733,25 @@ def extend(skeleton: Skeleton, candidate: Candidate) -> None:
     """
     extended = skeleton
     added = []
+    shapes: dict[str, dict[str, str]] = {}  # a law's text -> its shape's names in extended
     for k, term in candidate.additions:
         before = extended.equations[k]
-        extended = extended.add_term(k, term, constraints=list(candidate.term_bounds))
+        law = term[2:-1] if term.startswith("-(") and term.endswith(")") else term
+        node = parse_expression(law, kind="term")
+        own = sorted(params_in(node), key=lambda a: int(a[1:]))
+        shape = shapes.get(law, {})
+        if shape:  # the flow another equation carries: its own yield, the law's shape
+            text = term.replace(law, to_text(rename(node, shape)))
+            bounds = [b for b in parse_constraints(list(candidate.term_bounds))
+                      if getattr(b, "param", None) not in shape]
+            extended = extended.add_term(k, text, constraints=[str(b) for b in bounds],
+                                         shared=shape.values())
+        else:
+            taken = set(extended.params)
+            extended = extended.add_term(k, term, constraints=list(candidate.term_bounds))
+            fresh = sorted(set(extended.params) - taken, key=lambda a: int(a[1:]))
+            if len(fresh) == len(own) > 1:  # every number but the leading coefficient
+                shapes[law] = dict(zip(own[1:], fresh[1:]))
         added.append((k, extended.equations[k][len(before) + 3:]))
     for k, term in candidate.removals:
         extended = extended.remove_term(k, term)
@@ -774,7 +795,13 @@ def screen_candidates(candidates: list[Candidate], data: Record, residuals: np.n
         for j, (text, values) in enumerate(items):
             basis_names[(k, text)] = f"{prefix}{k}k{j}"
             frame[f"{prefix}{k}k{j}"] = values[rows]
-    for candidate in candidates:
+    simpler = {id(c): _simpler_forms(c, candidates) for c in candidates}
+    first = [c for c in candidates if not simpler[id(c)]]
+    for candidate in [*first, *(c for c in candidates if simpler[id(c)])]:
+        if simpler[id(candidate)] and not _worth_screening(simpler[id(candidate)], first):
+            candidate.note = (f"not screened: {simpler[id(candidate)][0].effect.name}, its "
+                              "simpler form, takes little of the residual")
+            continue
         target = residuals
         if candidate.removed_nodes:
             target = residuals + removed_contribution(model, candidate, data)
@@ -804,11 +831,42 @@ def screen_candidates(candidates: list[Candidate], data: Record, residuals: np.n
         except (SkeletonError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             candidate.note = f"could not be fitted to the residual: {exc}"
             continue
-        before = np.sum(residuals[rows][:, ks] ** 2, axis=0) / scale
+        # what the equations' own terms take by a change of scale alone, the model's refit
+        # takes too: only what the new terms take beyond it counts (a move that touches
+        # more equations would otherwise collect each one's rescaling as its own gain)
+        before = np.array([_projected_rss(residuals[rows, k],
+                                          [v[rows] for _, v in own_terms.get(k, [])])
+                           for k in ks]) / scale
         after = np.sum((targets.to_numpy() - predicted) ** 2, axis=0) / scale
         candidate.screen_bic, candidate.screen_removed = _delta_bic(
             before, after, floors[ks], len(own) - len(candidate.removed_params), n)
         candidate.screen_params = {a: float(fitted.params_[a]) for a in own}
+
+
+#: an effect that holds a simpler one is screened only where one of its simpler forms is
+#: among this many best of that effect's screens
+SIMPLER_LEADERS = 4
+
+
+def _simpler_forms(candidate: Candidate, candidates: list[Candidate]) -> list[Candidate]:
+    """The candidates adding, to the same equations through the same states, a simpler effect."""
+    if candidate.move != "add" or not candidate.effect.generalises:
+        return []
+    where = (frozenset(k for k, _ in candidate.additions),
+             frozenset(candidate.variable.split()))
+    return [c for c in candidates if c.move == "add"
+            and c.effect.name in candidate.effect.generalises
+            and (frozenset(k for k, _ in c.additions), frozenset(c.variable.split())) == where]
+
+
+def _worth_screening(forms: list[Candidate], screened: list[Candidate]) -> bool:
+    """Whether one of ``forms`` took some of the residual, among its effect's best screens."""
+    for form in forms:
+        rivals = sorted(c.screen_bic for c in screened if c.effect.name == form.effect.name
+                        and math.isfinite(c.screen_bic))
+        if form.screen_bic < 0 and form.screen_bic <= rivals[:SIMPLER_LEADERS][-1]:
+            return True
+    return False
 
 
 #: residuals below this fraction of the derivative's RMS are rounding, not signal
@@ -912,8 +970,13 @@ def refit_candidate(model, candidate: Candidate, data: Record, residuals: np.nda
     after = candidate.after_squares.sum(axis=0)
     before = rss_before[ks]
     n = data.n_samples
-    candidate.delta_bic, candidate.removed = _delta_bic(
-        before, after, rss_floor(data.derivatives)[ks], candidate.n_change, n)
+    _, candidate.removed = _delta_bic(before, after, rss_floor(data.derivatives)[ks],
+                                      candidate.n_change, n)
+    # judged on every equation: a refit by output error moves the numbers of all of them, and
+    # a move that touches more equations would otherwise collect their change as its own
+    every = np.sum((data.derivatives - predicted) ** 2, axis=0)
+    candidate.delta_bic, _ = _delta_bic(rss_before, every, rss_floor(data.derivatives),
+                                        candidate.n_change, n)
     candidate.rmse_before = float(np.sqrt(before.sum() / (n * len(ks))))
     candidate.rmse_after = float(np.sqrt(after.sum() / (n * len(ks))))
     _judge(candidate, estimator, data, baseline)

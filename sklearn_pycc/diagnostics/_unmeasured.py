@@ -33,7 +33,13 @@ from ._decide import suggestion_for
 from ._held_out import HeldOut
 from ._metrics import error_table_row
 from ._refit import prepared
-from ._unmeasured_moves import TRIAL_ITERATIONS, MoveTrial, law_trials, thinned
+from ._unmeasured_moves import (
+    TRIAL_ITERATIONS,
+    MoveTrial,
+    law_trials,
+    special_case,
+    thinned,
+)
 from .report import Diagnosis, Suggestion
 
 __all__ = ["UnmeasuredDiagnosis", "diagnose_unmeasured"]
@@ -42,6 +48,9 @@ __all__ = ["UnmeasuredDiagnosis", "diagnose_unmeasured"]
 #: extreme a state reached clips a peak or two wherever it is put, and on coloured noise
 #: that can lower the error by a per cent or two; a missing rim changes the course itself
 LIMIT_GAIN = 0.05
+
+#: BIC changes within this of each other are one: the record cannot tell the moves apart
+TIE = 0.1
 
 #: the catalogue's name and physics of a hard limit on a state
 OVERFLOW = ("overflow", "the state stops at a limit it cannot pass (a tank's rim, an end stop): "
@@ -384,8 +393,8 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
         quantities = model.get_params().get("quantities")
     moves = law_trials(model, X, course, base=base, n=n, quantities=quantities,
                        units=units, nrmse=_nrmse)
-    trials = [*trials, *moves]
-    trials.sort(key=lambda t: (not math.isfinite(t.delta_bic), t.delta_bic))
+    measured = {eq.index for eq in skeleton.parsed if eq.state not in hidden}
+    trials = _simplest_first([*trials, *moves], bic_threshold, measured)
     best, cache = None, dict(_fold_errors(model, X, measurement))
     for trial in trials:
         # the error includes the noise, which no limit removes: a small share of it may be
@@ -415,6 +424,36 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
         float(np.sqrt(np.mean(trajectories["rmse"] ** 2))) if rows else math.nan, notes,
         None, [], units, [s for s in skeleton.states if s not in hidden], hidden=hidden)
     return diagnosis
+
+
+def _simplest_first(trials: list, margin: float, measured: set[int]) -> list:
+    """Trials by their BIC, each effect's special case before it unless it loses by ``margin``.
+
+    A drift ``a1 + a2 t`` takes at least the error a constant load ``a1``
+    takes; on noise correlated in time its one more number is cheap in the
+    BIC. The simpler is named unless the general one is better by the
+    margin a suggestion must clear anyway. Of one effect in two equations
+    that the record cannot tell apart (a load on a room's air or on its
+    unmeasured walls: the walls' level absorbs the difference), the one in
+    the ``measured`` states' equations comes first.
+    """
+    def key(trial) -> tuple:
+        bic = trial.delta_bic
+        inside = isinstance(trial, MoveTrial) and not (
+            {k for k, _ in trial.candidate.additions} <= measured)
+        return not math.isfinite(bic), round(bic / TIE) if math.isfinite(bic) else 0, inside
+
+    ordered = sorted(trials, key=lambda t: (not math.isfinite(t.delta_bic), t.delta_bic))
+    ordered = sorted(ordered, key=key)  # stable: ties in the BIC alone reordered
+    for simple in [t for t in ordered if isinstance(t, MoveTrial)
+                   and math.isfinite(t.delta_bic)]:
+        general = [t for t in ordered[:ordered.index(simple)] if isinstance(t, MoveTrial)
+                   and special_case(simple.candidate, t.candidate)
+                   and t.delta_bic > simple.delta_bic - margin]
+        if general:
+            ordered.remove(simple)
+            ordered.insert(ordered.index(general[0]), simple)
+    return ordered
 
 
 def _limit_refit(model, X: pd.DataFrame, extended, base: float,

@@ -37,7 +37,7 @@ from ._candidates import (
 from ._refit import prepared
 from ._roles import equation_roles
 
-__all__ = ["LEADERS", "MoveTrial", "law_trials", "noise_share", "thinned"]
+__all__ = ["LEADERS", "MoveTrial", "law_trials", "noise_share", "special_case", "thinned"]
 
 #: moves refitted to the end, the best on trial
 LEADERS = 2
@@ -47,6 +47,12 @@ TRIAL_ITERATIONS = 3
 
 #: a trial refit reads at most about this many samples (every k-th row of the record)
 TRIAL_SAMPLES = 400
+
+#: what the catalogue's sources act through (a constant load, one changing in time)
+SOURCES = ("none", "time")
+
+#: a matched new number below this is zero (the fit then steps it by an absolute amount)
+NEGLIGIBLE = 1e-12
 
 #: no law is tried where the model simulates the record within this factor of its noise
 AT_NOISE = 1.2
@@ -128,7 +134,17 @@ def _matched_start(model, candidate: Candidate, course: pd.DataFrame) -> dict[st
                                   max_nfev=100 * len(new)).x
     except (ValueError, ArithmeticError, np.linalg.LinAlgError):
         found = start
+    # a term that only adds error is matched at a rounding error of zero (1e-25); the fit's
+    # steps are shares of each number, and from there they would not move it at all
+    found = np.where(np.abs(found) < NEGLIGIBLE, 0.0, found)
     return {**kept, **dict(zip(new, (float(v) for v in found)))}
+
+
+def special_case(simple: Candidate, general: Candidate) -> bool:
+    """Whether ``general``'s effect holds ``simple``'s, added to the same equations."""
+    return (simple.effect.name in general.effect.generalises
+            and simple.move == general.move == "add"
+            and [k for k, _ in simple.additions] == [k for k, _ in general.additions])
 
 
 def _kind(candidate: Candidate) -> str:
@@ -190,13 +206,15 @@ def law_trials(model, X: pd.DataFrame, course: pd.DataFrame | None, *, base: flo
     trial_rows = thinned(X)
     roles = equation_roles(skeleton, quantities, units)
     # the own terms' laws everywhere; inputs read another way and effects added in the
-    # equations of the states no sensor reads, where no residual can show them
+    # equations of the states no sensor reads; sources (a load, a drift) in every equation:
+    # a measured state's own source shows in no equation of the hidden ones
     inside = {eq.index for eq in skeleton.parsed
               if eq.state not in X.columns or not X[eq.state].notna().any()}
     candidates = [*(c for c in enumerate_moves(skeleton, roles, True) if c.move == "replace"),
                   *(c for c in [*enumerate_input_moves(skeleton, roles),
                                 *enumerate_candidates(skeleton, roles, True)]
-                    if {k for k, _ in c.additions} <= inside)]
+                    if {k for k, _ in c.additions} <= inside
+                    or c.effect.acts_through in SOURCES)]
     trials = []
     for candidate in candidates:
         try:
@@ -220,6 +238,9 @@ def law_trials(model, X: pd.DataFrame, course: pd.DataFrame | None, *, base: flo
                     None)
         if best is not None and best not in leaders:
             leaders.append(best)
+    # the special cases a leader holds (an offset beside a drift), judged beside it
+    leaders += [t for t in trials if t.refit is not None and t not in leaders
+                and any(special_case(t.candidate, leader.candidate) for leader in leaders)]
     for trial in leaders:
         if trial.refit is None:
             continue

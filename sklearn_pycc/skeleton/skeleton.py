@@ -357,7 +357,8 @@ class Skeleton:
         return Skeleton(self, constraints)
 
     def add_term(self, equation: int | str, term: str, sign: str = "-",
-                 constraints: Iterable | None = None) -> Skeleton:
+                 constraints: Iterable | None = None, *,
+                 shared: Iterable[str] = ()) -> Skeleton:
         """A new skeleton with ``term`` added to the right-hand side of one equation.
 
         The term's curves and parameters are renumbered to fresh indices
@@ -378,6 +379,10 @@ class Skeleton:
             Constraints on the term's curves and parameters, written with the
             term's names (``["f1 odd"]`` for ``term="f1(x2)"``, ``["a1 >= 0"]``
             for ``term="a1 x2"``); they are renamed too.
+        shared : iterable of str, optional
+            Parameters of this skeleton that the term reads under their own
+            names (the shape of a law whose flow another term carries too):
+            they are not renumbered, and their constraints are the skeleton's.
 
         Returns
         -------
@@ -395,7 +400,11 @@ class Skeleton:
             raise ValueError(f"sign must be '-' or '+', got {sign!r}")
         node = parse_expression(term, kind="term")
         curves = sorted({n.name for n in walk(node) if isinstance(n, Unknown)}, key=_index_key)
-        params = sorted(params_in(node), key=_index_key)
+        shared = set(shared)
+        if shared - set(self.params):
+            raise ValueError(f"shared names {', '.join(sorted(shared - set(self.params)))}, "
+                             "which are not parameters of the skeleton")
+        params = sorted((a for a in params_in(node) if a not in shared), key=_index_key)
         mapping = {}
         for names, taken in ((curves, self.functions), (params, self.params)):
             start = max((_index_key(name) for name in taken), default=0)
