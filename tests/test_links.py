@@ -5,6 +5,7 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
+from benchmark_scripts import load
 
 from sklearn_pycc import HypothesisLoop, PolyCCRegressor, Skeleton, diagnose, effects
 from sklearn_pycc.datasets._buildings import _heater
@@ -141,3 +142,61 @@ def test_a_network_is_drawn_with_the_suggested_path_between_its_states():
     assert len(suggested) == 1 and "heat path (conduction)" in suggested[0].get_label()
     names = {t.get_text() for t in fig.axes[0].texts}
     assert {"T1", "T2", "T3", "To", "Q1", "Q2", "Q3"} <= names
+
+
+CHAIN = dict.fromkeys([f"x{i}" for i in range(1, 6)], "concentration")
+
+
+def test_a_flow_s_law_keeps_one_shape_in_both_balances_it_enters():
+    study = load("network_study")
+    skeleton = Skeleton(list(study.CASES["chain_saturating"].start))
+    roles = equation_roles(skeleton, CHAIN)
+    flows = [c for c in enumerate_moves(skeleton, roles, True)
+             if c.move == "replace" and c.effect.name == "saturating_rate"
+             and c.variable == "x3" and len(c.removals) == 2]
+    assert len(flows) == 1
+    flow = flows[0]
+    extend(skeleton, flow)
+    # what leaves the third compartment enters the fourth: a yield each, one saturation
+    assert flow.added == [(2, "a11*x3 / (a12 + abs(x3))"), (3, "(-(a13*x3 / (a12 + abs(x3))))")]
+    assert flow.new_params == ["a11", "a12", "a13"]
+    assert flow.n_change == 1  # two linear rates out, three numbers in
+    # a chain of storages built alike is changed three storages at a time at most
+    assert max(len(c.additions) for c in enumerate_moves(skeleton, roles, True)) <= 6
+
+
+def test_a_saturating_reaction_is_screened_only_where_mass_action_takes_some_error():
+    from sklearn_pycc.diagnostics._candidates import screen_candidates
+    from sklearn_pycc.diagnostics._data import read_measurements
+
+    study = load("network_study")
+    case = study.CASES["reaction_a_b_c"]
+    frame = study.record(case, 0, "white")
+    quantities = dict.fromkeys("ABC", "concentration")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=list(case.start), quantities=quantities).fit(frame)
+        data = read_measurements(model.skeleton_, frame, None)
+    skeleton = model.skeleton_
+    roles = equation_roles(skeleton, quantities)
+    candidates = [c for c in enumerate_candidates(skeleton, roles, True)
+                  if c.effect.name in ("mass_action", "saturating_interaction")]
+    for c in candidates:
+        extend(skeleton, c)
+    residuals = data.derivatives - data.predict(model)
+    screen_candidates(candidates, data, residuals, skeleton.states, model=model)
+    saturating = [c for c in candidates if c.effect.name == "saturating_interaction"]
+    skipped = [c for c in saturating if c.note.startswith("not screened")]
+    assert 0 < len(skipped) < len(saturating)
+    # the reaction of A and B into C is screened in its saturating form too
+    assert any(c.variable in ("A B", "B A") and len(c.additions) == 3
+               and np.isfinite(c.screen_bic) for c in saturating)
+
+
+@pytest.mark.slow
+def test_a_chain_s_saturating_step_is_named_in_the_two_balances_it_joins():
+    study = load("network_study")
+    row = study.run("chain_saturating", 0, "ar")
+    assert row["right"] and row["complete"]
+    assert row["named"][0].startswith("replace 'a6*x3' in x3_dot")
+    assert study.run("chain_control", 0, "ar")["right"]  # the true chain: nothing missing

@@ -96,7 +96,9 @@ def ordered_candidates(candidates: list[Candidate]) -> list[Candidate]:
     alone would reward it. Of those with as many, one that keeps the
     user's terms goes before one that replaces them: a replacement confirmed
     is checked against the same effect beside those terms anyway
-    (:func:`_preferred`), and the user's terms are what they know.
+    (:func:`_preferred`), and the user's terms are what they know. Then a
+    law the state's field knows by name (a diode's current on a voltage)
+    goes before a shape it does not (a power law).
     """
     finite = [c for c in candidates if math.isfinite(score_of(c))]
     remaining = sorted(finite, key=lambda c: (group_of(c), -score_of(c)))
@@ -106,10 +108,17 @@ def ordered_candidates(candidates: list[Candidate]) -> list[Candidate]:
         margin = max(TIE[0] * abs(score_of(lead)), TIE[1])
         close = [c for c in remaining
                  if group_of(c) == group_of(lead) and score_of(lead) - score_of(c) <= margin]
-        pick = min(close, key=lambda c: (c.n_change, c.move == "replace", -score_of(c)))
+        pick = min(close, key=lambda c: (c.n_change, c.move == "replace", not _named(c),
+                                         -score_of(c)))
         out.append(pick)
         remaining.remove(pick)
     return out
+
+
+def _named(c: Candidate) -> bool:
+    """Whether the field of the state ``c`` acts on names its effect."""
+    roles = getattr(c, "roles", None)  # a move judged without roles names nothing
+    return roles is not None and roles.position_quantity in dict(c.effect.names)
 
 
 def eligible_candidates(ordered: list[Candidate], min_improvement: float, bic_threshold: float,

@@ -447,18 +447,23 @@ N_REPLACE = 2
 def _leaders(screened: list[Candidate], n_refit: int) -> list[Candidate]:
     """The candidates worth a refit, best screened first.
 
-    ``n_refit`` additions and :data:`N_REPLACE` replacements, each of a
-    different effect in its equation (a coupling or a drift reached through
-    several variables takes one slot).
+    ``n_refit`` additions, :data:`N_REPLACE` replacements of the skeleton's
+    laws and as many of how it reads an input, each of a different effect in
+    its equation (a coupling or a drift reached through several variables
+    takes one slot). A law that replaces a path in two balances spreads what
+    it takes over both, and screens below an input read in one: it keeps a
+    slot of its own.
     """
     out, seen = [], set()
-    quota = {"add": n_refit, "replace": min(N_REPLACE, n_refit)}
+    quota = {"add": n_refit, "replace": min(N_REPLACE, n_refit),
+             "input": min(N_REPLACE, n_refit)}
     for c in screened:
+        kind = "input" if c.move == "replace" and c.effect.acts_through == "input" else c.move
         key = (c.move, c.effect.name, c.roles.index)
-        if quota[c.move] and key not in seen:
+        if quota[kind] and key not in seen:
             out.append(c)
             seen.add(key)
-            quota[c.move] -= 1
+            quota[kind] -= 1
     return out
 
 
