@@ -48,6 +48,9 @@ TRIAL_ITERATIONS = 3
 #: a trial refit reads at most about this many samples (every k-th row of the record)
 TRIAL_SAMPLES = 400
 
+#: trial errors within this relative difference are one (the record cannot tell the moves apart)
+TRIAL_TIE = 1e-3
+
 #: what the catalogue's constant sources act through
 SOURCES = ("none",)
 
@@ -231,7 +234,17 @@ def law_trials(model, X: pd.DataFrame, course: pd.DataFrame | None, *, base: flo
             trials.append(MoveTrial(candidate, None, math.nan, failure=str(exc)))
             continue
         trials.append(MoveTrial(candidate, refit, error))
+    # trials the record cannot tell apart (a load on a room's air or on its unmeasured walls)
+    # in the measured states' equations first
+    def order(trial: MoveTrial) -> tuple:
+        if not (math.isfinite(trial.nrmse) and trial.nrmse > 0):
+            return True, 0, False
+        return (False, round(math.log(trial.nrmse) / TRIAL_TIE),
+                not {k for k, _ in trial.candidate.additions} <= measured)
+
+    measured = {eq.index for eq in skeleton.parsed} - inside
     trials.sort(key=lambda t: (not math.isfinite(t.nrmse), t.nrmse))
+    trials.sort(key=order)  # stable: ties alone reordered
     # the best few, and the best of each kind of move: a law of the skeleton's own terms, an
     # input read another way, an effect added (an offset may mimic a law's curvature on trial)
     leaders = trials[:LEADERS]
