@@ -236,13 +236,14 @@ def law_trials(model, X: pd.DataFrame, course: pd.DataFrame | None, *, base: flo
         trials.append(MoveTrial(candidate, refit, error))
     # trials the record cannot tell apart (a load on a room's air or on its unmeasured walls)
     # in the measured states' equations first
+    measured = {eq.index for eq in skeleton.parsed} - inside
+
     def order(trial: MoveTrial) -> tuple:
         if not (math.isfinite(trial.nrmse) and trial.nrmse > 0):
             return True, 0, False
         return (False, round(math.log(trial.nrmse) / TRIAL_TIE),
                 not {k for k, _ in trial.candidate.additions} <= measured)
 
-    measured = {eq.index for eq in skeleton.parsed} - inside
     trials.sort(key=lambda t: (not math.isfinite(t.nrmse), t.nrmse))
     trials.sort(key=order)  # stable: ties alone reordered
     # the best few, and the best of each kind of move: a law of the skeleton's own terms, an
