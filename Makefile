@@ -43,7 +43,7 @@ $(DIST_STAMP): $(STAMP)
 install: $(STAMP)
 
 test: $(STAMP)
-	OMP_NUM_THREADS=1 MPLBACKEND=Agg $(BIN)/python -m pytest -n $(NPROC) -m "not slow" tests
+	OMP_NUM_THREADS=1 MPLBACKEND=Agg $(BIN)/python -m pytest -n $(NPROC) -m "not slow" --durations=15 tests
 
 test-slow: $(DIST_STAMP)
 	OMP_NUM_THREADS=1 MPLBACKEND=Agg $(BIN)/python -m pytest -m slow tests

@@ -19,6 +19,8 @@ chain_saturating
 circuit_diode
     two RC nodes joined by a resistor, a diode from the second node to
     ground missing;
+circuit_diode_link
+    the same nodes, a diode beside the resistor between them missing;
 room_heat_load
     one room with unmeasured walls (time in seconds), a constant internal
     heat load missing;
@@ -142,6 +144,13 @@ CASES = {
         ("v1_dot = a1 (u - v1) - a2 (v1 - v2)", "v2_dot = a3 (v1 - v2) - a4 v2"), "voltage",
         (0.0, 0.0), {"u": (0.0, 2.5, 50)}, "exponential_rate", frozenset({"v2"}),
         "diode current (Shockley)", dt=0.1, n_samples=1200),
+    "circuit_diode_link": Case(
+        ("v1_dot = a1 (u - v1) - a2 (v1 - v2) - a4 (exp(a5 (v1 - v2)) - 1)",
+         "v2_dot = a2 (v1 - v2) + a4 (exp(a5 (v1 - v2)) - 1) - a3 v2"),
+        {"a1": 1.0, "a2": 0.3, "a3": 0.6, "a4": 0.01, "a5": 3.0},
+        ("v1_dot = a1 (u - v1) - a2 (v1 - v2)", "v2_dot = a3 (v1 - v2) - a4 v2"), "voltage",
+        (0.0, 0.0), {"u": (0.0, 3.0, 50)}, "diode_link", frozenset({"v1", "v2"}),
+        "diode between nodes (Shockley)", dt=0.1, n_samples=1200),
     "room_heat_load": Case(_ROOM_LOADED, start=_ROOM, effect="offset", where=frozenset({"T1"}),
                            called="constant heat load", **_WALLS),
     "room_control": Case(_ROOM, start=_ROOM, effect=None,

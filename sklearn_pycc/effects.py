@@ -600,6 +600,17 @@ for _effect in (
                   ("volume", "orifice between tanks (Torricelli)"),
                   ("pressure", "orifice flow between two pressures")),
            shape="square-root path between two states"),
+    Effect("diode_link", "a current from one node to another through a diode, growing "
+           "exponentially with their voltage difference one way and nearly nil the other "
+           "(Shockley)", "link", "a1 (exp(a2 ({s} - {r})) - 1)", bounds=("a1 >= 0", "a2 >= 0"),
+           field="electrical", names=(("voltage", "diode between nodes (Shockley)"),),
+           shape="exponential path between two states"),
+    Effect("radiation_link", "heat radiated between two surfaces, growing with the "
+           "difference of the fourth powers of their temperatures (Stefan-Boltzmann; "
+           "temperatures absolute)", "link", "a1 ({s}^4 - {r}^4)", bounds=_POSITIVE,
+           replaces=("linear_link",), field="thermal",
+           names=(("temperature", "radiation between surfaces (Stefan-Boltzmann)"),),
+           shape="fourth-power path between two states"),
 ):
     register(_effect)
 del _effect, _POSITIVE

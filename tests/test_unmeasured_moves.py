@@ -1,5 +1,6 @@
 """The loop through states nobody measures: laws in place of terms, judged by simulation."""
 
+import math
 import warnings
 from types import SimpleNamespace
 
@@ -9,6 +10,7 @@ import pytest
 
 from sklearn_pycc import HypothesisLoop, PolyCCRegressor, Skeleton, datasets, diagnose, effects
 from sklearn_pycc.datasets._generation import add_noise
+from sklearn_pycc.diagnostics import _unmeasured
 from sklearn_pycc.diagnostics._candidates import enumerate_candidates, enumerate_moves, extend
 from sklearn_pycc.diagnostics._roles import equation_roles
 from sklearn_pycc.diagnostics._unmeasured import _simplest_first, simulate_record
@@ -178,6 +180,43 @@ def test_one_effect_the_record_cannot_place_is_named_in_the_measured_state_s_equ
     assert _simplest_first([walls, air], 10.0, {0}) == [air, walls]
     better = _trial("offset", [1], -1990.0)
     assert _simplest_first([air, better], 10.0, {0}) == [better, air]
+
+
+def test_the_seen_case_of_a_general_source_keeps_the_measured_equation_s_place():
+    # the heat load on the room's air, the same on its walls, and a drift of the walls that
+    # takes a little more: the drift ranks where its special case does, and of the three,
+    # which the record cannot tell apart, the load on the measured state comes first
+    air, walls = _trial("offset", [0], -1164.138796), _trial("offset", [1], -1164.138808)
+    drift = _trial("drift", [1], -1165.84)
+    assert _simplest_first([drift, walls, air], 10.0, {0}) == [air, walls, drift]
+    # ties are read within TIE of the group's best, not on a rounding grid that may split them
+    left, right = _trial("offset", [1], -1000.049), _trial("offset", [0], -1000.051)
+    assert _simplest_first([left, right], 10.0, {0}) == [right, left]
+
+
+def test_trials_are_counted_by_the_memory_of_what_the_refits_leave(monkeypatch):
+    # a refit leaving AR(1) noise of pole 0.9 counts about n / 19 samples; two numbers that
+    # take 7 % of the error are then no longer significant, as they are on n samples
+    rng = np.random.default_rng(0)
+    n = 1500
+    noise = np.zeros(n)
+    for k in range(1, n):
+        noise[k] = 0.9 * noise[k - 1] + rng.normal()
+    X = pd.DataFrame({"t": np.arange(n, dtype=float), "x1": noise})
+    # the refits' simulations: nothing, so that what they leave is the noise itself
+    monkeypatch.setattr(_unmeasured, "simulate_record",
+                        lambda model, frame: pd.DataFrame({"x1": np.zeros(len(frame))}))
+    candidate = SimpleNamespace(effect=effects.get("drift"), n_change=2, additions=[(1, "a9")])
+    counted = 2 * n * math.log(0.93) + 2 * math.log(n)
+    trial = MoveTrial(candidate, object(), 0.1, delta_bic=counted, removed=0.07)
+    _unmeasured._counted_by_memory([trial], X, ["x1"], n)
+    assert counted < -200.0
+    assert -10.0 < trial.delta_bic < 0.0
+    # on white noise the count stays
+    X["x1"] = rng.normal(size=n)
+    trial.delta_bic = counted
+    _unmeasured._counted_by_memory([trial], X, ["x1"], n)
+    assert trial.delta_bic < 0.8 * counted
 
 
 @pytest.fixture(scope="module")

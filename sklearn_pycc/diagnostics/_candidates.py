@@ -173,8 +173,15 @@ def _assignments(effect: catalogue.Effect, roles: EquationRoles, has_time: bool)
         # each with a coefficient of its own (their capacities differ)
         own = roles.position
         for other, partner in roles.links:
-            yield " - ".join(sorted((own, other))), [
-                (k, effect.term_for(s=own, r=other)), (partner, effect.term_for(s=other, r=own))]
+            law = effect.term_for(s=own, r=other)
+            if reverses(effect):
+                yield " - ".join(sorted((own, other))), [
+                    (k, law), (partner, effect.term_for(s=other, r=own))]
+            else:
+                # a one-way law (a diode passes current one way): the flow from this state
+                # to the other leaves it and enters the other by the same law, either way
+                # round a move of its own
+                yield f"{own} - {other}", [(k, law), (partner, f"-({law})")]
     elif kind == "velocity":
         v = roles.velocity
         yield v, [(k, effect.term_for(v=v))]
@@ -262,10 +269,12 @@ def enumerate_candidates(skeleton: Skeleton, roles: list[EquationRoles],
             if effect.requires and not present & set(effect.requires):
                 continue
             for variable, additions in _assignments(effect, r, has_time):
-                # a coupling is proposed from both of its masses: keep it once
+                # a coupling is proposed from both of its masses: keep it once (a one-way
+                # path, a diode, once each way)
                 equations = frozenset(k for k, _ in additions)
                 key = (effect.name, equations, None if len(equations) > 1
-                       and effect.acts_through != "interaction" else variable)
+                       and effect.acts_through != "interaction"
+                       and (effect.acts_through != "link" or reverses(effect)) else variable)
                 if key in seen:
                     continue
                 seen.add(key)
@@ -565,6 +574,23 @@ def _input_reading(effect: catalogue.Effect, name: str,
     bounds = tuple(str(replace(b, param=mapping[b.param]))
                    for b in parse_constraints(list(effect.bounds)))
     return rename(read, mapping), bounds
+
+
+def reverses(effect: catalogue.Effect) -> bool:
+    """Whether a path's law changes sign when its two states swap (a flow either way round).
+
+    A linear, an orifice's or a radiating path does; a diode's does not: the
+    flow from ``{s}`` into ``{r}`` is then written alike in both equations.
+    Read at a few points, every number 0.7.
+    """
+    there = parse_expression(effect.term_for(s="x1", r="x2"), kind="term")
+    back = parse_expression(effect.term_for(s="x2", r="x1"), kind="term")
+    params = {n.name: 0.7 for n in walk(there) if isinstance(n, Param)}
+    env = [np.array([0.3, 0.9, 1.7, -0.4]), np.array([1.1, -0.2, 0.4, 0.8])]
+    with np.errstate(all="ignore"):
+        values = [np.asarray(compile_expression(node, {"x1": 0, "x2": 1}, params, {})(env),
+                             dtype=float) for node in (there, back)]
+    return bool(np.allclose(values[0], -values[1]))
 
 
 # -- redundancy with a free curve already in the equation -----------------------------

@@ -40,6 +40,9 @@ __all__ = ["decide_addition", "decide_open", "decide_removal", "eligible_candida
 SIMULATION_GAIN = 0.5
 #: how many candidates are checked on held-out data, best first, until one is confirmed
 N_HELD_OUT = 2
+#: what a move between two states acts through: the best of them is checked beside the
+#: first N_HELD_OUT
+BETWEEN_STATES = ("link", "interaction")
 #: a simpler effect whose held-out error is within this share of a confirmed leader's
 #: (same equation and variable) is named instead
 PARSIMONY = 0.05
@@ -227,6 +230,13 @@ def decide_addition(eligible: list[Candidate], model, data: Record, horizon: Hor
     for c in eligible[:N_HELD_OUT]:
         if check(c):
             return _preferred(c, eligible, check, per_number)
+    # on a network the missing effect is often a path or a reaction between two states, which
+    # coloured noise ranks below laws of one state's own value (a tank's outflow beside the
+    # orifice that joins it to the next): the best of those is checked too
+    between = next((c for c in eligible[N_HELD_OUT:]
+                    if c.effect.acts_through in BETWEEN_STATES), None)
+    if between is not None and check(between):
+        return _preferred(between, eligible, check, per_number)
     return None
 
 

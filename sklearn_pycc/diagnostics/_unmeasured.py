@@ -29,7 +29,7 @@ from ..measurements.experiments import TIME, TRAJECTORY, split_experiments
 from ..measurements.measurement import Measurement
 from ..measurements.reconstruct import unmeasured_states
 from ..model_selection._scoring import pooled_nrmse
-from ._decide import suggestion_for
+from ._decide import residual_memory, suggestion_for
 from ._held_out import HeldOut
 from ._metrics import error_table_row
 from ._refit import prepared
@@ -394,6 +394,7 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
     moves = law_trials(model, X, course, base=base, n=n, quantities=quantities,
                        units=units, nrmse=_nrmse)
     measured = {eq.index for eq in skeleton.parsed if eq.state not in hidden}
+    _counted_by_memory([*trials, *moves], X, compared, n)
     trials = _simplest_first([*trials, *moves], bic_threshold, measured)
     best, cache = None, dict(_fold_errors(model, X, measurement))
     for trial in trials:
@@ -426,6 +427,41 @@ def diagnose_unmeasured(model, X: pd.DataFrame, *, min_improvement: float,
     return diagnosis
 
 
+def _counted_by_memory(trials: list, X: pd.DataFrame, compared: list[str], n: int) -> None:
+    """The trials' BIC with the record's samples counted by the memory of its noise.
+
+    The BIC counts every sample as independent; a sensor whose noise is
+    correlated in time (a correlation time of ten samples) gives far fewer
+    independent ones, and a drift or a source fitted to that noise's slow
+    swings lowers the error by a few per cent, which ``n`` samples make
+    significant. The memory (:func:`~sklearn_pycc.diagnostics._decide.residual_memory`)
+    is read from what each refitted model leaves of the record (the largest
+    over the measured signals): the noise alone where a move is right, more
+    where it is not. The least over the trials is the noise's, and counts
+    for all of them alike (each trial's own would reorder moves whose
+    errors differ by less than the memory's scatter).
+    """
+    scored = [t for t in trials
+              if t.refit is not None and math.isfinite(t.delta_bic) and t.removed > 0]
+    memories = []
+    for trial in scored:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                simulated = simulate_record(trial.refit, X)
+        except (SimulationError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+            continue
+        left = np.column_stack([X[name].to_numpy(dtype=float)
+                                - simulated[name].to_numpy(dtype=float) for name in compared])
+        memories.append(float(np.max(residual_memory(left))))
+    if not memories:
+        return
+    n_eff = max(n / max(min(memories), 1.0), 2.0)
+    for trial in scored:
+        k = trial.candidate.n_change if isinstance(trial, MoveTrial) else 1
+        trial.delta_bic = 2 * n_eff * math.log(1 - trial.removed) + k * math.log(n_eff)
+
+
 def _simplest_first(trials: list, margin: float, measured: set[int]) -> list:
     """Trials by their BIC, each effect's special case before it unless it loses by ``margin``.
 
@@ -437,23 +473,36 @@ def _simplest_first(trials: list, margin: float, measured: set[int]) -> list:
     unmeasured walls: the walls' level absorbs the difference), the one in
     the ``measured`` states' equations comes first.
     """
+    def finite(trial) -> bool:
+        return math.isfinite(trial.delta_bic)
+
+    # a general effect ranks where its special case does unless it beats it by the margin
+    rank = {id(t): t.delta_bic for t in trials}
+    held_back = set()
+    for simple in [t for t in trials if isinstance(t, MoveTrial) and finite(t)]:
+        for general in trials:
+            if (general is not simple and isinstance(general, MoveTrial) and finite(general)
+                    and special_case(simple.candidate, general.candidate)
+                    and simple.delta_bic - margin < general.delta_bic < simple.delta_bic):
+                rank[id(general)] = simple.delta_bic
+                held_back.add(id(general))
+
+    # BIC within TIE of the best of their group are one
+    group, first = {}, None
+    for trial in sorted(filter(finite, trials), key=lambda t: rank[id(t)]):
+        if first is None or rank[id(trial)] > first + TIE:
+            first = rank[id(trial)]
+        group[id(trial)] = first
+
     def key(trial) -> tuple:
-        bic = trial.delta_bic
+        if not finite(trial):
+            return True, 0.0, False, False, 0.0
         inside = isinstance(trial, MoveTrial) and not (
             {k for k, _ in trial.candidate.additions} <= measured)
-        return not math.isfinite(bic), round(bic / TIE) if math.isfinite(bic) else 0, inside
+        # of one group, the measured equation's first, and the special case before its general
+        return False, group[id(trial)], inside, id(trial) in held_back, rank[id(trial)]
 
-    ordered = sorted(trials, key=lambda t: (not math.isfinite(t.delta_bic), t.delta_bic))
-    ordered = sorted(ordered, key=key)  # stable: ties in the BIC alone reordered
-    for simple in [t for t in ordered if isinstance(t, MoveTrial)
-                   and math.isfinite(t.delta_bic)]:
-        general = [t for t in ordered[:ordered.index(simple)] if isinstance(t, MoveTrial)
-                   and special_case(simple.candidate, t.candidate)
-                   and t.delta_bic > simple.delta_bic - margin]
-        if general:
-            ordered.remove(simple)
-            ordered.insert(ordered.index(general[0]), simple)
-    return ordered
+    return sorted(trials, key=key)
 
 
 def _limit_refit(model, X: pd.DataFrame, extended, base: float,

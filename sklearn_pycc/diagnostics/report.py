@@ -9,6 +9,7 @@ an HTML page and a figure. :func:`~sklearn_pycc.diagnose` makes them.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -513,7 +514,8 @@ class Diagnosis:
         if len(runners):
             lead = -best.delta_bic
             lines.append(f"    Runners-up (the winner scores {lead:.1f}): " + "; ".join(
-                f"{_named(r.effect, r.called)} in {r.equation} (score {r.score:.1f}"
+                f"{_named(r.effect, r.called)} in {r.equation}{_through(r.variable)} "
+                f"(score {r.score:.1f}"
                 + ("" if not r.refit or r.plausible else ", implausible")
                 + ("" if r.refit else ", screened only")
                 + (_why_below(r, lead, self.ranking.iloc[0].n_params)
@@ -603,7 +605,15 @@ def _why_below(row, lead: float, winner_params: int | None = None) -> str:
                     "parameters")
         return (f", a tie within {100 * TIE[0]:g} % that the data each fit did not see "
                 "decided for the winner")
+    if not math.isfinite(getattr(row, "held_out_change", math.nan)):
+        return (", not held out: the leaders were, and the best move between two states, "
+                "the winner")
     return ", but the data each fit did not see preferred the winner"
+
+
+def _through(variable) -> str:
+    """``" through h1"``: what a runner-up acts through (nothing for a constant source)."""
+    return f" through {variable}" if isinstance(variable, str) and variable else ""
 
 
 def _as_fitted(best: Suggestion) -> str:
