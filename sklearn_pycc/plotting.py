@@ -201,8 +201,12 @@ def plot_network(skeleton, suggestion=None):
     for name in inputs:
         ax.scatter(*where[name], s=350, marker="s", color="0.92", edgecolor="0.5", zorder=3)
         ax.annotate(name, where[name], ha="center", va="center", fontsize="small", zorder=4)
+    # limits of their own: two states and their inputs lie on one vertical line, whose
+    # width matplotlib's margins would leave at nothing
+    reach = 0.45 + max(max(abs(x), abs(y)) for x, y in where.values())
+    ax.set_xlim(-reach, reach)
+    ax.set_ylim(-reach, reach)
     ax.set_aspect("equal")
-    ax.margins(0.15)
     ax.axis("off")
     fig.tight_layout()
     return fig

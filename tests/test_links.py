@@ -119,7 +119,7 @@ def test_a_reaction_of_two_species_is_tried_forming_a_third():
     skeleton = Skeleton(["A_dot = a1 uA - a2 A", "B_dot = a3 uB - a4 B", "C_dot = - a5 C"])
     roles = equation_roles(skeleton, dict.fromkeys("ABC", "concentration"))
     tried = [(c.effect.name, c.variable, tuple(k for k, _ in c.additions))
-             for c in enumerate_candidates(skeleton, roles, True)]
+             for c in enumerate_candidates(skeleton, roles, True) if not c.balanced]
     # A + B -> C: the product enters the three balances, each with a yield of its own, once
     assert tried.count(("mass_action", "A B", (0, 1, 2))) == 1
     assert ("mass_action", "A C", (0, 2, 1)) in tried
@@ -147,6 +147,13 @@ def test_a_network_is_drawn_with_the_suggested_path_between_its_states():
     assert len(suggested) == 1 and "heat path (conduction)" in suggested[0].get_label()
     names = {t.get_text() for t in fig.axes[0].texts}
     assert {"T1", "T2", "T3", "To", "Q1", "Q2", "Q3"} <= names
+    # two nodes and their input lie on one vertical line: the drawing keeps a width
+    nodes = ["v1_dot = a1 (u - v1) - a2 (v1 - v2)", "v2_dot = a3 (v1 - v2) - a4 v2"]
+    diode = SimpleNamespace(equations=Skeleton(nodes), variable="v1 - v2", effect="diode_link",
+                            called="diode between nodes (Shockley)")
+    ax = plot_network(Skeleton(nodes), diode).axes[0]
+    low, high = ax.get_xlim()
+    assert high - low > 2.0 and np.diff(ax.get_ylim())[0] == pytest.approx(high - low)
 
 
 CHAIN = dict.fromkeys([f"x{i}" for i in range(1, 6)], "concentration")
@@ -265,3 +272,41 @@ def test_a_diode_beside_the_resistor_between_two_nodes_is_named_there():
     assert best.called == "diode between nodes (Shockley)"
     assert "'+ a7*(exp(a6*(v1 - v2)) - 1)' to v2_dot" in str(best)
     assert best.param_init["a6"] == pytest.approx(3.0, rel=0.2)
+
+
+def test_a_reaction_is_tried_at_the_stoichiometry_of_a_balance_too():
+    species = ["A_dot = a1 uA - a2 A", "B_dot = a3 uB - a4 B", "C_dot = - a5 C"]
+    skeleton = Skeleton(species)
+    roles = equation_roles(skeleton, dict.fromkeys("ABC", "concentration"))
+    found = [c for c in enumerate_candidates(skeleton, roles, True)
+             if c.effect.name == "mass_action" and c.variable == "A B"]
+    free = next(c for c in found if len(c.additions) == 3 and not c.balanced)
+    balanced = next(c for c in found if len(c.additions) == 3 and c.balanced)
+    assert free.key != balanced.key
+    # A and B consumed and C formed at one rate, where the free move fits a yield in each
+    assert balanced.additions == [(0, "a1 A B"), (1, "a1 A B"), (2, "-(a1 A B)")]
+    extend(skeleton, balanced)
+    extend(skeleton, free)
+    assert balanced.n_change == 1 and free.n_change == 3
+    assert balanced.extended.equations[2].endswith("- (-(a6*A*B))")
+    # two species consumed together, nothing measured formed
+    assert any(c.balanced and len(c.additions) == 2 for c in found)
+    # a predator's catch feeds it by an efficiency of its own: no stoichiometry is tried
+    animals = equation_roles(skeleton, dict.fromkeys("ABC", "population"))
+    assert not any(c.balanced for c in enumerate_candidates(skeleton, animals, True))
+
+
+@pytest.mark.slow
+def test_a_reaction_a_b_c_is_named_with_one_rate_in_its_three_balances():
+    study = load("network_study")
+    case = study.CASES["reaction_a_b_c"]
+    X = study.record(case, 0, "ar")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=list(case.start),
+                                quantities=dict.fromkeys("ABC", "concentration")).fit(X)
+        best = diagnose(model, X).best
+    assert best.effect == "mass_action"
+    assert best.description.endswith("the stoichiometry of A + B -> C")
+    assert "'- a6*A*B' to B_dot and '+ a6*A*B' to C_dot" in str(best)
+    assert best.param_init["a6"] == pytest.approx(0.05, rel=0.15)

@@ -108,6 +108,9 @@ class Candidate:
     # bounds of the parameters the move brings, in the names of its terms (None: the
     # effect's own)
     bounds: tuple[str, ...] | None = None
+    # a reaction with the stoichiometry of a balance: one rate in every equation it enters
+    # (A + B -> C, 1:1:1), not a yield of its own in each
+    balanced: bool = False
 
     @property
     def equations(self) -> list[int]:
@@ -138,7 +141,7 @@ class Candidate:
     def key(self) -> tuple:
         """What identifies the move, the same after a copy or a pickle round trip."""
         return (self.move, self.effect.name, tuple(self.equations), self.variable,
-                tuple(self.additions), tuple(self.removals))
+                tuple(self.additions), tuple(self.removals), self.balanced)
 
     @property
     def replaces(self) -> tuple[str, ...]:
@@ -282,7 +285,33 @@ def enumerate_candidates(skeleton: Skeleton, roles: list[EquationRoles],
                                       _curve_term(effect, r, variable))
                 if not absorbed(skeleton, candidate):
                     out.append(candidate)
+                    out.extend(_balanced(candidate, r))
     return out
+
+
+#: what a state measures for a reaction's stoichiometry to hold between it and others: amounts
+#: of species in one unit (a predator's catch feeds it by an efficiency of its own)
+STOICHIOMETRIC = ("concentration", "amount")
+
+
+def _balanced(candidate: Candidate, roles: EquationRoles) -> list[Candidate]:
+    """The reaction of ``candidate`` at the stoichiometry of a balance, as a move of its own.
+
+    A reaction ``A + B -> C`` consumes one A and one B for every C it forms:
+    one rate, subtracted from the reactants' equations and added to the
+    product's, where the free move fits a yield in each. Tried where the
+    reaction enters two or three equations of species of one quantity in
+    :data:`STOICHIOMETRIC` (the first two consumed, the third formed).
+    """
+    additions = candidate.additions
+    joined = {k for _, k in roles.links} | {roles.index}
+    if (candidate.effect.acts_through != "interaction" or len(additions) < 2
+            or roles.position_quantity not in STOICHIOMETRIC
+            or any(k not in joined for k, _ in additions)):
+        return []
+    (first, term), (second, _), *formed = additions
+    balanced = [(first, term), (second, term), *((k, f"-({term})") for k, _ in formed)]
+    return [replace(candidate, additions=balanced, balanced=True)]
 
 
 def _equation(skeleton: Skeleton, index: int):
@@ -693,8 +722,19 @@ def _screen_skeleton(candidate: Candidate, states: list[str],
     ks = list(dict.fromkeys(k for k, _ in candidate.additions))
     names = [f"{_prefix(states)}{i}" for i in range(len(ks))]
     skeleton = Skeleton([f"{name}_dot = 0" for name in names])
+    rate: list[str] = []  # a balanced reaction's one rate, in the screen's names
     for k, term in candidate.additions:
+        if rate:
+            law = term[2:-1] if term.startswith("-(") and term.endswith(")") else term
+            node = parse_expression(law, kind="term")
+            own = sorted(params_in(node), key=lambda a: int(a[1:]))
+            text = term.replace(law, to_text(rename(node, dict(zip(own, rate)))))
+            skeleton = skeleton.add_term(ks.index(k), text, shared=rate)
+            continue
+        taken = set(skeleton.params)
         skeleton = skeleton.add_term(ks.index(k), term, constraints=list(candidate.term_bounds))
+        if candidate.balanced:
+            rate = sorted(set(skeleton.params) - taken, key=lambda a: int(a[1:]))
     own = list(skeleton.params)
     for i, columns in enumerate(basis):
         for column in columns:
@@ -776,7 +816,9 @@ def extend(skeleton: Skeleton, candidate: Candidate) -> None:
             taken = set(extended.params)
             extended = extended.add_term(k, term, constraints=list(candidate.term_bounds))
             fresh = sorted(set(extended.params) - taken, key=lambda a: int(a[1:]))
-            if len(fresh) == len(own) > 1:  # every number but the leading coefficient
+            if candidate.balanced and len(fresh) == len(own):  # one rate: every number
+                shapes[law] = dict(zip(own, fresh))
+            elif len(fresh) == len(own) > 1:  # every number but the leading coefficient
                 shapes[law] = dict(zip(own[1:], fresh[1:]))
         added.append((k, extended.equations[k][len(before) + 3:]))
     for k, term in candidate.removals:

@@ -689,7 +689,8 @@ def suggestion_for(c: Candidate, base: Skeleton, model, formula: Candidate | Non
         except (ValueError, AttributeError):
             intervals = {}
     return Suggestion(
-        effect=c.effect.name, description=c.effect.description, equation=c.roles.derivative,
+        effect=c.effect.name, equation=c.roles.derivative,
+        description=c.effect.description + _stoichiometry(c, skeleton),
         variable=c.variable, term=c.term, equations=skeleton, move=c.move,
         replaces=c.replaces,
         # a candidate the filter chose among those only screened starts where the screen put it
@@ -704,6 +705,16 @@ def suggestion_for(c: Candidate, base: Skeleton, model, formula: Candidate | Non
         called=c.effect.called(c.roles.quantity_of(c.effect.acts_through)),
         replaced_in={eq: tuple(terms) for eq, terms in replaced_in.items()},
         likelihood=c.likelihood)
+
+
+def _stoichiometry(c: Candidate, skeleton) -> str:
+    """``"; at one rate in every balance it enters: A + B -> C"`` for a balanced reaction."""
+    if not c.balanced:
+        return ""
+    states = [skeleton.parsed[k].state for k, _ in c.additions]
+    formed = " + ".join(states[2:]) or "what is not measured"
+    return (f"; at one rate in every balance it enters, the stoichiometry of "
+            f"{states[0]} + {states[1]} -> {formed}")
 
 
 def _settings(refit, model) -> dict:
