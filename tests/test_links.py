@@ -214,18 +214,22 @@ def test_a_chain_s_saturating_step_is_named_in_the_two_balances_it_joins():
     assert study.run("chain_control", 0, "ar")["right"]  # the true chain: nothing missing
 
 
+def _study_diagnosis(name: str, seed: int, noise: str):
+    """The network study's case fitted from its starting skeleton, and diagnosed."""
+    case = load("network_study").CASES[name]
+    X = load("network_study").record(case, seed, noise)
+    quantities = dict.fromkeys(Skeleton(list(case.start)).states, case.quantity)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=list(case.start), quantities=quantities).fit(X)
+        return diagnose(model, X)
+
+
 def test_the_orifice_is_checked_where_the_tank_s_own_laws_fail_on_held_out_data():
     # coloured level sensors: a linear, a power-law and an exponential outflow of the first
     # tank lead the derivative ranking; the held-out data turn the first two down, and the
     # best move between the two states (the path joining the tanks) is checked beside them
-    study = load("network_study")
-    case = study.CASES["tanks_orifice"]
-    X = study.record(case, 0, "ar")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        model = PolyCCRegressor(equations=list(case.start),
-                                quantities={"h1": "level", "h2": "level"}).fit(X)
-        report = diagnose(model, X)
+    report = _study_diagnosis("tanks_orifice", 0, "ar")
     ranking = report.ranking.set_index(["effect", "equation", "move"])
     assert ranking.loc[("linear_rate", "h1_dot", "add"), "delta_bic"] \
         < ranking.loc[("orifice_link", "h1_dot", "replace"), "delta_bic"]
@@ -260,14 +264,7 @@ def test_a_diode_between_two_nodes_is_one_way_and_one_flow_in_both_balances():
 
 
 def test_a_diode_beside_the_resistor_between_two_nodes_is_named_there():
-    study = load("network_study")
-    case = study.CASES["circuit_diode_link"]
-    X = study.record(case, 0, "white")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        model = PolyCCRegressor(equations=list(case.start),
-                                quantities={"v1": "voltage", "v2": "voltage"}).fit(X)
-        best = diagnose(model, X).best
+    best = _study_diagnosis("circuit_diode_link", 0, "white").best
     assert (best.effect, best.variable) == ("diode_link", "v1 - v2")
     assert best.called == "diode between nodes (Shockley)"
     assert "'+ a7*(exp(a6*(v1 - v2)) - 1)' to v2_dot" in str(best)
@@ -298,14 +295,7 @@ def test_a_reaction_is_tried_at_the_stoichiometry_of_a_balance_too():
 
 @pytest.mark.slow
 def test_a_reaction_a_b_c_is_named_with_one_rate_in_its_three_balances():
-    study = load("network_study")
-    case = study.CASES["reaction_a_b_c"]
-    X = study.record(case, 0, "ar")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        model = PolyCCRegressor(equations=list(case.start),
-                                quantities=dict.fromkeys("ABC", "concentration")).fit(X)
-        best = diagnose(model, X).best
+    best = _study_diagnosis("reaction_a_b_c", 0, "ar").best
     assert best.effect == "mass_action"
     assert best.description.endswith("the stoichiometry of A + B -> C")
     assert "'- a6*A*B' to B_dot and '+ a6*A*B' to C_dot" in str(best)
