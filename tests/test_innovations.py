@@ -103,3 +103,11 @@ def test_only_a_filtered_model_has_innovations(records):
         check_innovations(model, fit_on)
     with pytest.raises(ValueError, match="log_likelihood needs a model fitted with"):
         model.log_likelihood(fit_on)
+
+
+def test_a_few_innovations_are_not_called_white(records, models):
+    _, fresh = records
+    # three samples pass any test of whiteness: the check refuses, naming how many it got
+    with pytest.raises(ValueError, match=r"at least 20 innovations .* X gives 3"):
+        check_innovations(models["duffing"], fresh.iloc[:3])
+    assert check_innovations(models["duffing"], fresh.iloc[:400]).tests.shape[0] == 1

@@ -259,6 +259,8 @@ def test_the_user_holds_or_shares_the_process_noises(record):
     ({"x2": float("nan")}, r"process_noise\['x2'\] must be a non-negative intensity"),
     ({"x2": " "}, r"process_noise\['x2'\] must be .* or a name"),
     ({"x2": [0.1]}, r"process_noise\['x2'\] must be .* or a name"),
+    # a number written as text is no name: it would be fitted as a group called '0.05'
+    ({"x2": "0.05"}, r"process_noise\['x2'\] is the text '0.05', which reads as a number"),
 ])
 def test_a_process_noise_the_filter_cannot_read_is_refused_naming_it(record, process_noise,
                                                                       match):

@@ -208,6 +208,15 @@ def test_an_initial_state_is_not_estimated_from_a_record_that_cannot_tell(tanks,
         rimmed.estimate_initial_state(change(_hidden_x1(tanks)))
 
 
+def test_an_initial_state_fitted_to_two_rows_comes_with_a_warning(tanks, rimmed):
+    with pytest.warns(UserWarning, match="x1 fitted to 2 rows of X: .* give 5 rows or more"):
+        state = rimmed.estimate_initial_state(_hidden_x1(tanks).iloc[:2])
+    assert np.isfinite(state["x1"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # five rows and more: no word
+        rimmed.estimate_initial_state(_hidden_x1(tanks).iloc[:5])
+
+
 def test_a_backward_record_is_refused_even_with_every_state_measured(tanks, rimmed):
     with pytest.raises(ValueError, match="X's times run backwards"):
         rimmed.estimate_initial_state(tanks.iloc[::-1])

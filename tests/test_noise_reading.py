@@ -160,6 +160,21 @@ def test_sensor_noise_names_what_is_wrong(bad, match):
         datasets.add_sensor_noise(frame, **{"columns": ["x1"], **bad})
 
 
+def test_a_missing_sample_stays_missing_and_the_others_get_their_noise():
+    frame = datasets.make_oscillator(hidden=[], n_samples=2000, t_span=(0, 100))
+    gappy = frame.assign(x1=frame["x1"].mask(frame.index % 97 == 5))
+    noisy = datasets.add_sensor_noise(gappy, ["x1"], snr=30.0, pole=0.9, bits=10,
+                                      random_state=3)
+    missing = gappy["x1"].isna().to_numpy()
+    assert missing.sum() == 21 and np.array_equal(noisy["x1"].isna().to_numpy(), missing)
+    error = (noisy["x1"] - frame["x1"]).to_numpy()[~missing]
+    rms = np.sqrt(np.mean(frame["x1"] ** 2))
+    assert np.std(error) == pytest.approx(rms / 10**1.5, rel=0.25)
+    for column, culprit in (([np.nan] * 100, "no number"), ([np.inf] + [0.0] * 99, "infinite")):
+        with pytest.raises(ValueError, match=f"'x1' holds .*{culprit}"):
+            datasets.add_sensor_noise(frame.iloc[:100].assign(x1=column), ["x1"])
+
+
 def test_nothing_missing_says_what_the_record_could_have_shown():
     from sklearn_pycc import diagnose
 

@@ -45,13 +45,15 @@ def add_sensor_noise(frame: pd.DataFrame, columns: Sequence[str] | None = None, 
     Returns
     -------
     DataFrame
-        A copy of ``frame`` with the noise added.
+        A copy of ``frame`` with the noise added; a missing sample (NaN)
+        stays missing, and the RMS and range are read from the others.
 
     Raises
     ------
     ValueError
-        If a setting is out of range, or ``columns`` names ``t`` or a column
-        the frame does not have.
+        If a setting is out of range, ``columns`` names ``t`` or a column
+        the frame does not have, or a chosen column holds no number or an
+        infinite one.
 
     Examples
     --------
@@ -78,7 +80,12 @@ def add_sensor_noise(frame: pd.DataFrame, columns: Sequence[str] | None = None, 
     n = len(frame)
     for name in chosen:
         values = noisy[name].to_numpy(dtype=float)
-        rms = float(np.sqrt(np.mean(values**2)))
+        present = ~np.isnan(values)  # a missing sample stays missing; the others get noise
+        if not present.any() or np.isinf(values).any():
+            held = "no number" if not present.any() else "an infinite value"
+            raise ValueError(f"column {name!r} holds {held}: sensor noise is scaled by the "
+                             "signal's RMS")
+        rms = float(np.sqrt(np.mean(values[present] ** 2)))
         white = rng.normal(0.0, 1.0, n)
         white[0] /= np.sqrt(1.0 - pole**2)  # the AR process starts in its stationary state
         coloured = signal.lfilter([1.0], [1.0, -pole], white) * np.sqrt(1.0 - pole**2)
@@ -88,7 +95,7 @@ def add_sensor_noise(frame: pd.DataFrame, columns: Sequence[str] | None = None, 
             slow = slow - slow.mean()
             out = out + slow / (np.std(slow) or 1.0) * drift * rms
         if bits is not None:
-            quantum = (float(np.max(values)) - float(np.min(values))) / 2.0**bits
+            quantum = (float(np.nanmax(values)) - float(np.nanmin(values))) / 2.0**bits
             if quantum > 0:
                 out = np.round(out / quantum) * quantum
         noisy[name] = out

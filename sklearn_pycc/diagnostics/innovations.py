@@ -38,6 +38,11 @@ __all__ = ["InnovationCheck", "check_innovations"]
 DEPENDENCE_DEGREE = 5
 
 
+#: the fewest innovations whose whiteness is tested: on fewer, the Ljung-Box statistic of a
+#: few lags and the cumulative periodogram's band pass any sequence
+MIN_SAMPLES = 20
+
+
 @dataclass
 class InnovationCheck:
     """What the innovations of a filtered model say about it.
@@ -157,7 +162,8 @@ def check_innovations(model, X, *, max_lag: int | None = None,
     Raises
     ------
     ValueError
-        When the model was not fitted with ``fit_mode="filter"``.
+        When the model was not fitted with ``fit_mode="filter"``, or ``X``
+        gives fewer than :data:`MIN_SAMPLES` innovations.
     """
     X = X.reset_index(drop=True) if isinstance(X, pd.DataFrame) else X
     raw = model.innovations(X)
@@ -166,6 +172,10 @@ def check_innovations(model, X, *, max_lag: int | None = None,
     for name in measured:
         frame[name] = raw[name] / raw[f"{name}_sd"]
     n = len(frame)
+    if n < MIN_SAMPLES:
+        raise ValueError(f"check_innovations needs at least {MIN_SAMPLES} innovations to test "
+                         f"whether they are white; X gives {n}: a test on so few samples "
+                         "passes anything")
     lags = int(max_lag) if max_lag is not None else int(np.clip(n // 20, 5, 30))
     lags = max(1, min(lags, n - 2))
     groups = [np.flatnonzero(frame["trajectory"].to_numpy() == k)

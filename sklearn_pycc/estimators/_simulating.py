@@ -25,6 +25,10 @@ __all__ = ["SimulationMixin"]
 #: simulation follows the record best as they stand
 INITIAL_STATE_STARTS = 2
 
+#: an unmeasured state fitted to fewer rows than this comes with a warning: a second row
+#: alone leaves one residual per measured state, which any of many starts can follow
+FEW_ROWS = 5
+
 
 class SimulationMixin:
     """What a fitted :class:`~sklearn_pycc.estimators.base.CCRegressor` simulates.
@@ -76,7 +80,8 @@ class SimulationMixin:
         -----
         UserWarning
             When the model cannot be simulated over the stretch from any
-            guess (the estimate is then unchecked).
+            guess (the estimate is then unchecked), and when a state is
+            fitted to fewer than :data:`FEW_ROWS` rows.
         """
         from ..fitting.output_error.whole_record import (
             check_initial_stretch,
@@ -155,6 +160,12 @@ class SimulationMixin:
             if solution.cost < best_cost:
                 best, best_cost = solution.x, solution.cost
         z = np.clip(best, low, high)
+        if len(t) < FEW_ROWS:
+            warnings.warn(f"{', '.join(unknown)} fitted to {len(t)} rows of X: the model "
+                          "follows so short a stretch from many initial states, and the "
+                          f"estimate ({', '.join(f'{s}={v:.6g}' for s, v in zip(unknown, z))}) "
+                          f"may be far off; give {FEW_ROWS} rows or more", UserWarning,
+                          stacklevel=2)
         if np.all(residuals(z) == 1e3):
             warnings.warn(f"the model cannot be simulated over X's first {len(t)} rows from "
                           f"any guess of {', '.join(unknown)}: the estimate "

@@ -56,6 +56,14 @@ class NoiseLayout:
         return np.array([float(np.mean(q[list(group)])) for group in self.groups])
 
 
+def _reads_as_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def check_process_noise(process_noise: Mapping | None, states: Sequence[str],
                         default: Sequence[int]) -> NoiseLayout:
     """The layout the estimator's ``process_noise`` asks for, checked against the skeleton.
@@ -91,6 +99,10 @@ def check_process_noise(process_noise: Mapping | None, states: Sequence[str],
             raise ValueError(f"process_noise[{state!r}] must be a non-negative intensity (held) "
                              f"or a name (fitted, shared by the states given it), got "
                              f"{value!r}")
+        if not number and _reads_as_number(value):
+            raise ValueError(f"process_noise[{state!r}] is the text {value!r}, which reads as a "
+                             "number: give the number to hold the intensity, or a name (not a "
+                             "number) to fit one")
     groups: dict[str, list[int]] = {}
     held = []
     for j, state in enumerate(states):
