@@ -223,3 +223,12 @@ def test_the_slow_memory_of_a_residual_shows_what_wanders_below_the_noise_band()
     assert slow_memory(np.column_stack([white[:, 0], drifting])) == pytest.approx(
         slow_memory(drifting))
     assert slow_memory(np.ones(n)) == 1.0 and slow_memory(white[:5, 0]) == 1.0
+
+
+def test_a_signal_with_a_missing_sample_is_read_on_its_longest_stretch():
+    clean = datasets.make_oscillator(n_samples=2000)[["t", "x1", "F_ext"]]
+    noisy = datasets.add_sensor_noise(clean, ["x1"], snr=40.0, random_state=0)
+    whole = Measurement(noisy).noise["x1"].level
+    gappy = Measurement(noisy.assign(x1=noisy["x1"].mask(noisy.index == 100))).noise
+    assert "x1" in gappy  # it was left out without a word
+    assert gappy["x1"].level == pytest.approx(whole, rel=0.1)

@@ -469,8 +469,11 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         return problem, facts
 
     def _problem_of(self, X) -> Problem:
-        """The fitting problem ``X`` makes, read by a clone (this model learns nothing)."""
-        return clone(self)._problem(X, None)[0]
+        """The fitting problem ``X`` makes, read by a clone (this model learns nothing).
+
+        The clone reads the inputs late by the delays this model fitted.
+        """
+        return clone(self)._problem(X, None, delays=getattr(self, "delays_", None))[0]
 
     def _resolve_mode(self, skeleton, record, backend: Backend) -> tuple[str, str]:
         """The fit mode to use, and why ``"auto"`` chose output error (else "")."""

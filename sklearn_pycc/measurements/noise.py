@@ -581,16 +581,29 @@ def read_frame_noise(frame, columns) -> dict[str, SignalNoise]:
     t = frame[TIME].to_numpy(dtype=float)
     labels = frame[TRAJECTORY].to_numpy() if TRAJECTORY in frame.columns else None
     longest = max(split_experiments(len(frame), t, labels), key=lambda e: len(e.rows))
-    times = t[longest.rows]
-    grid = even_grid(times)
     out = {}
     for name in columns:
         values = np.asarray(frame[name], dtype=float)[longest.rows]
-        if len(values) < 16 or not np.isfinite(values).all():
+        # a missing sample splits the signal: it is read on its longest stretch without one
+        run = _longest_finite_run(values)
+        if run.stop - run.start < 16:
             continue
+        times, values = t[longest.rows][run], values[run]
+        grid = even_grid(times)
         out[str(name)] = read_noise(grid.fill(times, values), grid.step, name=str(name),
                                     quantum=find_quantum(values))
     return out
+
+
+def _longest_finite_run(values: np.ndarray) -> slice:
+    """The longest stretch of consecutive finite values (the first of equal ones)."""
+    finite = np.concatenate([[False], np.isfinite(values), [False]])
+    edges = np.flatnonzero(np.diff(finite.astype(int)))
+    if not edges.size:
+        return slice(0, 0)
+    starts, stops = edges[::2], edges[1::2]
+    k = int(np.argmax(stops - starts))
+    return slice(int(starts[k]), int(stops[k]))
 
 
 def second_difference_level(pieces) -> float:
