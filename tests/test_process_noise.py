@@ -84,7 +84,12 @@ def test_auto_mode_goes_on_by_the_filter_where_it_recognises_a_push():
     assert wrong.fit_mode_ == "simulation"
     assert "process noise" not in wrong.derivative_source_
     # and a record nothing pushes keeps the output-error fit
-    assert _fit(CUBIC, _record(["cubic_stiffness"], None)).fit_mode_ == "simulation"
+    calm = _record(["cubic_stiffness"], None)
+    assert _fit(CUBIC, calm).fit_mode_ == "simulation"
+    # a push the user lays out goes unused there: it is said, as for fit_mode="simulation"
+    with pytest.warns(UserWarning, match="process_noise was not used: fit_mode='auto' fitted "
+                                         "by 'simulation', as the filter recognised no random"):
+        PolyCCRegressor(equations=CUBIC, process_noise={"x2": "push"}).fit(calm)
 
 
 @pytest.fixture(scope="module")

@@ -577,6 +577,15 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         if n_bootstrap:
             facts = {**facts, **self._bootstrap(problem, result, n_bootstrap, backend)}
         self._store(problem, result, {**facts, "backend_": backend})
+        if self.fit_mode == "auto" and self.process_noise is not None \
+                and self.fit_mode_ != "filter":
+            looked = facts["process_noise_evidence_"] is not None
+            warnings.warn(
+                f"process_noise was not used: fit_mode='auto' fitted by {self.fit_mode_!r}, "
+                + ("as the filter recognised no random push in the record"
+                   if looked else "without looking for a random push (it looks after an "
+                   "output-error fit of measured states a simulation follows)")
+                + "; fit_mode='filter' reads it", UserWarning, stacklevel=2)
         _warn_unmet_relations(problem, result)
         if self.fit_mode_ == "equation" and not facts["derivative_source_"].startswith(
                 "measured"):
