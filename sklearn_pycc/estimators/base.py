@@ -37,7 +37,7 @@ from ..fitting.problem import (
 )
 from ..fitting.uncertainty.intervals import IntervalsMixin
 from ..measurements import read_record
-from ..measurements.columns import read_X, read_y
+from ..measurements.columns import read_X, read_y, time_values
 from ..measurements.differentiation import (
     DIFFERENTIATION_METHODS,
     Differentiator,
@@ -656,7 +656,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                                       shooting_iterations=self.shooting_iterations)
             return fit_error(problem, result)
 
-        t = frame[TIME].to_numpy(dtype=float)
+        t = time_values(frame[TIME])  # a logger's datetimes in seconds, as the fit reads them
         found = fit_delays(skeleton, t, error_at)
         # where the fit ends by output error, the delay is settled by it (a held input's
         # steps are not smeared by a simulation as by estimated derivatives)

@@ -13,7 +13,7 @@ from ..simulation.delays import delayed_column, read_delayed
 from .experiments import TIME, TRAJECTORY
 from .measurement import Measurement
 
-__all__ = ["TIME", "TRAJECTORY", "FitData", "read_X", "read_y"]
+__all__ = ["TIME", "TRAJECTORY", "FitData", "read_X", "read_y", "time_values"]
 
 
 class FitData:
@@ -61,6 +61,18 @@ def _seconds(series: pd.Series, what: str) -> np.ndarray | None:
     if pd.api.types.is_timedelta64_dtype(series.dtype):
         return series.dt.total_seconds().to_numpy(dtype=np.float64, copy=True)
     return None
+
+
+def time_values(series: pd.Series) -> np.ndarray:
+    """A time column as the fit reads it: numbers, datetimes and durations in seconds.
+
+    Datetimes count from the column's first value (as :func:`read_X` reads
+    them, without its warning).
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        seconds = _seconds(series, "t")
+    return series.to_numpy(dtype=float) if seconds is None else seconds
 
 
 def _numeric(series: pd.Series, what: str) -> np.ndarray:
