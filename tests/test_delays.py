@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import LATE_INPUT
 from sklearn.base import clone
 
 from sklearn_pycc import HypothesisLoop, PolyCCRegressor, Skeleton, datasets, effects
@@ -229,20 +230,13 @@ def test_a_skeleton_simulates_its_delay_from_the_parameters():
     np.testing.assert_allclose(x[t >= 8.0], 1 - np.exp(-(t[t >= 8.0] - 8.0)), atol=1e-4)
 
 
-def test_a_delay_is_fitted_in_seconds_on_a_logger_s_datetimes():
-    rng = np.random.default_rng(0)
-    t = np.arange(600) * 0.1
-    u = np.repeat(rng.uniform(0.0, 1.0, 31), 20)[:600]
-    late = ["x1_dot = a1 u(t - a3) - a2 x1"]
-    states = Skeleton(late).simulate(t, [0.0], params={"a1": 1.0, "a2": 0.5, "a3": 0.35},
-                                     inputs={"u": u})
-    x1 = states["x1"].to_numpy() + 0.01 * rng.normal(size=600)
-    clock = pd.Timestamp("2026-01-01 08:00") + pd.to_timedelta(t, unit="s")
+def test_a_delay_is_fitted_in_seconds_on_a_logger_s_datetimes(late_input):
+    X, _ = late_input
+    clock = pd.Timestamp("2026-01-01 08:00") + pd.to_timedelta(X["t"], unit="s")
     fits = []
-    for time in (t, clock):  # the delay search read a datetime column in nanoseconds: 0
+    for frame in (X, X.assign(t=clock)):  # the delay search read datetimes in nanoseconds: 0
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            fits.append(PolyCCRegressor(equations=late).fit(
-                pd.DataFrame({"t": time, "u": u, "x1": x1})))
+            fits.append(PolyCCRegressor(equations=LATE_INPUT).fit(frame))
     assert fits[1].delays_["a3"] == pytest.approx(0.35, abs=0.02)
     assert fits[1].delays_["a3"] == pytest.approx(fits[0].delays_["a3"])

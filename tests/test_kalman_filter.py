@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from benchmark_scripts import load
+from conftest import LATE_INPUT
 from scipy.linalg import expm
 
 from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, Skeleton
@@ -503,23 +504,17 @@ def test_a_level_held_at_its_rim_without_a_push_still_has_a_likelihood():
     assert np.isfinite(run.nll).all() and run.nll[1] < run.nll[0]
 
 
-def test_a_filtered_model_with_a_fitted_delay_reads_records_after_its_fit():
+def test_a_filtered_model_with_a_fitted_delay_reads_records_after_its_fit(late_input):
     # the methods after fit read a record through a clone, which must read the input late by
     # the fitted delay (it used to refuse: "the delays a3 are fitted by fit")
-    rng = np.random.default_rng(0)
-    t = np.arange(600) * 0.1
-    u = np.repeat(rng.uniform(0.0, 1.0, 31), 20)[:600]
-    late = ["x1_dot = a1 u(t - a3) - a2 x1"]
-    states = Skeleton(late).simulate(t, [0.0], params={"a1": 1.0, "a2": 0.5, "a3": 0.35},
-                                     inputs={"u": u})
-    X = pd.DataFrame({"t": t, "u": u, "x1": states["x1"].to_numpy() + 0.01 * rng.normal(size=600)})
+    X, clean = late_input
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = PolyCCRegressor(equations=late, fit_mode="filter").fit(X)
+        model = PolyCCRegressor(equations=LATE_INPUT, fit_mode="filter").fit(X)
     assert model.delays_["a3"] == pytest.approx(0.35, abs=0.02)
     wider = X.assign(note="logged by hand", spare=np.nan)  # columns the model does not read
     assert model.log_likelihood(wider) == pytest.approx(model.log_likelihood(X))
     smoothed = model.smooth(wider)
-    assert np.sqrt(np.mean((smoothed["x1"] - states["x1"]) ** 2)) < 0.01
+    assert np.sqrt(np.mean((smoothed["x1"] - clean) ** 2)) < 0.01
     assert len(model.predict_ahead(X, steps=2)) == len(X)
     assert np.isfinite(model.innovations(X)["x1"]).all()
