@@ -9,7 +9,7 @@ from benchmark_scripts import load
 from conftest import LATE_INPUT
 from scipy.linalg import expm
 
-from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, Skeleton
+from sklearn_pycc import NeuralCCRegressor, PolyCCRegressor, Skeleton, datasets
 from sklearn_pycc.fitting.filter import fit_filter, kalman_pass, smoothed
 from sklearn_pycc.fitting.filter.stage import filter_plan
 from sklearn_pycc.fitting.output_error.shooting import ShootingPlan
@@ -518,3 +518,20 @@ def test_a_filtered_model_with_a_fitted_delay_reads_records_after_its_fit(late_i
     assert np.sqrt(np.mean((smoothed["x1"] - clean) ** 2)) < 0.01
     assert len(model.predict_ahead(X, steps=2)) == len(X)
     assert np.isfinite(model.innovations(X)["x1"]).all()
+
+
+@pytest.mark.parametrize("push", [None, 0.05])
+def test_a_noise_the_search_leaves_at_its_floor_is_said_not_to_be_trusted(push):
+    X = datasets.make_oscillator(hidden=[], disturbance=push, noise=40.0, noise_columns=["x1"],
+                                 n_samples=800, random_state=0)[["t", "x1", "F_ext"]]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"],
+                                fit_mode="filter").fit(X)
+    said = [str(w.message) for w in caught if "end of its range" in str(w.message)]
+    if push is None:  # nothing pushes the record: the intensity stays where the search starts
+        assert model.process_noise_["x2"] <= 1e-11
+        assert len(said) == 1 and "the process noise of x2 (1e-12, at the floor)" in said[0]
+        assert "not to be trusted" in said[0] and "measurement noise" not in said[0]
+    else:
+        assert model.process_noise_["x2"] == pytest.approx(push, rel=0.3) and not said

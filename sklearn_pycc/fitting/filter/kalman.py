@@ -488,6 +488,10 @@ def _variants(plan, system_for, points: np.ndarray, p: int, layout: NoiseLayout)
                        np.array([q for _, q, _ in parts]), np.array([r for _, _, r in parts]))
 
 
+#: the natural logarithms between which the filter searches each noise intensity
+NOISE_LOG_RANGE = (-30.0, 10.0)
+
+
 def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0: np.ndarray,
                process0: np.ndarray, measurement0: np.ndarray, *, noisy, bounds=None,
                typical: np.ndarray | None = None,
@@ -539,7 +543,7 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
     high = np.full(d, np.inf)
     if bounds is not None:
         low[:p], high[:p] = bounds
-    low[p:], high[p:] = -30.0, 10.0  # noise intensities from 1e-13 to 2e4
+    low[p:], high[p:] = NOISE_LOG_RANGE  # noise intensities from 1e-13 to 2e4
 
     z0 = np.clip(z0, low, high)
     # searched in units of a tenth of each parameter (half a factor e of each noise): the

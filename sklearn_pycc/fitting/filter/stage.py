@@ -17,6 +17,7 @@ barely see.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -24,7 +25,7 @@ import numpy as np
 from ...skeleton.nodes import Symbol
 from ..numbers import Numbers
 from ..problem import FitResult, Problem
-from .kalman import fit_filter, likeliest_noises
+from .kalman import NOISE_LOG_RANGE, fit_filter, likeliest_noises
 from .noises import NoiseLayout, check_process_noise
 
 __all__ = ["WINDOW", "filter_plan", "filter_stage", "noisy_states", "smoothing_level"]
@@ -106,6 +107,10 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -
                                    noisy=noisy, bounds=(numbers.low, numbers.high),
                                    typical=numbers.typical, max_iterations=iterations)
     states = list(plan.states)
+    duration = max(float(e.t[-1] - e.t[0]) for e in problem.experiments)
+    _warn_at_range_ends(states, q, noisy, list(plan.measured), r,
+                        scale=np.asarray(plan.scale, dtype=float), duration=duration,
+                        measured_index=list(mi))
     result = numbers.result_for(theta)
     attributes = {k: v for k, v in result.attributes.items() if k != "covariance_"}
     attributes.update({
@@ -120,3 +125,37 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -
     if covariance is not None:
         attributes["covariance_"] = covariance
     return replace(result, attributes=attributes)
+
+
+#: a fitted noise whose effect over the record is below this share of its state's scale is
+#: at the search's floor (it starts no lower than 1e-12, and a flat likelihood leaves it there)
+NEGLIGIBLE_NOISE = 1e-6
+
+
+def _warn_at_range_ends(states: list[str], q: np.ndarray, layout: NoiseLayout,
+                        measured: list[str], r: np.ndarray, *, scale: np.ndarray,
+                        duration: float, measured_index: list[int]) -> None:
+    """Warn of each fitted noise the search left at an end of its range.
+
+    At the floor: a process noise whose wander over the record
+    (``q sqrt(duration)``), or a measurement noise, below
+    :data:`NEGLIGIBLE_NOISE` of its state's scale; the record cannot tell it
+    from none. At the ceiling: the search's largest intensity, a noise that
+    swamps the states. Its value, its standard error and the bands built on
+    it (``smooth``, ``predict_ahead``) are then not to be trusted.
+    """
+    high = np.exp(NOISE_LOG_RANGE[1] - 0.5)
+    root = np.sqrt(max(duration, 0.0))
+    fitted = [(f"the process noise of {', '.join(states[j] for j in group)}", q[group[0]],
+               q[group[0]] * root / max(min(scale[j] for j in group), 1e-300))
+              for group in layout.groups]
+    fitted += [(f"the measurement noise of {name}", value, value / max(scale[j], 1e-300))
+               for name, value, j in zip(measured, r, measured_index)]
+    ends = [f"{what} ({value:.3g}, at the {'ceiling' if value >= high else 'floor'})"
+            for what, value, share in fitted if value >= high or share < NEGLIGIBLE_NOISE]
+    if ends:
+        warnings.warn(f"the filter's search ended at an end of its range for {'; '.join(ends)}: "
+                      "the record cannot tell such a noise from none (or from one that "
+                      "swamps the states); its value and the bands smooth and predict_ahead "
+                      "draw with it are not to be trusted (hold it with process_noise, or "
+                      "fit by output error)", UserWarning, stacklevel=2)
