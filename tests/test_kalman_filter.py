@@ -533,5 +533,11 @@ def test_a_noise_the_search_leaves_at_its_floor_is_said_not_to_be_trusted(push):
         assert model.process_noise_["x2"] <= 1e-11
         assert len(said) == 1 and "the process noise of x2 (1e-12, at the floor)" in said[0]
         assert "not to be trusted" in said[0] and "measurement noise" not in said[0]
+        # no standard errors then; the interval says why, not to refit with resamples the
+        # filter refuses
+        assert np.isnan(model.params_std_["a1"])
+        with pytest.raises(ValueError, match=r"curvature of the filter's likelihood was not "
+                                             r"positive definite .* hold that noise"):
+            model.params_interval()
     else:
         assert model.process_noise_["x2"] == pytest.approx(push, rel=0.3) and not said

@@ -80,10 +80,17 @@ class IntervalsMixin:
         self.__dict__["_covariance"] = value
 
     def _no_uncertainty(self, what: str) -> ValueError:
-        hint = ("fit it with n_bootstrap=100 (refits on resamples)"
-                if "n_bootstrap" in self.get_params(deep=False) else
-                "use a backend that takes n_bootstrap, or PolyCCRegressor fitted by equation "
-                "error (the covariance of its least-squares estimate)")
+        if getattr(self, "fit_mode_", None) == "filter":
+            # the filter refuses refits on resamples: its uncertainty is the likelihood's
+            hint = ("the curvature of the filter's likelihood was not positive definite (a "
+                    "noise at the end of its range, a parameter the record does not fix); "
+                    "hold that noise with process_noise, or fit by output error with "
+                    "n_bootstrap=100")
+        elif "n_bootstrap" in self.get_params(deep=False):
+            hint = "fit it with n_bootstrap=100 (refits on resamples)"
+        else:
+            hint = ("use a backend that takes n_bootstrap, or PolyCCRegressor fitted by "
+                    "equation error (the covariance of its least-squares estimate)")
         return ValueError(f"{type(self).__name__} has no estimate of how uncertain its {what} "
                           f"are: {hint}")
 
