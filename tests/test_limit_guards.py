@@ -257,3 +257,17 @@ def test_a_rate_that_becomes_infinite_is_named_with_where_the_states_were():
     with pytest.raises(Diverged, match=r"^the right-hand side of x2_dot is -inf at t=0\.5 "
                                        r"\(x1=0, x2=2\)$"):
         rhs(0.5, [0.0, 2.0])
+
+
+def test_a_record_in_which_nothing_moves_is_said_to_fix_nothing():
+    t = np.arange(500) * 0.01
+    still = pd.DataFrame({"t": t, "x1": np.full(500, 0.3), "F_ext": np.zeros(500)})
+    oscillator = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
+    for mode in ("equation", "simulation"):
+        with pytest.warns(UserWarning, match=r"no measured state moves in X \(x1 at 0\.3 "
+                                             r"throughout\)"):
+            PolyCCRegressor(equations=oscillator, fit_mode=mode).fit(still)
+    with warnings.catch_warnings():  # a record that moves says nothing of the kind
+        warnings.filterwarnings("error", message="no measured state moves")
+        moving = still.assign(x1=0.3 + 0.1 * np.sin(3 * t), F_ext=np.cos(3 * t))
+        PolyCCRegressor(equations=oscillator, fit_mode="equation").fit(moving)

@@ -554,6 +554,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         if delays:
             facts = {**facts, "delays_": delays}
         problem.check_enough_rows()
+        _warn_still_record(problem)
         result = backend.estimate(problem, shooting_window=self.shooting_window,
                                   shooting_iterations=self.shooting_iterations)
         facts = {**facts, "process_noise_evidence_": None}
@@ -1088,6 +1089,22 @@ UNMET_RELATION = 0.5
 #: a fitted model whose fast decays (90th percentile along the record) go this far within
 #: one sampling interval (``h |Re lambda|``) was fitted to derivatives the samples cannot give
 COARSE_SAMPLING = 0.2
+
+
+def _warn_still_record(problem: Problem) -> None:
+    """Warn where no measured state moves: the record holds no dynamics to fit.
+
+    A state stuck at one value (a sensor unplugged, a plant at rest) fixes
+    at most the balance at that point; every other number is whatever the
+    search starts from or drifts to.
+    """
+    still = {s: float(np.nanmean(v)) for s, v in problem.measured.items()
+             if np.nanmax(v) - np.nanmin(v) <= 1e-12 * max(1.0, float(np.nanmax(np.abs(v))))}
+    if still and len(still) == len(problem.measured):
+        values = ", ".join(f"{s} at {v:.6g}" for s, v in still.items())
+        warnings.warn(f"no measured state moves in X ({values} throughout): the record holds "
+                      "no dynamics, and the fitted numbers are not determined by it; give a "
+                      "record in which the system moves", UserWarning, stacklevel=3)
 
 
 def _warn_coarse_sampling(problem: Problem, system) -> None:
