@@ -471,7 +471,9 @@ def _simplest_first(trials: list, margin: float, measured: set[int]) -> list:
     margin a suggestion must clear anyway. Of one effect in two equations
     that the record cannot tell apart (a load on a room's air or on its
     unmeasured walls: the walls' level absorbs the difference), the one in
-    the ``measured`` states' equations comes first.
+    the ``measured`` states' equations comes first: BIC within :data:`TIE`
+    of the best of their group are one, a general effect held back to its
+    special case's BIC ranking just after it.
     """
     def finite(trial) -> bool:
         return math.isfinite(trial.delta_bic)
