@@ -63,5 +63,9 @@ def test_later_rounds_say_whose_horizon_they_keep_and_runners_up_are_compared():
     assert second.time == first.time and second.why == f"round 0's: {first.why}"
     assert "as given" not in loop.rounds[1].diagnosis.summary()
     best = loop.rounds[0].diagnosis.best
-    assert f"Runners-up (the winner scores {-best.delta_bic:.1f})" in \
-        loop.rounds[0].diagnosis.summary()
+    summary = loop.rounds[0].diagnosis.summary()
+    assert f"Runners-up (the winner scores {-best.delta_bic:.1f})" in summary
+    # each runner-up is told from the others: what it acts through, and whether it replaces
+    line = next(text for text in summary.splitlines() if "Runners-up" in text)
+    named = [part.split(" (score")[0] for part in line.split("): ", 1)[1].split("; ")]
+    assert len(set(named)) == len(named) and all(" through " in n for n in named)

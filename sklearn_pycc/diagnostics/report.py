@@ -514,8 +514,8 @@ class Diagnosis:
         if len(runners):
             lead = -best.delta_bic
             lines.append(f"    Runners-up (the winner scores {lead:.1f}): " + "; ".join(
-                f"{_named(r.effect, r.called)} in {r.equation}{_through(r.variable)} "
-                f"(score {r.score:.1f}"
+                f"{_named(r.effect, r.called)} in {r.equation}{_through(r.variable)}"
+                f"{' in place of a term' if r.move == 'replace' else ''} (score {r.score:.1f}"
                 + ("" if not r.refit or r.plausible else ", implausible")
                 + ("" if r.refit else ", screened only")
                 + (_why_below(r, lead, self.ranking.iloc[0].n_params)
