@@ -271,3 +271,6 @@ def test_a_record_in_which_nothing_moves_is_said_to_fix_nothing():
         warnings.filterwarnings("error", message="no measured state moves")
         moving = still.assign(x1=0.3 + 0.1 * np.sin(3 * t), F_ext=np.cos(3 * t))
         PolyCCRegressor(equations=oscillator, fit_mode="equation").fit(moving)
+        # nor in tiny units: a position in light years moves all the same
+        tiny = moving.assign(x1=moving["x1"] * 1e-16, F_ext=moving["F_ext"] * 1e-16)
+        PolyCCRegressor(equations=oscillator, fit_mode="equation").fit(tiny)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from collections import Counter
@@ -605,6 +606,7 @@ def _input_reading(effect: catalogue.Effect, name: str,
     return rename(read, mapping), bounds
 
 
+@functools.cache
 def reverses(effect: catalogue.Effect) -> bool:
     """Whether a path's law changes sign when its two states swap (a flow either way round).
 
@@ -725,9 +727,7 @@ def _screen_skeleton(candidate: Candidate, states: list[str],
     rate: list[str] = []  # a balanced reaction's one rate, in the screen's names
     for k, term in candidate.additions:
         if rate:
-            law = term[2:-1] if term.startswith("-(") and term.endswith(")") else term
-            node = parse_expression(law, kind="term")
-            own = sorted(params_in(node), key=lambda a: int(a[1:]))
+            law, node, own = _law_of(term)
             text = term.replace(law, to_text(rename(node, dict(zip(own, rate)))))
             skeleton = skeleton.add_term(ks.index(k), text, shared=rate)
             continue
@@ -791,6 +791,13 @@ def _projected_rss(target: np.ndarray, columns: list[np.ndarray]) -> float:
     return float(rest @ rest)
 
 
+def _law_of(term: str) -> tuple[str, Node, list[str]]:
+    """A term's law (``"-(law)"``, a flow entering, read as the law), parsed, and its numbers."""
+    law = term[2:-1] if term.startswith("-(") and term.endswith(")") else term
+    node = parse_expression(law, kind="term")
+    return law, node, sorted(params_in(node), key=lambda a: int(a[1:]))
+
+
 def extend(skeleton: Skeleton, candidate: Candidate) -> None:
     """Build the changed skeleton, its renumbered terms and its new parameters.
 
@@ -802,9 +809,7 @@ def extend(skeleton: Skeleton, candidate: Candidate) -> None:
     shapes: dict[str, dict[str, str]] = {}  # a law's text -> its shape's names in extended
     for k, term in candidate.additions:
         before = extended.equations[k]
-        law = term[2:-1] if term.startswith("-(") and term.endswith(")") else term
-        node = parse_expression(law, kind="term")
-        own = sorted(params_in(node), key=lambda a: int(a[1:]))
+        law, node, own = _law_of(term)
         shape = shapes.get(law, {})
         if shape:  # the flow another equation carries: its own yield, the law's shape
             text = term.replace(law, to_text(rename(node, shape)))

@@ -708,7 +708,7 @@ def suggestion_for(c: Candidate, base: Skeleton, model, formula: Candidate | Non
 
 
 def _stoichiometry(c: Candidate, skeleton) -> str:
-    """``"; at one rate in every balance it enters: A + B -> C"`` for a balanced reaction."""
+    """``"; at one rate ..., the stoichiometry of A + B -> C"`` for a balanced reaction."""
     if not c.balanced:
         return ""
     states = [skeleton.parsed[k].state for k, _ in c.additions]

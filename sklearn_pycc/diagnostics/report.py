@@ -606,8 +606,8 @@ def _why_below(row, lead: float, winner_params: int | None = None) -> str:
         return (f", a tie within {100 * TIE[0]:g} % that the data each fit did not see "
                 "decided for the winner")
     if not math.isfinite(getattr(row, "held_out_change", math.nan)):
-        return (", not held out: the leaders were, and the best move between two states, "
-                "the winner")
+        return (", not held out: only the two best and the best move between two states "
+                "are")
     return ", but the data each fit did not see preferred the winner"
 
 

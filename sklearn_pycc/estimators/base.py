@@ -1098,8 +1098,9 @@ def _warn_still_record(problem: Problem) -> None:
     at most the balance at that point; every other number is whatever the
     search starts from or drifts to.
     """
+    # in the signal's own units: a state read in tiny units still moves
     still = {s: float(np.nanmean(v)) for s, v in problem.measured.items()
-             if np.nanmax(v) - np.nanmin(v) <= 1e-12 * max(1.0, float(np.nanmax(np.abs(v))))}
+             if np.nanmax(v) - np.nanmin(v) <= 1e-12 * float(np.nanmax(np.abs(v)))}
     if still and len(still) == len(problem.measured):
         values = ", ".join(f"{s} at {v:.6g}" for s, v in still.items())
         warnings.warn(f"no measured state moves in X ({values} throughout): the record holds "
