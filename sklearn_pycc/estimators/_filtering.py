@@ -33,24 +33,60 @@ class FilteringMixin:
 
     def _filtered(self, X, what: str, draws: list | None = None, *, keep: bool = True):
         """The plan of ``X`` (one segment per experiment) and the filter's pass through it."""
-        check_is_fitted(self, "params_")
-        if getattr(self, "fit_mode_", None) != "filter":
-            raise ValueError(f"{what} needs a model fitted with fit_mode='filter' (its process "
-                             f"noise); this one was fitted with "
-                             f"fit_mode={getattr(self, 'fit_mode_', None)!r}")
+        if not hasattr(self, "params_") and what == "log_likelihood":
+            system, plan, q, r = self._given_model(X)
+        else:
+            check_is_fitted(self, "params_")
+            if getattr(self, "fit_mode_", None) != "filter":
+                raise ValueError(f"{what} needs a model fitted with fit_mode='filter' (its "
+                                 f"process noise); this one was fitted with "
+                                 f"fit_mode={getattr(self, 'fit_mode_', None)!r}")
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                problem = self._problem_of(X)
+            system = self._system()
+            plan = filter_plan(problem, system, whole=True)  # one segment per experiment
+            q = [self.process_noise_[s] for s in plan.states]
+            r = [self.measurement_noise_[s] for s in plan.measured]
+        systems = [system, *(draws or [])]
+        run = kalman_pass(plan, systems, np.tile(q, (len(systems), 1)),
+                          np.tile(r, (len(systems), 1)), keep=keep)
+        return plan, run
+
+    def _given_model(self, X):
+        """``(system, plan, q, r)`` of an unfitted model whose every number is given.
+
+        Raises
+        ------
+        NotFittedError
+            Naming what is still to be fitted: a parameter, a curve, a
+            process or a measurement noise.
+        """
+        from sklearn.exceptions import NotFittedError
+
+        from ..fitting.filter.stage import noisy_states
+
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             problem = self._problem_of(X)
-        system = self._system()
-        plan = filter_plan(problem, system, whole=True)  # one segment per experiment
-        systems = [system, *(draws or [])]
-        run = kalman_pass(plan, systems,
-                          np.tile([self.process_noise_[s] for s in plan.states],
-                                  (len(systems), 1)),
-                          np.tile([self.measurement_noise_[s] for s in plan.measured],
-                                  (len(systems), 1)),
-                          keep=keep)
-        return plan, run
+        unknown = [*problem.free_params, *problem.skeleton.functions]
+        system = None if unknown else problem.skeleton.compile({}, problem.fixed_params)
+        plan = filter_plan(problem, system, whole=True) if system is not None else None
+        measured = [s for s in problem.skeleton.states if s in problem.measured]
+        layout = noisy_states(problem, measured)
+        held = dict(layout.measurement_held)
+        states = list(problem.skeleton.states)
+        unknown += [*(f"the process noise of {', '.join(states[j] for j in group)}"
+                      for group in layout.groups),
+                    *(f"the measurement noise of {name}" for j, name in enumerate(measured)
+                      if j not in held)]
+        if unknown:
+            raise NotFittedError(
+                f"This {type(self).__name__} instance is not fitted yet, and log_likelihood "
+                f"can evaluate an unfitted model only where every number is given: "
+                f"{', '.join(unknown)} {'is' if len(unknown) == 1 else 'are'} not (give the "
+                f"numbers in the equations, process_noise and measurement_noise, or fit)")
+        return system, plan, layout.intensities([]), layout.measurement([])
 
     def _parameter_draws(self) -> list:
         """Systems of numbers drawn from ``covariance_`` (the same on every call)."""

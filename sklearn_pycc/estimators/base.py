@@ -21,9 +21,10 @@ from .._utils.threads import blas_threads
 from ..exceptions import DomainWarning, SimulationError
 from ..fitting.filter.evidence import LAGS as PROCESS_NOISE_LAGS
 from ..fitting.filter.evidence import process_noise_evidence
-from ..fitting.filter.noises import check_process_noise
+from ..fitting.filter.noises import check_measurement_noise, check_process_noise
 from ..fitting.filter.stage import filter_stage
 from ..fitting.fingerprint import fit_fingerprint
+from ..fitting.initial_state import check_initial_state
 from ..fitting.output_error.hidden import check_visible
 from ..fitting.output_error.hidden_curves import hidden_level_gauge
 from ..fitting.output_error.noise_model import NOISE_MODELS, fit_noise_model
@@ -44,6 +45,7 @@ from ..measurements.differentiation import (
     resolve_differentiation,
 )
 from ..measurements.experiments import TIME
+from ..measurements.gaps import filled_across_gaps, missing_samples
 from ..measurements.measurement import Measurement, unwrap
 from ..measurements.reconstruct import kinematic_chains
 from ..measurements.record import MEASURED, STATIC, targets_in_y
@@ -67,7 +69,7 @@ __all__ = ["FIT_MODES", "OUTPUT_ERROR_SETTINGS", "RANDOM_STATES", "RESAMPLING", 
 FIT_MODES = ("auto", "equation", "simulation", "filter")
 #: the hyperparameters of the output-error stage, left out by estimators that have none
 OUTPUT_ERROR_SETTINGS = ("fit_mode", "shooting_window", "shooting_iterations", "input_hold",
-                         "noise_model", "process_noise")
+                         "noise_model", "process_noise", "measurement_noise", "initial_state")
 #: below this signal-to-noise ratio of the measured states, ``fit_mode="auto"`` refines the
 #: equation fit by output error: derivatives of such records bias the fit by per cents
 AUTO_SIMULATION_SNR_DB = 45.0
@@ -248,6 +250,18 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         default; a kinematic identity is pushed only where named. With no
         intensity left to fit, ``"auto"`` has no push to recognise and keeps
         output error.
+    measurement_noise : dict or None, default=None
+        For ``fit_mode="filter"``: measured state -> the standard deviation
+        of its sensor's noise, held (the filter fits the others'). With
+        every number given (in the equations, ``process_noise`` and here)
+        :meth:`log_likelihood` evaluates that model without a fit.
+    initial_state : dict or None, default=None
+        For ``fit_mode="filter"``: state -> where every experiment starts, a
+        number (known) or a pair ``(mean, variance)``. A state not given
+        starts at the record's first sample (an unmeasured one where the
+        output-error model simulates it) with the states' spread over the
+        record as its variance. Output-error fits do not read it (they fit
+        each experiment's start) and say so.
 
     Attributes
     ----------
@@ -284,6 +298,10 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         unit of time; 0 for a kinematic identity) and each measured state's
         measurement-noise standard deviation. ``filter_`` holds the fit's
         negative log-likelihood, iterations and segments.
+    process_noise_std_, measurement_noise_std_ : dict
+        Only with ``fit_mode="filter"``: their standard errors, from the
+        likelihood's curvature (0 for a held noise or a state not pushed;
+        NaN where the curvature gave none).
     process_noise_evidence_ : ProcessNoiseEvidence or None
         Where ``fit_mode="auto"`` looked for process noise (after an
         output-error fit of noisy states), what the filter saw: whether a
@@ -328,6 +346,14 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         Number of columns of ``X`` seen in ``fit``.
     feature_names_in_ : ndarray
         Column names of ``X`` when it was a DataFrame.
+
+    Notes
+    -----
+    A missing sample of a measured state (NaN in its column) is filtered
+    through by ``fit_mode="filter"`` and its methods (:meth:`smooth`,
+    :meth:`log_likelihood`, ...): the update uses the signals present. The
+    output-error fit the filter starts from reads it on the straight line
+    between its neighbours. The other fit modes refuse it, naming the row.
     """
 
     equations = _EquationsParameter()
@@ -349,6 +375,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         "noise_model": [StrOptions(set(NOISE_MODELS)), None],
         "quantities": [dict, None],
         "process_noise": [dict, None],
+        "measurement_noise": [dict, None],
+        "initial_state": [dict, None],
     }
 
     def __init__(self, *, equations=None, constraints=None, gauge: str = "auto",
@@ -357,7 +385,9 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                  shooting_iterations: int = 30, equation_weights=None,
                  input_hold: str = "auto", noise_model: str | None = None,
                  quantities: Mapping[str, str] | None = None,
-                 process_noise: Mapping | None = None) -> None:
+                 process_noise: Mapping | None = None,
+                 measurement_noise: Mapping | None = None,
+                 initial_state: Mapping | None = None) -> None:
         self.equations = equations
         self.constraints = constraints
         self.equation_weights = equation_weights
@@ -371,6 +401,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         self.noise_model = noise_model
         self.quantities = quantities
         self.process_noise = process_noise
+        self.measurement_noise = measurement_noise
+        self.initial_state = initial_state
 
     # -- to be provided by each estimator -------------------------------------
     @abstractmethod
@@ -408,16 +440,23 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
     # -- fitting ---------------------------------------------------------------
     def _problem(self, X, y, backend: Backend | None = None, *,
                  delays: Mapping[str, float] | None = None,
-                 profile: bool = False) -> tuple[Problem, dict]:
+                 profile: bool = False, filtering: bool | None = None) -> tuple[Problem, dict]:
         """The fitting problem, and what was learned about the record (to be stored).
 
         An input read late (``u(t - a5)``) is read with its delay at
         ``delays`` (the fitted ones when None and the model is fitted);
         ``profile`` fits by equation error where it can, as the search for
-        the delays does.
+        the delays does. ``filtering`` (default: ``fit_mode="filter"``)
+        reads a measured state's missing samples as missing (the problem's
+        ``missing``), across which the record's other readers see straight
+        lines; otherwise a missing sample is refused.
         """
         backend = self._make_backend() if backend is None else backend
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
+        if self.fit_mode == "filter" if filtering is None else filtering:
+            X, y, missing = _across_gaps(X, y, skeleton)
+        else:
+            missing = {}
         if skeleton.delay_params:
             if delays is None:
                 delays = getattr(self, "delays_", None)
@@ -465,15 +504,22 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                           hold_chosen=getattr(self, "input_hold", "auto") == "auto",
                           observed=({o: record.data[o] for o in skeleton.outputs}
                                     if record.hidden else {}),
-                          process_noise=self.process_noise)
+                          process_noise=self.process_noise,
+                          measurement_noise=getattr(self, "measurement_noise", None),
+                          initial_state=check_initial_state(getattr(self, "initial_state", None),
+                                                            skeleton.states),
+                          missing=missing)
         return problem, facts
 
     def _problem_of(self, X) -> Problem:
         """The fitting problem ``X`` makes, read by a clone (this model learns nothing).
 
-        The clone reads the inputs late by the delays this model fitted.
+        The clone reads the inputs late by the delays this model fitted,
+        and a measured state's missing samples as missing (the filter's
+        methods read them so).
         """
-        return clone(self)._problem(X, None, delays=getattr(self, "delays_", None))[0]
+        return clone(self)._problem(X, None, delays=getattr(self, "delays_", None),
+                                    filtering=True)[0]
 
     def _resolve_mode(self, skeleton, record, backend: Backend) -> tuple[str, str]:
         """The fit mode to use, and why ``"auto"`` chose output error (else "")."""
@@ -543,12 +589,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                              f"(fit_mode='simulation')")
         backend = self._make_backend()
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
-        if self.process_noise is not None:
-            check_process_noise(self.process_noise, skeleton.states, [])
-            if self.fit_mode in ("equation", "simulation"):
-                warnings.warn(f"process_noise is read by the filter (fit_mode='filter', or "
-                              f"'auto' where it recognises a push); fit_mode="
-                              f"{self.fit_mode!r} does not use it", UserWarning, stacklevel=2)
+        self._check_filter_settings(skeleton)
         delays = self._fit_delays(X, y, skeleton, backend) if skeleton.delay_params else {}
         problem, facts = self._problem(X, y, backend, delays=delays)
         if delays:
@@ -578,20 +619,40 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         if n_bootstrap:
             facts = {**facts, **self._bootstrap(problem, result, n_bootstrap, backend)}
         self._store(problem, result, {**facts, "backend_": backend})
-        if self.fit_mode == "auto" and self.process_noise is not None \
-                and self.fit_mode_ != "filter":
+        given = self._filter_settings_given()
+        if self.fit_mode == "auto" and given and self.fit_mode_ != "filter":
             looked = facts["process_noise_evidence_"] is not None
             warnings.warn(
-                f"process_noise was not used: fit_mode='auto' fitted by {self.fit_mode_!r}, "
+                f"{' and '.join(given)} {'was' if len(given) == 1 else 'were'} not used: "
+                f"fit_mode='auto' fitted by {self.fit_mode_!r}, "
                 + ("as the filter recognised no random push in the record"
                    if looked else "without looking for a random push (it looks after an "
                    "output-error fit of measured states a simulation follows)")
-                + "; fit_mode='filter' reads it", UserWarning, stacklevel=2)
+                + f"; fit_mode='filter' reads {'it' if len(given) == 1 else 'them'}",
+                UserWarning, stacklevel=2)
         _warn_unmet_relations(problem, result)
         if self.fit_mode_ == "equation" and not facts["derivative_source_"].startswith(
                 "measured"):
             _warn_coarse_sampling(problem, self._system())
         return self
+
+    def _filter_settings_given(self) -> list[str]:
+        """The settings only the filter reads that this estimator was given."""
+        return [name for name in ("process_noise", "measurement_noise", "initial_state")
+                if getattr(self, name, None) is not None]
+
+    def _check_filter_settings(self, skeleton: Skeleton) -> None:
+        """Check the filter's settings against the skeleton; warn where the mode ignores them."""
+        if self.process_noise is not None:
+            check_process_noise(self.process_noise, skeleton.states, [])
+        check_measurement_noise(getattr(self, "measurement_noise", None), skeleton.states)
+        check_initial_state(getattr(self, "initial_state", None), skeleton.states)
+        given = self._filter_settings_given()
+        if given and self.fit_mode in ("equation", "simulation"):
+            warnings.warn(f"{' and '.join(given)} {'is' if len(given) == 1 else 'are'} read by "
+                          f"the filter (fit_mode='filter', or 'auto' where it recognises a "
+                          f"push); fit_mode={self.fit_mode!r} does not use "
+                          f"{'it' if len(given) == 1 else 'them'}", UserWarning, stacklevel=3)
 
     def _recognised(self, problem: Problem, result, facts: dict, backend: Backend):
         """``fit_mode="auto"``: the fit refined by the filter where the record shows process noise.
@@ -946,6 +1007,21 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
     def n_states_(self) -> int:
         """Number of states (differential equations)."""
         return len(self.skeleton_.states)
+
+
+def _across_gaps(X, y, skeleton: Skeleton):
+    """``(X, y, missing)``: ``X`` read across its measured states' missing samples.
+
+    Each state column with some (not all) samples missing gets straight
+    lines across its gaps (:func:`~sklearn_pycc.measurements.gaps.filled_across_gaps`);
+    ``missing`` says where they were. A record without such gaps comes back
+    as it was.
+    """
+    frame, y, _ = unwrap(X, y)
+    missing = missing_samples(frame, skeleton.states)
+    if not missing:
+        return X, y, {}
+    return filled_across_gaps(frame, missing), y, missing
 
 
 def _measured_limits(skeleton, record) -> dict[str, float]:

@@ -464,6 +464,9 @@ default="lbfgs"
     process_noise : dict or None, default=None
         Which states the filter's random push enters, each intensity fitted,
         shared or held: see :class:`CCRegressor`.
+    measurement_noise, initial_state : dict or None, default=None
+        The filter's held measurement noises and the experiments' starts:
+        see :class:`CCRegressor`.
     equation_weights : list of float, optional
         One weight per equation: see :class:`CCRegressor`.
     quantities : dict, optional
@@ -566,14 +569,17 @@ default="lbfgs"
                  input_hold: str = "auto",
                  noise_model: str | None = None,
                  quantities: Mapping[str, str] | None = None,
-                 process_noise: Mapping | None = None) -> None:
+                 process_noise: Mapping | None = None,
+                 measurement_noise: Mapping | None = None,
+                 initial_state: Mapping | None = None) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
                          shooting_iterations=shooting_iterations,
                          equation_weights=equation_weights, input_hold=input_hold,
                          noise_model=noise_model, quantities=quantities,
-                         process_noise=process_noise)
+                         process_noise=process_noise, measurement_noise=measurement_noise,
+                         initial_state=initial_state)
         self.hidden_layer_sizes = hidden_layer_sizes
         self.activation = activation
         self.optimizer = optimizer

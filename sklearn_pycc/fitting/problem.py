@@ -155,6 +155,17 @@ class Problem:
     process_noise : dict or None
         The estimator's ``process_noise``: state -> a held intensity or the
         name of a fitted one (:func:`~sklearn_pycc.fitting.filter.stage.noisy_states`).
+    measurement_noise : dict or None
+        The estimator's ``measurement_noise``: measured state -> its held
+        standard deviation (the filter fits the others').
+    initial_state : dict
+        State -> (mean, variance) of its value at the start of every
+        experiment (:func:`~sklearn_pycc.fitting.initial_state.check_initial_state`):
+        the filter starts there; an output-error fit holds the mean.
+    missing : dict
+        Measured state -> a mask of the record's rows where its sample is
+        missing (the filter updates without it; the record's other
+        readers see the straight line across the gap).
     """
 
     skeleton: Skeleton
@@ -179,6 +190,9 @@ class Problem:
     observed: dict[str, np.ndarray] = field(default_factory=dict)
     whitening: dict[str, np.ndarray] | None = None
     process_noise: dict | None = None
+    measurement_noise: dict | None = None
+    initial_state: dict = field(default_factory=dict)
+    missing: dict = field(default_factory=dict)
 
     @property
     def equations(self) -> list[Equation]:

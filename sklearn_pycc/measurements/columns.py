@@ -44,7 +44,8 @@ def _finite_column(values: np.ndarray, what: str, trajectory: np.ndarray | None 
         label = label.item() if isinstance(label, np.generic) else label
         where = "" if trajectory is None else f" (experiment {label!r})"
         raise ValueError(f"{what} contains {kind} at row {i}{where}; remove or fill it "
-                         "before fitting (a gap splits an experiment in two)")
+                         "before fitting (a gap splits an experiment in two; fit_mode='filter' "
+                         "reads a state's missing samples as missing)")
 
 
 def _seconds(series: pd.Series, what: str) -> np.ndarray | None:

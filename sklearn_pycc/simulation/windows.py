@@ -164,19 +164,27 @@ class Windows:
         self._substeps = int(value)
 
     # -- integration ---------------------------------------------------------
-    def choose_substeps(self, system, data: Mapping[str, np.ndarray]) -> int:
+    def choose_substeps(self, system, data: Mapping[str, np.ndarray], *,
+                        largest_rate_step: float | None = None) -> int:
         """Substeps per sample interval for RK4 to be stable and to follow oscillations.
 
         The Jacobian's eigenvalues along ``data`` decide: a real rate
         ``lambda`` needs ``h |lambda|`` below the stability limit, an
         oscillation of angular frequency ``omega`` needs ``h omega`` below
         ``RK4_PHASE`` (RK4's own damping would otherwise bias a light
-        damping, and its phase error a frequency).
+        damping, and its phase error a frequency). ``largest_rate_step``,
+        where given, bounds ``h |lambda|`` per substep for accuracy too, at
+        the fastest rate of a typical sample (the median's: a tank's outflow
+        whose rate grows without bound as it empties is not followed so
+        finely everywhere).
         """
         eigenvalues = jacobian_eigenvalues(system, data, self.states, self.scale)
         h = float(self.h.max()) if self.h.size else 1.0
-        need = max(1.5 * h * float(np.abs(eigenvalues).max()) / RK4_STABLE,
-                   h * float(np.abs(eigenvalues.imag).max()) / RK4_PHASE)
+        rates = np.abs(eigenvalues)
+        need = max(1.5 * h * float(rates.max()) / RK4_STABLE,
+                   h * float(np.abs(eigenvalues.imag).max()) / RK4_PHASE,
+                   h * float(np.median(rates.max(axis=1))) / largest_rate_step
+                   if largest_rate_step else 0.0)
         self.substeps = int(np.clip(np.ceil(need), 1, MAX_SUBSTEPS))
         return self.substeps
 

@@ -8,8 +8,11 @@ is filtered over the segments of a shooting plan
 (:class:`~sklearn_pycc.fitting.output_error.shooting.ShootingPlan`): between
 samples the mean follows the right-hand side (fixed-step fourth-order
 Runge-Kutta, as the shooting fits integrate it) and the covariance the
-linearised flow, ``P <- F (P + Q h/2) F' + Q h/2`` with ``F`` the step's own
-Jacobian (every state bumped and integrated beside the mean); at each sample
+linearised flow, ``P <- F P F' + Q_h`` with ``F`` the step's own Jacobian
+(every state bumped and integrated beside the mean) and ``Q_h`` the noise
+the step adds, integrated exactly under the flow's Jacobian at the step's
+start (:func:`~sklearn_pycc.fitting.filter.discrete.step_noise`: a linear
+skeleton's filter is the exact discrete Kalman filter); at each sample
 the measured states update both. Each segment starts from the plan's
 initial states with a broad covariance (the states' own spread), so the
 segments are filtered side by side, all in one pass of numpy calls, and the
@@ -40,6 +43,7 @@ import numpy as np
 from scipy.special import ndtr
 
 from ...skeleton.system import CompiledSystem, stack_systems
+from .discrete import step_noise
 from .noises import NoiseLayout
 
 __all__ = ["FilterPass", "fit_filter", "kalman_pass", "likeliest_noises", "rk4_step", "smoothed"]
@@ -131,26 +135,26 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
     low_end, high_end = _limit_ends(systems, plan.states, K)  # (copies K, n)
     row_ends = [np.repeat(end.reshape(copies, 1, K, n), n + 1, axis=1).reshape(-1, n)
                 for end in (low_end, high_end)]  # the integrated rows' order
-    # each segment starts broad, within the states' limits (and starts so again if it fails)
+    # each segment starts broad (or as the user said), within the states' limits (and
+    # starts so again if it fails)
+    spread = scale**2 if plan.start_variance is None else np.tile(plan.start_variance,
+                                                                  (copies, 1))
     x0, P0 = _truncated_start(np.tile(np.asarray(plan.initial, dtype=float), (copies, 1)),
-                              scale**2, low_end, high_end)  # (copies K, n), (copies K, n, n)
+                              spread, low_end, high_end)  # (copies K, n), (copies K, n, n)
     x, P = x0, P0
-    eye = np.eye(n)
-    used = np.flatnonzero(plan.own.ravel())
     terms = np.zeros((copies * K, L + 1))
     innov = np.zeros((copies * K, L + 1, len(mi)))
     var = np.ones((copies * K, L + 1, len(mi)))
     failed = np.zeros(copies * K, dtype=bool)
-    kept = {"predicted": np.zeros((copies * K, L + 1, n)),
-            "predicted_covariances": np.zeros((copies * K, L + 1, n, n)),
-            "means": np.zeros((copies * K, L + 1, n)),
-            "covariances": np.zeros((copies * K, L + 1, n, n)),
-            "transitions": np.zeros((copies * K, L, n, n))} if keep else None
+    kept = _kept(copies * K, L, n) if keep else None
 
     def update_one(i: int) -> None:
         """The update for a single measured state: every matrix of the measurement a number."""
         nonlocal x, P
-        on = own[:, i]
+        present = np.isfinite(targets[:, i, 0])
+        on = own[:, i] & present  # a missing sample: no update, and no innovation
+        if not present.all():
+            innov[:, i, 0] = var[:, i, 0] = np.where(present, 0.0, np.nan)
         if not on.any():
             return
         j = int(mi[0])
@@ -163,8 +167,8 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
             nu = np.where(broken, 0.0, nu)
         gain = P[:, :, j] / S[:, None]
         terms[:, i] = np.where(on, 0.5 * (nu * nu / S + np.log(S) + LOG_2PI), 0.0)
-        innov[:, i, 0] = nu
-        var[:, i, 0] = S
+        innov[:, i, 0] = np.where(present, nu, np.nan)
+        var[:, i, 0] = np.where(present, S, np.nan)
         x = np.where(on[:, None], x + gain * nu[:, None], x)
         # P - K S K' with K = P h / S: P - (P h)(P h)' / S
         P = np.where(on[:, None, None], P - gain[:, :, None] * P[:, None, j, :], P)
@@ -178,8 +182,16 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
         if len(mi) == 1:
             update_one(i)
             return
-        nu = targets[:, i] - x[:, mi]
+        present = np.isfinite(targets[:, i])  # the signals this sample holds
+        on = on & present.any(axis=1)
+        nu = np.where(present, targets[:, i] - x[:, mi], 0.0)
         S = P[:, mi][:, :, mi] + r2[:, :, None] * np.eye(len(mi))
+        seen = P[:, mi, :]
+        gaps = not present.all()
+        if gaps:  # a missing signal's row of S is the identity's, and it moves nothing
+            both = present[:, :, None] & present[:, None, :]
+            S = np.where(both, S, np.eye(len(mi)))
+            seen = np.where(present[:, :, None], seen, 0.0)
         # a variant whose covariance lost its meaning (a bump too far) fails alone
         broken = ~(np.isfinite(S).all(axis=(1, 2)) & np.isfinite(nu).all(axis=1))
         broken[~broken] |= np.linalg.eigvalsh(S[~broken]).min(axis=1) <= 0
@@ -190,11 +202,13 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
         chol = np.linalg.cholesky(S)
         white = np.linalg.solve(chol, nu[:, :, None])[:, :, 0]
         log_det = 2.0 * np.sum(np.log(np.abs(np.diagonal(chol, axis1=1, axis2=2))), axis=1)
-        gain = np.linalg.solve(S, P[:, mi, :]).transpose(0, 2, 1)  # P H' S^-1 (S symmetric)
-        term = 0.5 * (np.sum(white**2, axis=1) + log_det + len(mi) * LOG_2PI)
+        gain = np.linalg.solve(S, seen).transpose(0, 2, 1)  # P H' S^-1 (S symmetric)
+        term = 0.5 * (np.sum(white**2, axis=1) + log_det + present.sum(axis=1) * LOG_2PI)
         terms[:, i] = np.where(on, term, 0.0)
-        innov[:, i] = nu
+        innov[:, i] = np.where(present, nu, np.nan) if gaps else nu
         var[:, i] = np.diagonal(S, axis1=1, axis2=2)
+        if gaps:
+            var[:, i] = np.where(present, var[:, i], np.nan)
         x = np.where(on[:, None], x + np.einsum("bij,bj->bi", gain, nu), x)
         P = np.where(on[:, None, None], P - gain @ S @ gain.transpose(0, 2, 1), P)
         P = 0.5 * (P + P.transpose(0, 2, 1))
@@ -211,24 +225,19 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
             if i == L:
                 break
             h = h_all[:, i]
-            step = BUMP * np.maximum(np.abs(x), scale)  # (copies K, n)
-            if limited:  # bumped away from the nearer limit: beyond it the flow is flat
-                step = np.where(high_end - x < x - low_end, -step, step)
-            points = np.repeat(x[:, None, :], n + 1, axis=1)  # (copies K, n + 1, n)
-            points[:, 1:] += step[:, :, None] * eye
-            # rows ordered (copy, point, segment): each variant's rows stay together
-            z = points.reshape(copies, K, n + 1, n).transpose(0, 2, 1, 3).reshape(-1, n)
+            z, step = _bumped(x, scale, (low_end, high_end) if limited else None, copies)
             hz = np.repeat(h.reshape(copies, K)[:, None, :], n + 1, axis=1).reshape(-1, 1)
             sub = hz / m
+            # the flow's Jacobian at the step's start sets the noise the step adds
+            rates = rhs(z, 2 * i * m, columns)
+            A = _jacobian(rates, step, copies, K)
             for j in range(m):  # past a limit by as much as the flow presses on it
-                z = rk4_step(rhs, z, sub, 2 * (i * m + j), right=columns, left=lefts)
+                z = rk4_step(rhs, z, sub, 2 * (i * m + j), right=columns, left=lefts,
+                             first=rates if j == 0 else None)
             if limited:
                 z = _pressed_past(z, rhs(z, 2 * (i + 1) * m, lefts), hz, *row_ends)
-            z = z.reshape(copies, n + 1, K, n).transpose(0, 2, 1, 3).reshape(copies * K, n + 1, n)
-            x = z[:, 0]
-            F = ((z[:, 1:] - x[:, None, :]) / step[:, :, None]).transpose(0, 2, 1)
-            half = Q * (h[:, None] / 2.0)
-            P = F @ (P + half[:, :, None] * eye) @ F.transpose(0, 2, 1) + half[:, :, None] * eye
+            x, F = _transition(z, step, copies)
+            P = F @ P @ F.transpose(0, 2, 1) + step_noise(A, Q, h, F)
             if limited:  # the smoother carries a state back as far as it was not censored
                 x, P, through = _censored(x, P, low=low_end, high=high_end,
                                           floor=(BUMP * scale) ** 2)
@@ -241,16 +250,72 @@ def kalman_pass(plan, systems: list[CompiledSystem] | CompiledSystem,
                 failed |= bad
                 x = np.where(bad[:, None], x0, x)
                 P = np.where(bad[:, None, None], P0, P)
+    return _gathered(copies, plan.own, terms, innov, var, failed=failed, kept=kept)
+
+
+def _gathered(copies: int, own: np.ndarray, terms: np.ndarray, innov: np.ndarray,
+              var: np.ndarray, *, failed: np.ndarray, kept: dict | None) -> FilterPass:
+    """A pass's results per variant: its rows ``(copies K, ...)`` gathered by copy.
+
+    Only the samples a segment owns (``own``, ``(K, L + 1)``) are kept; a
+    segment that failed makes its variant's likelihood infinite.
+    """
+    K, width = own.shape
+    used = np.flatnonzero(own.ravel())
     nll = terms.sum(axis=1)
     nll[failed] = np.inf
-    per_copy = nll.reshape(copies, K).sum(axis=1)
-    flat = terms.reshape(copies, K * (L + 1))[:, used]
-    out = FilterPass(per_copy, flat,
-                     innov.reshape(copies, K * (L + 1), -1)[:, used],
-                     var.reshape(copies, K * (L + 1), -1)[:, used])
+    out = FilterPass(nll.reshape(copies, K).sum(axis=1),
+                     terms.reshape(copies, K * width)[:, used],
+                     innov.reshape(copies, K * width, -1)[:, used],
+                     var.reshape(copies, K * width, -1)[:, used])
     for name, values in (kept or {}).items():
         setattr(out, name, values.reshape(copies, K, *values.shape[1:]))
     return out
+
+
+def _kept(rows: int, L: int, n: int) -> dict[str, np.ndarray]:
+    """Room for what a pass keeps: ``rows`` segments of ``L`` steps of ``n`` states."""
+    return {"predicted": np.zeros((rows, L + 1, n)),
+            "predicted_covariances": np.zeros((rows, L + 1, n, n)),
+            "means": np.zeros((rows, L + 1, n)), "covariances": np.zeros((rows, L + 1, n, n)),
+            "transitions": np.zeros((rows, L, n, n))}
+
+
+def _bumped(x: np.ndarray, scale: np.ndarray, limits, copies: int):
+    """The rows a step integrates (each mean, then it with each state bumped), and the bumps.
+
+    Rows are ordered (copy, point, segment): each variant's rows stay
+    together. Within ``limits`` (low and high ends per row), a state is
+    bumped away from its nearer limit: beyond it the flow is flat.
+    """
+    rows, n = x.shape
+    step = BUMP * np.maximum(np.abs(x), scale)  # (copies K, n)
+    if limits is not None:
+        low, high = limits
+        step = np.where(high - x < x - low, -step, step)
+    points = np.repeat(x[:, None, :], n + 1, axis=1)  # (copies K, n + 1, n)
+    points[:, 1:] += step[:, :, None] * np.eye(n)
+    K = rows // copies
+    return points.reshape(copies, K, n + 1, n).transpose(0, 2, 1, 3).reshape(-1, n), step
+
+
+def _transition(z: np.ndarray, step: np.ndarray, copies: int) -> tuple[np.ndarray, np.ndarray]:
+    """The means after a step and its Jacobian ``F``, from the rows :func:`_bumped` made."""
+    rows, n = step.shape
+    z = z.reshape(copies, n + 1, rows // copies, n).transpose(0, 2, 1, 3).reshape(rows, n + 1, n)
+    x = z[:, 0]
+    return x, ((z[:, 1:] - x[:, None, :]) / step[:, :, None]).transpose(0, 2, 1)
+
+
+def _jacobian(rates: np.ndarray, step: np.ndarray, copies: int, K: int) -> np.ndarray:
+    """The flow's Jacobian ``(copies K, n, n)`` from the rates at the mean and each bumped row.
+
+    ``rates`` are in the integrated rows' order (copy, point, segment);
+    ``step`` is each state's bump per filtered row.
+    """
+    n = rates.shape[1]
+    by_row = rates.reshape(copies, n + 1, K, n).transpose(0, 2, 1, 3).reshape(copies * K, n + 1, n)
+    return ((by_row[:, 1:] - by_row[:, :1]) / step[:, :, None]).transpose(0, 2, 1)
 
 
 def _rates(plan, stacked: CompiledSystem, repeat: int, rows: int):
@@ -388,15 +453,17 @@ def _limit_ends(systems: list[CompiledSystem], states,
     return np.repeat(low, repeat, axis=0), np.repeat(high, repeat, axis=0)
 
 
-def rk4_step(rhs, z: np.ndarray, h, column, *, right, left) -> np.ndarray:
+def rk4_step(rhs, z: np.ndarray, h, column, *, right, left,
+             first: np.ndarray | None = None) -> np.ndarray:
     """One fourth-order Runge-Kutta step of ``z`` over ``h``.
 
     ``rhs(z, column, source)`` reads the inputs at the step's stage
     ``column`` (start), ``column + 1`` (middle) and ``column + 2`` (end)
     of ``right`` at the start and of ``left`` after it (a held input's value
-    before it steps); ``column`` may be one per row.
+    before it steps); ``column`` may be one per row. ``first``: the rates
+    at the start, where the caller has them.
     """
-    k1 = rhs(z, column, right)
+    k1 = rhs(z, column, right) if first is None else first
     k2 = rhs(z + 0.5 * h * k1, column + 1, left)
     k3 = rhs(z + 0.5 * h * k2, column + 1, left)
     k4 = rhs(z + h * k3, column + 2, left)
@@ -445,7 +512,7 @@ def likeliest_noises(plan, system: CompiledSystem, noisy, measurement: np.ndarra
     :class:`NoiseLayout`: a shared intensity at its states' mean scale, a
     held one at its value) over :data:`INTENSITIES` (times each state's
     scale), the measurement noise over :data:`MEASUREMENT_FACTORS` times
-    ``measurement``.
+    ``measurement`` (a held one at its value).
 
     Returns
     -------
@@ -460,7 +527,9 @@ def likeliest_noises(plan, system: CompiledSystem, noisy, measurement: np.ndarra
     # a shared intensity is tried at its states' mean scale; a held one keeps its value
     scales = layout.fitted_of(np.asarray(plan.scale, dtype=float))
     q = np.array([layout.intensities(c * scales) for c, _ in grid])
-    r = np.array([f * np.asarray(measurement, dtype=float) for _, f in grid])
+    # a held measurement noise keeps its value
+    fitted = layout.measurement_fitted_of(measurement)
+    r = np.array([layout.measurement(f * fitted) for _, f in grid])
     run = kalman_pass(plan, [system] * len(grid), q, r)
     nll = np.where(np.isfinite(run.nll), run.nll, np.inf)
     best = int(np.argmin(nll))
@@ -478,7 +547,7 @@ def _layout(noisy, n: int) -> NoiseLayout:
 def _numbers(z: np.ndarray, p: int, layout: NoiseLayout):
     """``theta``, process and measurement standard deviations from the search vector."""
     g = layout.n_fitted
-    return z[:p], layout.intensities(np.exp(z[p:p + g])), np.exp(z[p + g:])
+    return z[:p], layout.intensities(np.exp(z[p:p + g])), layout.measurement(np.exp(z[p + g:]))
 
 
 def _variants(plan, system_for, points: np.ndarray, p: int, layout: NoiseLayout) -> FilterPass:
@@ -510,10 +579,11 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
         Starting process-noise intensities (those ``noisy`` fits; a shared
         one starts at its states' mean).
     measurement0 : ndarray of shape (n_measured,)
-        Starting measurement-noise standard deviations.
+        Starting measurement-noise standard deviations (a held one's value).
     noisy : sequence of int or NoiseLayout
         The states the process noise enters, each with its own fitted
-        intensity; or a layout (intensities shared, or held at a value).
+        intensity; or a layout (intensities shared, or held at a value;
+        measurement noises held).
     bounds : (ndarray, ndarray), optional
         Least and largest value of each parameter.
     typical : ndarray, optional
@@ -537,7 +607,7 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
     p = len(theta0)
     z0 = np.concatenate([np.asarray(theta0, float),
                          np.log(np.maximum(layout.fitted_of(process0), 1e-12)),
-                         np.log(np.maximum(np.asarray(measurement0, float), 1e-12))])
+                         np.log(np.maximum(layout.measurement_fitted_of(measurement0), 1e-12))])
     d = len(z0)
     low = np.full(d, -np.inf)
     high = np.full(d, np.inf)
@@ -565,6 +635,11 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
         grad = (nll[1:d + 1] - nll[d + 1:]) / (2 * s) * unit
         return float(nll[0]), np.where(np.isfinite(grad), grad, 0.0)
 
+    if not d:  # every number given: the likelihood of that model
+        nll = float(_variants(plan, system_for, z0[None], p, layout).nll[0])
+        theta, q, r = _numbers(z0, p, layout)
+        return theta, q, r, {"nll": nll, "iterations": 0, "converged": True,
+                             "search_covariance": np.zeros((0, 0)), "covariance": None}
     result = minimize(value_and_gradient, np.zeros(d), jac=True, method="L-BFGS-B",
                       bounds=list(zip((low - z0) / unit, (high - z0) / unit)),
                       options={"maxiter": int(max_iterations), "ftol": 1e-10, "gtol": 1e-6})

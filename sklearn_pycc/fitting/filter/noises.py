@@ -8,7 +8,9 @@ from numbers import Real
 
 import numpy as np
 
-__all__ = ["NoiseLayout", "check_process_noise"]
+from ..initial_state import state_settings
+
+__all__ = ["NoiseLayout", "check_measurement_noise", "check_process_noise"]
 
 
 @dataclass(frozen=True)
@@ -25,11 +27,16 @@ class NoiseLayout:
     held : tuple of (int, float)
         States whose intensity is given, with its value. A state in
         neither is not pushed.
+    measurement_held : tuple of (int, float)
+        Measured states (by their position among the measured ones) whose
+        measurement noise is given (a standard deviation); the others' is
+        fitted.
     """
 
     n_states: int
     groups: tuple[tuple[int, ...], ...]
     held: tuple[tuple[int, float], ...] = ()
+    measurement_held: tuple[tuple[int, float], ...] = ()
 
     @classmethod
     def each(cls, noisy: Sequence[int], n_states: int) -> NoiseLayout:
@@ -54,6 +61,23 @@ class NoiseLayout:
         """The fitted intensities ``q`` (one per state) gives: each group's mean."""
         q = np.asarray(q, dtype=float)
         return np.array([float(np.mean(q[list(group)])) for group in self.groups])
+
+    def measurement(self, fitted: np.ndarray) -> np.ndarray:
+        """Every measured state's noise, given the fitted ones (in order, the held left out)."""
+        fitted = np.asarray(fitted, dtype=float)
+        r = np.empty(len(fitted) + len(self.measurement_held))
+        held = dict(self.measurement_held)
+        free = [j for j in range(len(r)) if j not in held]
+        r[free] = fitted
+        for j, value in held.items():
+            r[j] = value
+        return r
+
+    def measurement_fitted_of(self, r: np.ndarray) -> np.ndarray:
+        """The fitted measurement noises of ``r`` (one per measured state)."""
+        held = dict(self.measurement_held)
+        return np.array([value for j, value in enumerate(np.asarray(r, dtype=float))
+                         if j not in held])
 
 
 def _reads_as_number(text: str) -> bool:
@@ -86,11 +110,8 @@ def check_process_noise(process_noise: Mapping | None, states: Sequence[str],
         non-negative number nor a name.
     """
     states = list(states)
-    settings = dict(process_noise or {})
+    settings = state_settings("process_noise", process_noise, states)
     for state, value in settings.items():
-        if state not in states:
-            raise ValueError(f"process_noise names {state!r}, which is not a state of the "
-                             f"skeleton (states: {', '.join(states)})")
         number = isinstance(value, Real) and not isinstance(value, bool)
         if number and not (np.isfinite(value) and value >= 0):
             raise ValueError(f"process_noise[{state!r}] must be a non-negative intensity or a "
@@ -114,3 +135,40 @@ def check_process_noise(process_noise: Mapping | None, states: Sequence[str],
         elif value > 0:
             held.append((j, float(value)))
     return NoiseLayout(len(states), tuple(tuple(g) for g in groups.values()), tuple(held))
+
+
+def check_measurement_noise(measurement_noise: Mapping | None, states: Sequence[str],
+                            measured: Sequence[str] | None = None
+                            ) -> tuple[tuple[int, float], ...]:
+    """The held measurement noises the estimator's ``measurement_noise`` gives, checked.
+
+    Parameters
+    ----------
+    measurement_noise : dict or None
+        State -> the standard deviation of its sensor's noise (positive).
+    states : sequence of str
+        The skeleton's states.
+    measured : sequence of str, optional
+        The measured states, in the filter's order: where given, each held
+        noise is returned by its position among them.
+
+    Raises
+    ------
+    ValueError
+        Naming the entry that is not a state (or not a measured one), or
+        whose value is not a positive finite number.
+    """
+    settings = state_settings("measurement_noise", measurement_noise, list(states))
+    for state, value in settings.items():
+        number = isinstance(value, Real) and not isinstance(value, bool)
+        if not (number and np.isfinite(value) and value > 0):
+            raise ValueError(f"measurement_noise[{state!r}] must be a positive standard "
+                             f"deviation (a number), got {value!r}")
+    if measured is None:
+        return ()
+    unmeasured = [state for state in settings if state not in measured]
+    if unmeasured:
+        raise ValueError(f"measurement_noise names {unmeasured[0]!r}, which X does not measure "
+                         f"(measured: {', '.join(measured)})")
+    return tuple((list(measured).index(state), float(value))
+                 for state, value in settings.items())

@@ -26,20 +26,26 @@ from ...skeleton.nodes import Symbol
 from ..numbers import Numbers
 from ..problem import FitResult, Problem
 from .kalman import NOISE_LOG_RANGE, fit_filter, likeliest_noises
-from .noises import NoiseLayout, check_process_noise
+from .noises import NoiseLayout, check_measurement_noise, check_process_noise
 
 __all__ = ["WINDOW", "filter_plan", "filter_stage", "noisy_states", "smoothing_level"]
 
 #: samples per filtered segment: long against the states' memory under the process noise
 WINDOW = 200
+#: the largest ``h |lambda|`` of a filter's Runge-Kutta substep: each step's transition is
+#: then within 5e-5 of the exact one (a linear skeleton's likelihood within 0.05 of the exact
+#: discrete Kalman filter's on a thousand samples, at any sampling)
+RATE_STEP = 0.35
 
 
-def noisy_states(problem: Problem) -> NoiseLayout:
+def noisy_states(problem: Problem, measured: list[str] | None = None) -> NoiseLayout:
     """Which states a process noise enters, and which intensities are fitted.
 
     By default every state but a kinematic identity, each with its own
     intensity; the estimator's ``process_noise`` (``problem.process_noise``)
-    holds some at given values or shares one among several.
+    holds some at given values or shares one among several. With
+    ``measured`` (the filter's order), the layout also holds the
+    measurement noises the estimator's ``measurement_noise`` gives.
     """
     states = list(problem.skeleton.states)
     default = []
@@ -49,7 +55,11 @@ def noisy_states(problem: Problem) -> NoiseLayout:
         identity = isinstance(eq.rhs, Symbol) and eq.rhs.name in states
         if not identity:
             default.append(states.index(eq.state))
-    return check_process_noise(problem.process_noise, states, default)
+    layout = check_process_noise(problem.process_noise, states, default)
+    if measured is None:
+        return layout
+    held = check_measurement_noise(problem.measurement_noise, states, measured)
+    return replace(layout, measurement_held=held)
 
 
 def filter_plan(problem: Problem, system, *, whole: bool):
@@ -57,7 +67,9 @@ def filter_plan(problem: Problem, system, *, whole: bool):
 
     Segments of :data:`WINDOW` samples, or each experiment whole (``whole``).
     A state nobody measured starts where ``system`` simulates it through
-    the record.
+    the record; a state the user gave an initial state starts each
+    experiment there, with its variance (``problem.initial_state``); a
+    missing sample (``problem.missing``) is a missing target.
     """
     from ..output_error.hidden import hidden_trajectories
     from ..output_error.shooting import ShootingPlan
@@ -66,7 +78,27 @@ def filter_plan(problem: Problem, system, *, whole: bool):
     window = longest if whole else int(min(WINDOW, longest))
     hidden = hidden_trajectories(problem, system) if problem.hidden else None
     plan = ShootingPlan(problem, max(window, 2), hidden=hidden)
-    plan.choose_substeps(system, plan.columns())
+    plan.choose_substeps(system, plan.columns(), largest_rate_step=RATE_STEP)
+    for j, state in enumerate(plan.measured):
+        if state in problem.missing:
+            plan.targets[..., j][problem.missing[state][plan.rows]] = np.nan
+    # each experiment starts at its first sample as measured (not as smoothed) with the
+    # spread of the measured samples (their mean square), or where the user said
+    first = np.flatnonzero(np.r_[True, ~plan.successor[:-1]])
+    plan.start_variance = np.tile(np.asarray(plan.scale, dtype=float) ** 2,
+                                  (plan.n_segments, 1))
+    for j, state in zip(plan.measured_index, plan.measured):
+        values = problem.measured[state]
+        plan.initial[first, j] = values[plan.rows[first, 0]]
+        seen = values[~problem.missing[state]] if state in problem.missing else values
+        spread = float(np.mean(seen**2))
+        if spread > 0:  # a state at 0 throughout keeps a unit spread (the plan's scale)
+            plan.start_variance[first, j] = spread
+    if problem.initial_state:
+        for state, (mean, variance) in problem.initial_state.items():
+            j = plan.states.index(state)
+            plan.initial[first, j] = mean
+            plan.start_variance[first, j] = variance
     return plan
 
 
@@ -87,7 +119,8 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -
     Returns the fit the refined numbers make, with the attributes
     ``process_noise_`` (state -> intensity: the standard deviation of the
     state's random increment over one unit of time), ``measurement_noise_``
-    (measured state -> standard deviation), ``covariance_`` (of the labelled
+    (measured state -> standard deviation), their standard errors
+    ``process_noise_std_`` and ``measurement_noise_std_``, ``covariance_`` (of the labelled
     numbers, from the likelihood's curvature; absent where it is not
     positive definite) and ``filter_`` (``nll``, ``iterations``,
     ``converged``, ``window``, ``segments``, ``held``: the
@@ -96,7 +129,7 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -
     theta0 = np.clip(numbers.theta0, numbers.low, numbers.high)
     start = numbers.system_for(theta0)
     plan = filter_plan(problem, start, whole=bool(problem.hidden))
-    noisy = noisy_states(problem)
+    noisy = noisy_states(problem, list(plan.measured))
     mi = plan.measured_index
     # the noises start at the likeliest of a grid about the level the differentiation's
     # smoothing took off the record (the output error would also hold the disturbances'
@@ -111,11 +144,16 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -
     _warn_at_range_ends(states, q, noisy, list(plan.measured), r,
                         scale=np.asarray(plan.scale, dtype=float), duration=duration,
                         measured_index=list(mi))
+    _warn_worse_simulation(problem, plan, (start, numbers.system_for(theta)),
+                           q=q, r=r, level=smoothing_level(problem, plan))
     result = numbers.result_for(theta)
     attributes = {k: v for k, v in result.attributes.items() if k != "covariance_"}
+    q_std, r_std = _noise_errors(noisy, q, r, info["search_covariance"], len(theta))
     attributes.update({
         "process_noise_": {states[j]: float(q[j]) for j in range(len(states))},
         "measurement_noise_": {plan.measured[j]: float(r[j]) for j in range(len(mi))},
+        "process_noise_std_": {states[j]: float(q_std[j]) for j in range(len(states))},
+        "measurement_noise_std_": {plan.measured[j]: float(r_std[j]) for j in range(len(mi))},
         "filter_": {"nll": info["nll"], "iterations": info["iterations"],
                     "converged": info["converged"], "window": plan.window,
                     "segments": plan.n_segments,
@@ -125,6 +163,86 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -
     if covariance is not None:
         attributes["covariance_"] = covariance
     return replace(result, attributes=attributes)
+
+
+def _noise_errors(layout: NoiseLayout, q: np.ndarray, r: np.ndarray, covariance,
+                  p: int) -> tuple[np.ndarray, np.ndarray]:
+    """Standard errors of every state's process noise and every measured state's noise.
+
+    The search moves each fitted noise's logarithm; the curvature's
+    covariance of those gives a noise's error as its value times its
+    logarithm's (to first order). A held noise, or a state not pushed, has
+    none (0); where the curvature gave no covariance, a fitted noise's error
+    is NaN.
+    """
+    g = layout.n_fitted
+    q_std, r_std = np.zeros(len(q)), np.zeros(len(r))
+    log_sd = (np.full(len(layout.measurement_fitted_of(r)) + g, np.nan) if covariance is None
+              else np.sqrt(np.maximum(np.diag(covariance)[p:], 0.0)))
+    for k, group in enumerate(layout.groups):
+        q_std[list(group)] = q[group[0]] * log_sd[k]
+    held = dict(layout.measurement_held)
+    free = [j for j in range(len(r)) if j not in held]
+    r_std[free] = r[free] * log_sd[g:]
+    return q_std, r_std
+
+
+#: how much worse (relative normalised RMSE) the filtered model may simulate the record than
+#: its output-error start before a warning says so
+WORSE_SIMULATION = 1.1
+#: a fitted measurement noise below this share of the level the record shows has collapsed
+COLLAPSED_NOISE = 0.3
+
+
+def simulation_error(problem: Problem, plan, system) -> float:
+    """Normalised RMSE of the measured states, each experiment simulated whole from its start.
+
+    Each experiment starts where the filter starts it (``plan.initial``);
+    missing samples are left out.
+    """
+    from ..output_error.whole_record import WholeRecord
+
+    whole = WholeRecord(problem)
+    first = np.asarray(plan.initial, dtype=float)[np.r_[True, ~plan.successor[:-1]]]
+    whole.choose_substeps(system, first)
+    errors = whole.errors(system, first).reshape(-1, len(whole.index) + len(whole.outputs))
+    rows = whole.windows.rows[whole.windows.valid]
+    seen = np.ones(errors.shape, dtype=bool)
+    measured = [s for s in whole.states if s in problem.measured]
+    for j, state in enumerate(measured):
+        if state in problem.missing:
+            seen[:, j] = ~problem.missing[state][rows]
+    return float(np.sqrt(np.mean(errors[seen] ** 2)))
+
+
+def _warn_worse_simulation(problem: Problem, plan, systems, *, q: np.ndarray, r: np.ndarray,
+                           level: np.ndarray) -> None:
+    """Warn where the filtered model simulates the record worse than its output-error start.
+
+    The filter fits one-step predictions: a process noise lets them follow
+    the record where the model's own course drifts, and a measurement noise
+    driven below what the record shows makes the filter follow every
+    sample. The warning gives both errors and, where it applies, the
+    collapsed measurement noise beside the level the record shows.
+    """
+    before, after = (simulation_error(problem, plan, system) for system in systems)
+    if not after > WORSE_SIMULATION * before:
+        return
+    states = list(plan.states)
+    pushed = ", ".join(f"{states[j]}: {q[j]:.3g}" for j in range(len(states)) if q[j] > 0)
+    collapsed = [f"{name}: {value:.3g} against {shown:.3g}"
+                 for name, value, shown in zip(plan.measured, r, level)
+                 if value < COLLAPSED_NOISE * shown]
+    why = (f"; the measurement noise it fitted is far below what the record shows "
+           f"({'; '.join(collapsed)}), so the filter follows every sample and the model's own "
+           f"course matters little to its likelihood (hold it with measurement_noise)"
+           if collapsed else "")
+    warnings.warn(f"the filter's model simulates the record worse than the output-error fit it "
+                  f"started from (normalised RMSE {after:.3g} against {before:.3g}): the filter "
+                  f"fits one-step predictions, which the process noise ({pushed or 'none'}) "
+                  f"lets follow the record where the model's course drifts{why}. For a model "
+                  f"that simulates, fit by output error (fit_mode='simulation')",
+                  UserWarning, stacklevel=3)
 
 
 #: a fitted noise whose effect over the record is below this share of its state's scale is

@@ -96,6 +96,8 @@ class ShootingPlan(Windows):
         self.measured_index = [self.states.index(s) for s in self.measured]
         self.targets = np.stack([problem.measured[s][self.rows] for s in self.measured],
                                 axis=-1)
+        #: each segment's start variance per state, for the filter (None: the states' spread)
+        self.start_variance = None
         #: the filter that whitens the measurement residuals (``problem.whitening``), or None
         self.whitening = None
         taps = getattr(problem, "whitening", None)
