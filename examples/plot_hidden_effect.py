@@ -73,7 +73,7 @@ fig = one_figure(report, "residual")
 
 # %%
 # The mean residual over position and velocity, on a colour scale centred on
-# zero (white: no error; hatched: no samples there).
+# zero (white: no error; grey: fewer than 3 samples there).
 fig = one_figure(report, "map")
 
 # %%

@@ -368,23 +368,25 @@ def _residual_figure(plt, report):
         if acting is not None:
             # the new term alone, against what it has to explain: the residual with the
             # refit's changes to the other terms (a gain, a damping) taken off
-            ax.plot(values, residual - shift + acting, ".", ms=2, color="0.5",
-                    label="residual, the other terms as refitted")
             # a move across equations (a chain of storages) takes out of this one its own
             taken = best.replaced_in.get(name, ()) if best.replaced_in else best.replaces
             where = f" in place of {' + '.join(taken)}" if taken else ""
             written = f"- {term}" if best.move == "open" else best.written
-            ax.plot(values, acting, ".", ms=1.5, color="C3",
+            # the term drawn broad and pale beneath, the residual it explains small on top:
+            # where they agree the residual lies along the band, where not it leaves it
+            ax.plot(values, acting, ".", ms=5, color="C3", alpha=0.35, zorder=1,
                     label=f"{written}{where}, as refitted")
+            ax.plot(values, residual - shift + acting, ".", ms=1.5, color="0.2", zorder=2,
+                    label="residual, the other terms as refitted")
         else:
-            ax.plot(values, residual, ".", ms=2, color="0.5", label="residual")
             if shift is not None:
                 written = name in best.also or name in best.replaced_in
-                ax.plot(values, shift, ".", ms=1.5, color="C3",
+                ax.plot(values, shift, ".", ms=5, color="C3", alpha=0.35, zorder=1,
                         label="change the suggestion makes here, as refitted" if written
                         else f"change of the model refitted without {best.term}")
+            ax.plot(values, residual, ".", ms=1.5, color="0.2", zorder=2, label="residual")
         ax.axhline(0.0, color="k", lw=0.6)
-        ax.legend(fontsize="small", markerscale=4, loc="best")
+        ax.legend(fontsize="small", markerscale=2, loc="best")
         label_axis(ax, "x", variable, getattr(report, "units", {}))
         ax.set_ylabel(f"{name}: measured - model")
         ax.set_title(name)
@@ -439,37 +441,63 @@ def _map_figure(plt, report):
     maps = list(report.maps.values())
     fig, axes = plt.subplots(1, len(maps), figsize=(5.2 * len(maps), 4.2), squeeze=False)
     for ax, m in zip(axes[0], maps):
-        finite = np.isfinite(m.mean)
-        limit = float(np.nanmax(np.abs(m.mean))) if finite.any() else 0.0
-        limit = limit if limit > 0 else 1.0
-        # cells without samples: hatched grey under the map, never a colour of the scale
-        ax.add_patch(_no_data_patch(m))
-        mesh = ax.pcolormesh(m.x_edges, m.y_edges, np.ma.masked_invalid(m.mean),
+        # a cell of a sample or two is noise, not a place: grey, as a cell without any
+        mean = np.where(m.count >= MAP_CELL_SAMPLES, m.mean, np.nan)
+        finite = np.isfinite(mean)
+        limit = _map_limit(mean, m.count)
+        ax.add_patch(_no_data_patch(m))  # under the map, never a colour of the scale
+        mesh = ax.pcolormesh(m.x_edges, m.y_edges, np.ma.masked_invalid(mean),
                              cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -limit, limit),
                              shading="flat")
-        fig.colorbar(mesh, ax=ax, label=f"mean residual of {m.equation} (0: white)")
+        beyond = finite.any() and float(np.nanmax(np.abs(mean))) > limit
+        fig.colorbar(mesh, ax=ax, label=f"mean residual of {m.equation} (0: white)",
+                     extend="both" if beyond else "neither")
         ax.set_xlim(m.x_edges[0], m.x_edges[-1])
         ax.set_ylim(m.y_edges[0], m.y_edges[-1])
         label_axis(ax, "x", m.x, getattr(report, "units", {}))
         label_axis(ax, "y", m.y, getattr(report, "units", {}))
         ax.set_title(m.equation)
-        # a map is narrow: few ticks, so that long labels (-0.075, in metres) stay apart
-        ax.xaxis.set_major_locator(MaxNLocator(nbins=5))
+        # round ticks at about every sixth of the range, apart even for long labels
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=6, steps=[1, 2, 2.5, 5, 10]))
         if not finite.all():
-            ax.legend(handles=[Patch(facecolor="0.85", hatch="///", edgecolor="0.55",
-                                     label="no samples")], loc="upper center",
-                      bbox_to_anchor=(0.5, -0.16), fontsize="small", frameon=False)
+            ax.legend(handles=[Patch(facecolor=NO_DATA_GREY,
+                                     label=f"fewer than {MAP_CELL_SAMPLES} samples")],
+                      loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize="small",
+                      frameon=False)
     fig.suptitle("Where the model fails: mean residual over the states")
     fig.tight_layout()
     return fig
+
+
+#: fewest samples a cell of a residual map is coloured by
+MAP_CELL_SAMPLES = 3
+#: the grey of a map's cells without enough samples
+NO_DATA_GREY = "0.88"
+#: share of a map's samples whose cells the colour scale spans (the rest saturate)
+MAP_SCALE_SHARE = 0.98
+
+
+def _map_limit(mean: np.ndarray, count: np.ndarray) -> float:
+    """The colour scale's half-width: the cell mean :data:`MAP_SCALE_SHARE` of samples lie within.
+
+    A few cells at the edge of the data, where the residual is largest,
+    would otherwise set a scale that leaves every other cell white.
+    """
+    finite = np.isfinite(mean)
+    if not finite.any():
+        return 1.0
+    size, weight = np.abs(mean[finite]), count[finite].astype(float)
+    order = np.argsort(size)
+    reached = np.cumsum(weight[order]) / weight.sum()
+    limit = float(size[order][np.searchsorted(reached, MAP_SCALE_SHARE)])
+    return limit if limit > 0 else float(size.max()) or 1.0
 
 
 def _no_data_patch(m):
     from matplotlib.patches import Rectangle
 
     return Rectangle((m.x_edges[0], m.y_edges[0]), m.x_edges[-1] - m.x_edges[0],
-                     m.y_edges[-1] - m.y_edges[0], facecolor="0.85", hatch="///",
-                     edgecolor="0.55", lw=0, zorder=0)
+                     m.y_edges[-1] - m.y_edges[0], facecolor=NO_DATA_GREY, lw=0, zorder=0)
 
 
 #: held-out columns of a comparison table, with the words that label them

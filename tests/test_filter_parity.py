@@ -16,6 +16,7 @@ from scipy.linalg import expm
 from sklearn.exceptions import NotFittedError
 
 from sklearn_pycc import PolyCCRegressor
+from sklearn_pycc.diagnostics import check_innovations
 
 THETA, MU, ALPHA, S1, S2, R = 2.0, 1.0, 1.0, 0.5, 0.3, 0.1
 FREE = ["x1_dot = a1*(a2 + u - x1)", "x2_dot = a3*(x1 - x2)"]
@@ -149,6 +150,18 @@ def test_the_filters_methods_read_through_missing_samples():
     # a missing sample is smoothed from its neighbours, within its band
     inside = ((smooth.x1_lower <= smooth.x1) & (smooth.x1 <= smooth.x1_upper))[lost]
     assert inside.all()
+    check = check_innovations(model, X)  # the right model: white through the gaps
+    assert check.tests["white"].all() and np.isfinite(check.tests["ljung_box_p"]).all()
+
+
+def test_auto_mode_recognises_the_push_on_the_textbook_record():
+    # on this draw the grid of noises alone left the errors lasting (Ljung-Box p 5e-8)
+    X = _record(800, 0.3, seed=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=FREE, input_hold="zoh").fit(X)
+    assert model.fit_mode_ == "filter" and model.process_noise_evidence_.recognised
+    assert check_innovations(model, _record(800, 0.3, seed=11)).tests["white"].all()
 
 
 @pytest.mark.parametrize(("settings", "match"), [

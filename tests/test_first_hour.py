@@ -69,3 +69,38 @@ def test_later_rounds_say_whose_horizon_they_keep_and_runners_up_are_compared():
     line = next(text for text in summary.splitlines() if "Runners-up" in text)
     named = [part.split(" (score")[0] for part in line.split("): ", 1)[1].split("; ")]
     assert len(set(named)) == len(named) and all(" through " in n for n in named)
+
+
+def test_a_verbose_fit_says_its_stages_and_a_quiet_one_nothing(capsys):
+    frame = datasets.make_oscillator(disturbance=0.08, noise=40.0, noise_columns=["x1"],
+                                     n_samples=600, random_state=0)[["t", "x1", "F_ext"]]
+    equations = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        PolyCCRegressor(equations=equations, fit_mode="filter").fit(frame)
+        assert capsys.readouterr().out == ""
+        PolyCCRegressor(equations=equations, fit_mode="filter", verbose=1).fit(frame)
+    said = capsys.readouterr()
+    stages = [line.split(" [")[0] for line in said.out.splitlines()]
+    assert stages == ["PolyCCRegressor.fit: reading the record",
+                      "PolyCCRegressor.fit: fitting by output error (600 samples)",
+                      "PolyCCRegressor.fit: refining by the Kalman filter's likelihood",
+                      "PolyCCRegressor.fit: fitted by the Kalman filter's likelihood"]
+    assert "filter" in said.err and "pass" in said.err  # the search's bar
+
+
+def test_a_verbose_loop_says_each_rounds_stages(capsys):
+    from sklearn_pycc import HypothesisLoop
+
+    frame, truth = datasets.make_oscillator(hidden=["cubic_stiffness"], n_samples=800,
+                                            return_truth=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        HypothesisLoop(PolyCCRegressor(equations=truth.base_equations), frame,
+                       verbose=1).run(max_rounds=2, refine=False)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("HypothesisLoop round 0: fitting 800 samples")
+    assert any(line.startswith("HypothesisLoop round 0: diagnosing") for line in lines)
+    assert any("round 0: cubic_stiffness" in line or "round 0: cubic spring" in line
+               for line in lines), lines
+    assert any(line.startswith("HypothesisLoop round 1:") for line in lines)

@@ -301,6 +301,28 @@ def test_the_states_are_smoothed_with_bands_that_hold_them():
         0.5 * (smooth.x2_upper - smooth.x2_lower).mean()
 
 
+def test_smoothing_reads_each_state_from_the_samples_after_it_too():
+    # what only the backward pass gives: the filtered states use the samples up to each one,
+    # the smoothed ones every sample; the velocity nobody measured gains most
+    X, states = _pushed_oscillator(1500, seed=6, truth=True)
+    problem, plan = _plan(X, len(X))
+    system = problem.skeleton.compile({}, {"a1": A1, "a2": A2})
+    run = kalman_pass(plan, system, np.array([[0.0, Q]]), np.array([[R]]), keep=True)
+    means, covs = smoothed(run)
+    filtered, smooth = run.means[0, 0], means[0, 0]
+    settled = slice(100, None)  # past the broad start
+    error = {name: np.sqrt(np.mean((values[settled] - states[settled]) ** 2, axis=0))
+             for name, values in (("filtered", filtered), ("smoothed", smooth))}
+    assert error["smoothed"][1] < 0.85 * error["filtered"][1]
+    assert error["smoothed"][0] < error["filtered"][0]
+    variance = {"filtered": np.diagonal(run.covariances[0, 0], axis1=-2, axis2=-1),
+                "smoothed": np.diagonal(covs[0, 0], axis1=-2, axis2=-1)}
+    # narrower everywhere before the last sample, and equal at it (nothing comes after)
+    assert (variance["smoothed"][settled][:-1] < 0.9 * variance["filtered"][settled][:-1]).all()
+    assert np.allclose(variance["smoothed"][-1], variance["filtered"][-1])
+    assert np.allclose(smooth[-1], filtered[-1])
+
+
 def test_only_a_model_fitted_by_the_filter_smooths(record):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -174,6 +174,10 @@ def test_the_loop_steps_one_round_at_a_time_and_never_touches_the_estimator():
     assert table.loc[0, "suggests"] == "cubic_stiffness" and pd.isna(table.loc[0, "adds"])
     assert table.loc[1, "adds"] == "cubic_stiffness" and pd.isna(table.loc[1, "suggests"])
     assert table.loc[1, "simulation_rmse"] < 1e-2 * table.loc[0, "simulation_rmse"]
+    # every column says what it measures: the pooled error names the states it pools
+    assert set(table.columns) <= set(table.attrs["columns"])
+    assert "pooled over x1, x2" in table.attrs["columns"]["simulation_rmse"]
+    assert "x1's own" in table.attrs["columns"]["x1_rmse"]
     text = loop.summary()
     assert "Round 1" in text and "stop: nothing is missing" in text
     assert "confirmed by the simulation error" in text
@@ -187,6 +191,8 @@ def test_the_loop_names_bad_arguments():
         HypothesisLoop(PolyCCRegressor(equations=AXIS), frame.to_numpy())
     with pytest.raises(ValueError, match="horizon"):
         HypothesisLoop(PolyCCRegressor(equations=AXIS), frame, horizon="long")
+    with pytest.raises(ValueError, match="verbose must be a non-negative integer"):
+        HypothesisLoop(PolyCCRegressor(equations=AXIS), frame, verbose=-1)
     with pytest.raises(ValueError, match="max_rounds"):
         HypothesisLoop(PolyCCRegressor(equations=AXIS), frame).run(max_rounds=0)
 

@@ -84,8 +84,10 @@ def test_the_diagnosis_figures_say_what_they_show(loop):
     assert [ax.get_ylabel() for ax in trajectories.axes] == ["x1", "x2"]
     residual = figures["residual"]
     assert "suggested effect (cubic_stiffness)" in residual._suptitle.get_text()
-    assert legend_texts(residual.axes[0]) == ["residual, the other terms as refitted",
-                                              "- a3*x1^3, as refitted"]
+    assert legend_texts(residual.axes[0]) == ["- a3*x1^3, as refitted",
+                                              "residual, the other terms as refitted"]
+    term, points = residual.axes[0].lines[:2]
+    assert points.get_zorder() > term.get_zorder()  # the residual stays visible on the term
     assert residual.axes[0].get_xlabel() == "x1"
     residual_map = figures["map"]
     ax = residual_map.axes[0]
@@ -93,9 +95,12 @@ def test_the_diagnosis_figures_say_what_they_show(loop):
     assert isinstance(mesh.norm, TwoSlopeNorm) and mesh.norm.vcenter == 0
     assert mesh.norm.vmin == -mesh.norm.vmax
     assert mesh.get_cmap().name == "RdBu_r"
-    hatched = [p for p in ax.patches if p.get_hatch() == "///"]
-    assert hatched and hatched[0].zorder < mesh.zorder  # empty cells: hatched, not white
-    assert legend_texts(ax) == ["no samples"]
+    # cells of too few samples: plain grey under the map, never white (a zero residual)
+    grey = [p for p in ax.patches if p.get_facecolor()[:3] != (1.0, 1.0, 1.0)]
+    assert grey and grey[0].zorder < mesh.zorder and not grey[0].get_hatch()
+    assert legend_texts(ax) == ["fewer than 3 samples"]
+    # the colour scale is set by where most samples lie, not by the largest edge cell
+    assert mesh.norm.vmax < np.nanmax(np.abs(next(iter(wrong.maps.values())).mean))
     for fig in figures.values():
         plt.close(fig)
     # a model with nothing missing: no bands of largest errors, no suggested effect
@@ -230,6 +235,7 @@ def test_the_residual_map_keeps_its_tick_labels_apart_on_a_narrow_range():
     mean[0, :3] = np.nan
     cells = SimpleNamespace(x_edges=np.linspace(-0.0875, 0.0875, 16),
                             y_edges=np.linspace(-0.65, 0.65, 13), mean=mean,
+                            count=np.where(np.isnan(mean), 0, 10),
                             equation="x2_dot", x="x1", y="x2")
     report = SimpleNamespace(maps={"x2_dot": cells}, units={"x1": "m"})
     fig = _map_figure(plt, report)

@@ -32,7 +32,7 @@ CAPTIONS = {
                     "measured state).",
     "residual": "The derivative residual against the variable that explains it best, "
                 "with the suggested term's fit.",
-    "map": "Mean residual over the states; hatched cells hold no samples.",
+    "map": "Mean residual over the states; grey cells hold fewer than 3 samples.",
     "simulation": "What is measured against its simulation, each experiment whole from the "
                   "initial state estimated on its first samples; the unmeasured states as "
                   "simulated.",

@@ -187,6 +187,8 @@ def check_innovations(model, X, *, max_lag: int | None = None,
     cp_band = float(kstwobign.ppf(1 - alpha) / np.sqrt(max((n - 1) // 2 - 1, 1)))
     for name in measured:
         e = frame[name].to_numpy()
+        # a missing sample (no innovation) counts as one of zero, its neighbours as they are
+        e = np.where(np.isfinite(e), e - np.nanmean(e), 0.0)
         acf[name] = _autocorrelation(e - e.mean(), groups, lags)
         frequency, share = _cumulative_periodogram(e - e.mean(), step)
         expected = np.arange(1, len(share) + 1) / len(share)

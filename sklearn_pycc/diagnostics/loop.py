@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 from sklearn.base import clone
 
+from .._utils.progress import Progress
 from ..exceptions import SimulationError
 from ..measurements.measurement import Measurement
 from ..simulation.integration import judged_step_limit
@@ -103,6 +104,27 @@ class Refinement:
                 f"{self.after:.4g} ({self.folds}): {verdict}")
 
 
+def _column_meanings(columns, diagnosis: Diagnosis) -> dict[str, str]:
+    """What each column of :meth:`HypothesisLoop.table` measures, in words."""
+    compared = ", ".join(map(str, diagnosis.trajectories.index)) or "the states"
+    meanings = {
+        "n_parameters": "numbers the round's model fitted",
+        "derivative_nrmse": "the worst equation's derivative error over its spread",
+        "simulation_rmse": f"simulation error over the common horizon, pooled over {compared} "
+                           "(measured and estimated states alike, in their own units)",
+        "adds": "the effect this round's model has that the previous round's lacked",
+        "suggests": "what this round's diagnosis found missing",
+        "move": "add, replace, remove or open (a free curve)",
+        "held_out_change": "the suggestion's relative change of the held-out error",
+        "implausible": "physical implausibilities of the round's model",
+        "decision": "what the loop did, in words", "judge": "what decided it",
+        "answer": "the round whose skeleton gives the loop's answer"}
+    for state in diagnosis.measured:
+        meanings[f"{state}_rmse"] = f"{state}'s own simulation error (its sensor's units)"
+        meanings[f"{state}_nrmse"] = f"{state}'s simulation error over its spread"
+    return {column: meanings[column] for column in columns if column in meanings}
+
+
 def _structure(skeleton: Skeleton) -> tuple:
     """The skeleton's terms per equation and its state limits, parameters unnamed.
 
@@ -140,6 +162,10 @@ class HypothesisLoop:
     y : DataFrame or array, optional
         Measured derivatives; estimated from ``X`` when None (and given
         inside ``X`` when it is a Measurement).
+    verbose : int, default=0
+        1: each round says its stages as they start (fit, diagnosis, the
+        filter's judgement, the decision) and the refinement; the rounds'
+        own fits stay quiet.
     **diagnose_options
         Passed to :func:`~sklearn_pycc.diagnose` (``horizon``,
         ``n_refit``, ``min_improvement``, ``bic_threshold``, ``held_out``,
@@ -176,7 +202,7 @@ class HypothesisLoop:
     ['cubic_stiffness', None]
     """
 
-    def __init__(self, estimator, X, y=None, **diagnose_options) -> None:
+    def __init__(self, estimator, X, y=None, *, verbose: int = 0, **diagnose_options) -> None:
         if isinstance(estimator, type):
             raise TypeError(f"estimator must be an instance, got the class {estimator.__name__}:"
                             f" pass {estimator.__name__}(equations=[...])")
@@ -193,9 +219,12 @@ class HypothesisLoop:
             horizon = diagnose_options["horizon"]
             if horizon != "auto" and not isinstance(horizon, (int, float)):
                 raise ValueError(f"horizon must be 'auto', a time or None, got {horizon!r}")
+        if isinstance(verbose, bool) or not isinstance(verbose, Integral) or verbose < 0:
+            raise ValueError(f"verbose must be a non-negative integer, got {verbose!r}")
         self.estimator = estimator
         self.X = X
         self.y = y
+        self.verbose = int(verbose)
         # read once: every round's fit and diagnosis reuses the derivatives estimated for the
         # first (the skeletons keep their states)
         self.measurement = X if isinstance(X, Measurement) else Measurement(X, y)
@@ -261,12 +290,15 @@ class HypothesisLoop:
         """
         if self.stopped:
             return None
+        progress = Progress(f"HypothesisLoop round {len(self.rounds)}", self.verbose)
         self.refinement = None  # a refinement judges the last round only
         added = self.rounds[-1].added if self.rounds else None
         if added is not None and added.refit is not None:
             model = added.refit  # the diagnosis fitted it to this record already
         else:
+            progress.stage(f"fitting {len(self.measurement.X):,} samples")
             model = self._next_model().fit(self.measurement)
+        progress.stage(f"diagnosing the model fitted by {model.fit_mode_}")
         report = diagnose(model, self.measurement, **self._options())
         first = self.rounds[0].diagnosis.horizon if self.rounds else None
         if first is not None and report.horizon is not None and report.horizon.time is not None \
@@ -282,6 +314,7 @@ class HypothesisLoop:
         if by_filter:
             judge = "held-out likelihood"
             if best is not None:
+                progress.stage(f"judging {best.label} by the filter's held-out likelihood")
                 # a removal the diagnosis judged by the filter already
                 likelihood = best.likelihood or self._likelihood_of(model, best, report)
                 if not likelihood.confirmed:
@@ -322,6 +355,7 @@ class HypothesisLoop:
         current = Round(len(self.rounds), model.skeleton_, model, report, decision, best,
                         judge, likelihood)
         self.rounds.append(current)
+        progress.stage(decision)
         return current
 
     def _searched(self, model, rejected: Suggestion | None,
@@ -415,6 +449,9 @@ class HypothesisLoop:
                 or "fit_mode" not in model.get_params():
             self.refinement = None
             return None
+        Progress("HypothesisLoop", self.verbose).stage(
+            "refitting the last skeleton by output error (kept if it simulates held-out data "
+            "better)")
         data = last.diagnosis.record
         refined = prepared(model, fit_mode="simulation", param_init=model.params_,
                            n_bootstrap=KEEP).fit(self.measurement)
@@ -463,10 +500,13 @@ class HypothesisLoop:
         says it in words and ``judge`` what decided; ``answer`` marks the
         round whose skeleton gives the loop's answer, :attr:`model` (and
         whether that was refitted by output error). Besides
-        ``simulation_rmse`` (every state pooled, whatever their units), each
-        measured state has its own
-        ``NAME_rmse`` and ``NAME_nrmse`` (simulated over the common horizon);
-        ``table.attrs["units"]`` gives their units.
+        ``simulation_rmse`` (every state the diagnosis compared pooled,
+        whatever their units: a velocity differentiated from a measured
+        position counts beside the position, so with one sensor it differs
+        from that sensor's error), each measured state has its own
+        ``NAME_rmse`` and ``NAME_nrmse`` (simulated over the common horizon):
+        the sensor's own errors. ``table.attrs["columns"]`` says what each
+        column measures, ``table.attrs["units"]`` gives the units.
         """
         if not self.rounds:
             raise ValueError("the loop has not run yet: call step() or run() first")
@@ -497,8 +537,8 @@ class HypothesisLoop:
             })
             rows.append(row)
         table = pd.DataFrame(rows).set_index("round")
-        if self.rounds:
-            table.attrs["units"] = dict(self.rounds[0].diagnosis.units)
+        table.attrs["units"] = dict(self.rounds[0].diagnosis.units)
+        table.attrs["columns"] = _column_meanings(table.columns, self.rounds[0].diagnosis)
         return table
 
     def to_html(self, path=None, title: str = "Hypothesis loop") -> str:

@@ -16,6 +16,7 @@ from sklearn.metrics import r2_score
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
+from .._utils.progress import Progress
 from .._utils.randomness import seeds
 from .._utils.threads import blas_threads
 from ..exceptions import DomainWarning, SimulationError
@@ -75,6 +76,9 @@ OUTPUT_ERROR_SETTINGS = ("fit_mode", "shooting_window", "shooting_iterations", "
 AUTO_SIMULATION_SNR_DB = 45.0
 _NEEDS_TIME = "fit_mode='simulation' needs the time column 't' in X"
 
+#: each fit mode in the words a fit's progress says it in
+_MODE_WORDS = {"equation": "equation error", "simulation": "output error",
+               "filter": "the Kalman filter's likelihood"}
 #: private fitted state, cleared with the public fitted attributes when fit starts again
 _PRIVATE_STATE = ("_compiled", "_y_1d", "_covariance", "_fingerprint")
 #: what ``random_state`` may be: a Generator is honoured like a RandomState
@@ -590,18 +594,27 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         backend = self._make_backend()
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
         self._check_filter_settings(skeleton)
+        progress = Progress(f"{type(self).__name__}.fit", getattr(self, "verbose", 0))
+        if skeleton.delay_params:
+            progress.stage(f"searching the delays {', '.join(skeleton.delay_params)}")
         delays = self._fit_delays(X, y, skeleton, backend) if skeleton.delay_params else {}
+        progress.stage("reading the record")
         problem, facts = self._problem(X, y, backend, delays=delays)
         if delays:
             facts = {**facts, "delays_": delays}
         problem.check_enough_rows()
         _warn_still_record(problem)
+        samples = (sum(e.n_samples for e in problem.experiments) if problem.experiments
+                   else problem.data.n_samples)
+        progress.stage(f"fitting by {_MODE_WORDS[problem.fit_mode]} ({samples:,} samples)")
         result = backend.estimate(problem, shooting_window=self.shooting_window,
                                   shooting_iterations=self.shooting_iterations)
         facts = {**facts, "process_noise_evidence_": None}
         if self.fit_mode == "filter":
+            progress.stage("refining by the Kalman filter's likelihood")
             with blas_threads(1):
-                result = filter_stage(problem, backend.numbers(problem, result))
+                result = filter_stage(problem, backend.numbers(problem, result),
+                                      verbose=progress.verbose)
         elif self.fit_mode == "auto" and self.noise_model is None and not n_bootstrap:
             result, facts = self._recognised(problem, result, facts, backend)
         noise = None
@@ -617,8 +630,10 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                               UserWarning, stacklevel=2)
         facts = {**facts, "noise_model_": noise, "_fingerprint": fit_fingerprint(self, X, y)}
         if n_bootstrap:
+            progress.stage(f"refitting on {n_bootstrap} resamples")
             facts = {**facts, **self._bootstrap(problem, result, n_bootstrap, backend)}
         self._store(problem, result, {**facts, "backend_": backend})
+        progress.stage(f"fitted by {_MODE_WORDS[self.fit_mode_]}")
         given = self._filter_settings_given()
         if self.fit_mode == "auto" and given and self.fit_mode_ != "filter":
             looked = facts["process_noise_evidence_"] is not None
@@ -685,7 +700,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
             facts = {**facts, "process_noise_evidence_": evidence}
             if not evidence.recognised:
                 return result, facts
-            refined = filter_stage(problem, backend.numbers(problem, result))
+            refined = filter_stage(problem, backend.numbers(problem, result),
+                                   verbose=getattr(self, "verbose", 0))
         source = (f"{facts['derivative_source_']}; {evidence.describe()} (fit_mode='auto'): "
                   "refined by the extended Kalman filter's likelihood")
         return refined, {**facts, "fit_mode_": "filter", "derivative_source_": source}

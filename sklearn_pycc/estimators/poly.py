@@ -672,6 +672,9 @@ class PolyCCRegressor(CCRegressor):
     n_jobs : int or None, default=None
         Processes for the refits on resamples (joblib; None is one, -1
         every core). The result does not depend on it.
+    verbose : int, default=0
+        1: a fit (and its refits on resamples) over a few seconds says each
+        stage as it starts, and the filter's search shows its passes.
     random_state : int, RandomState or None
         Seeds the multi-start search when there are three or more nonlinear
         parameters.
@@ -709,6 +712,7 @@ class PolyCCRegressor(CCRegressor):
         "extrapolation": [StrOptions({"polynomial", "linear"})],
         "param_init": [dict, None],
         "random_state": RANDOM_STATES,
+        "verbose": ["verbose"],
         **RESAMPLING,
     }
 
@@ -724,7 +728,7 @@ class PolyCCRegressor(CCRegressor):
                  quantities: Mapping[str, str] | None = None,
                  process_noise: Mapping | None = None,
                  measurement_noise: Mapping | None = None,
-                 initial_state: Mapping | None = None) -> None:
+                 initial_state: Mapping | None = None, verbose: int = 0) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          fit_mode=fit_mode, shooting_window=shooting_window,
@@ -739,6 +743,7 @@ class PolyCCRegressor(CCRegressor):
         self.extrapolation = extrapolation
         self.param_init = param_init
         self.random_state = random_state
+        self.verbose = verbose
         self.n_bootstrap = n_bootstrap
         self.n_jobs = n_jobs
 

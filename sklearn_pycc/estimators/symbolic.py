@@ -464,6 +464,9 @@ class SymbolicCCRegressor(CCRegressor):
     n_jobs : int or None, default=None
         Processes for the refits on resamples (joblib; None is one, -1
         every core). The result does not depend on it.
+    verbose : int, default=0
+        1: a fit (and its refits on resamples) over a few seconds says each
+        stage as it starts, and the filter's search shows its passes.
     random_state : int, RandomState or None
         Seeds every search.
 
@@ -505,6 +508,7 @@ class SymbolicCCRegressor(CCRegressor):
         "engine_options": [dict, None],
         "param_init": [dict, None],
         "random_state": RANDOM_STATES,
+        "verbose": ["verbose"],
         **RESAMPLING,
     }
 
@@ -519,7 +523,7 @@ class SymbolicCCRegressor(CCRegressor):
                  gauge: str = "auto", differentiation="auto", smooth_states: bool = True,
                  equation_weights=None, random_state=None, n_bootstrap: int = 0,
                  n_jobs: int | None = None,
-                 quantities: Mapping[str, str] | None = None) -> None:
+                 quantities: Mapping[str, str] | None = None, verbose: int = 0) -> None:
         super().__init__(equations=equations, constraints=constraints, gauge=gauge,
                          differentiation=differentiation, smooth_states=smooth_states,
                          equation_weights=equation_weights, quantities=quantities)
@@ -538,6 +542,7 @@ class SymbolicCCRegressor(CCRegressor):
         self.engine_options = engine_options
         self.param_init = param_init
         self.random_state = random_state
+        self.verbose = verbose
         self.n_bootstrap = n_bootstrap
         self.n_jobs = n_jobs
 

@@ -7,10 +7,12 @@ prediction errors are read: a missing effect is a function of the state,
 so the errors it leaves last from one sample to the next and depend on the
 predicted states; a random push leaves them white and unrelated to them.
 
-The evidence costs two passes of the filter, not a fit: the process noise
-tried over a grid of intensities (and the measurement noise about the level
-the differentiation's smoothing took off the record), side by side, and the
-likeliest pass read again for its predicted states.
+The evidence costs a few passes of the filter, not a fit of the model: the
+process noise tried over a grid of intensities (and the measurement noise
+about the level the differentiation's smoothing took off the record), side
+by side; where a push helps, the noises alone searched from the likeliest
+(a few iterations, the model's numbers held); and that pass read again for
+its predicted states.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from scipy.stats import f as f_law
 
 from ...skeleton.system import CompiledSystem
 from ..problem import Problem
-from .kalman import kalman_pass, likeliest_noises
+from .kalman import fit_filter, kalman_pass, likeliest_noises
 from .stage import filter_plan, noisy_states, smoothing_level
 
 __all__ = ["ProcessNoiseEvidence", "dependence", "ljung_box", "portmanteau",
@@ -42,6 +44,8 @@ ALPHA = 1e-3
 ALPHA_DEPENDENCE = 1e-4
 #: degree of the polynomial of a predicted state the errors are regressed on
 DEGREE = 5
+#: most iterations of the search of the noises alone, from the grid's likeliest
+NOISE_ITERATIONS = 15
 
 
 @dataclass(frozen=True)
@@ -116,22 +120,41 @@ def process_noise_evidence(problem: Problem, system: CompiledSystem) -> ProcessN
     ProcessNoiseEvidence
     """
     plan = filter_plan(problem, system, whole=bool(problem.hidden))
-    n = len(plan.states)
-    q, r, gain = likeliest_noises(plan, system, noisy_states(problem),
-                                  smoothing_level(problem, plan))
-    kept = kalman_pass(plan, system, q[None], r[None], keep=True)
-    errors = kept.innovations[0] / np.sqrt(kept.variances[0])
-    used = np.flatnonzero(plan.own.ravel())
-    predicted = kept.predicted[0].reshape(-1, n)[used]
-    white_p = min(ljung_box(e, LAGS) for e in errors.T) if errors.size else 1.0
-    tests = [(dependence(e, predicted[:, j], DEGREE)[1], plan.states[j])
-             for e in errors.T for j in range(n)]
+    layout = noisy_states(problem)
+    q, r, gain = likeliest_noises(plan, system, layout, smoothing_level(problem, plan))
+    noises = [(q, r)]
+    if gain >= LEAST_GAIN and layout.n_fitted:
+        # the grid moves every intensity by one factor: where the states' pushes stand in
+        # another ratio its gains are off, and a filter with wrong gains leaves errors that
+        # last from one sample to the next; the noises alone are searched from there
+        noises.append(fit_filter(plan, lambda _: system, np.zeros(0), q, r, noisy=layout,
+                                 max_iterations=NOISE_ITERATIONS, curvature=False)[1:3])
+    # white where either pass leaves white errors; dependent where either shows a state
+    # (a filter tuned to a skeleton short of an effect follows it better, and hides it)
+    read = [_errors_read(plan, system, *pair) for pair in noises]
+    white_p = max(white for white, _ in read)
+    tests = [test for _, tests in read for test in tests]
     dependence_p, state = min(tests) if tests else (1.0, None)
     depends = dependence_p < ALPHA_DEPENDENCE / max(len(tests), 1)
     return ProcessNoiseEvidence(
         recognised=bool(gain >= LEAST_GAIN and white_p >= ALPHA and not depends),
         gain=gain, white_p=float(white_p), dependence_p=float(dependence_p),
         depends_on=state if depends else None)
+
+
+def _errors_read(plan, system: CompiledSystem, q: np.ndarray, r: np.ndarray):
+    """One pass's standardised errors read: their least whiteness p-value, and dependence tests.
+
+    The tests are ``(p-value, state)`` of each measured state's errors on a
+    polynomial of each predicted state.
+    """
+    n = len(plan.states)
+    kept = kalman_pass(plan, system, q[None], r[None], keep=True)
+    errors = kept.innovations[0] / np.sqrt(kept.variances[0])
+    predicted = kept.predicted[0].reshape(-1, n)[np.flatnonzero(plan.own.ravel())]
+    white_p = min(ljung_box(e, LAGS) for e in errors.T) if errors.size else 1.0
+    return white_p, [(dependence(e, predicted[:, j], DEGREE)[1], plan.states[j])
+                     for e in errors.T for j in range(n)]
 
 
 def ljung_box(e: np.ndarray, lags: int) -> float:

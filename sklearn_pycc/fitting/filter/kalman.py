@@ -503,6 +503,8 @@ def smoothed(run: FilterPass) -> tuple[np.ndarray, np.ndarray]:
 INTENSITIES = (0.0, *np.logspace(-3, 0, 13))
 #: measurement-noise levels it tries, in units of the given level
 MEASUREMENT_FACTORS = (0.7, 1.0, 1.4)
+#: variants :func:`likeliest_noises` filters side by side
+GRID_VARIANTS = len(INTENSITIES) * len(MEASUREMENT_FACTORS)
 
 
 def likeliest_noises(plan, system: CompiledSystem, noisy, measurement: np.ndarray):
@@ -563,8 +565,10 @@ NOISE_LOG_RANGE = (-30.0, 10.0)
 
 def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0: np.ndarray,
                process0: np.ndarray, measurement0: np.ndarray, *, noisy, bounds=None,
-               typical: np.ndarray | None = None,
-               max_iterations: int = 100) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+               typical: np.ndarray | None = None, max_iterations: int = 100,
+               curvature: bool = True,
+               step: Callable[[], object] | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """Maximise the filter's likelihood over the parameters and the noise intensities.
 
     Parameters
@@ -591,6 +595,11 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
         which is the search's unit.
     max_iterations : int, default=100
         Most quasi-Newton iterations.
+    curvature : bool, default=True
+        Read the covariance from the likelihood's curvature (else both
+        covariances are None).
+    step : callable, optional
+        Called after each pass of the search (a progress bar's step).
 
     Returns
     -------
@@ -628,6 +637,8 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
         s = 1e-6 * np.maximum(np.abs(z), 1.0)
         points = np.vstack([z, z + np.diag(s), z - np.diag(s)])
         nll = _variants(plan, system_for, points, p, layout).nll
+        if step is not None:
+            step()
         if not np.isfinite(nll[0]):  # worse than anything seen: the line search steps back
             return failure["value"] or 1e300, np.zeros(d)
         if failure["value"] is None:
@@ -644,8 +655,10 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
                       bounds=list(zip((low - z0) / unit, (high - z0) / unit)),
                       options={"maxiter": int(max_iterations), "ftol": 1e-10, "gtol": 1e-6})
     z = z0 + unit * result.x
-    steps = _curvature_steps(plan, system_for, z, p, layout=layout, unit=unit)
-    search_cov = _curvature_covariance(plan, system_for, z, p, layout=layout, s=steps)
+    search_cov = None
+    if curvature:
+        steps = _curvature_steps(plan, system_for, z, p, layout=layout, unit=unit)
+        search_cov = _curvature_covariance(plan, system_for, z, p, layout=layout, s=steps)
     theta, q, r = _numbers(z, p, layout)
     info = {"nll": float(result.fun), "iterations": int(result.nit),
             "converged": bool(result.success),

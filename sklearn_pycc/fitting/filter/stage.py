@@ -17,15 +17,17 @@ barely see.
 
 from __future__ import annotations
 
+import time
 import warnings
 from dataclasses import replace
 
 import numpy as np
 
+from ..._utils.progress import Progress, duration
 from ...skeleton.nodes import Symbol
 from ..numbers import Numbers
 from ..problem import FitResult, Problem
-from .kalman import NOISE_LOG_RANGE, fit_filter, likeliest_noises
+from .kalman import GRID_VARIANTS, NOISE_LOG_RANGE, fit_filter, likeliest_noises
 from .noises import NoiseLayout, check_measurement_noise, check_process_noise
 
 __all__ = ["WINDOW", "filter_plan", "filter_stage", "noisy_states", "smoothing_level"]
@@ -113,7 +115,8 @@ def smoothing_level(problem: Problem, plan) -> np.ndarray:
         for s, j in zip(plan.measured, plan.measured_index)])
 
 
-def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -> FitResult:
+def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100,
+                 verbose: int = 0) -> FitResult:
     """Refine a fit, written as ``numbers``, by the filter's likelihood.
 
     Returns the fit the refined numbers make, with the attributes
@@ -124,7 +127,8 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -
     numbers, from the likelihood's curvature; absent where it is not
     positive definite) and ``filter_`` (``nll``, ``iterations``,
     ``converged``, ``window``, ``segments``, ``held``: the
-    curves kept as the start drew them).
+    curves kept as the start drew them). ``verbose`` shows the search's
+    passes; a search that will take minutes says so at its start.
     """
     theta0 = np.clip(numbers.theta0, numbers.low, numbers.high)
     start = numbers.system_for(theta0)
@@ -134,11 +138,18 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -
     # the noises start at the likeliest of a grid about the level the differentiation's
     # smoothing took off the record (the output error would also hold the disturbances'
     # wander: another basin)
+    began = time.perf_counter()
     process0, measurement0, _ = likeliest_noises(plan, start, noisy,
                                                  smoothing_level(problem, plan))
-    theta, q, r, info = fit_filter(plan, numbers.system_for, theta0, process0, measurement0,
-                                   noisy=noisy, bounds=(numbers.low, numbers.high),
-                                   typical=numbers.typical, max_iterations=iterations)
+    d = len(theta0) + noisy.n_fitted + len(mi) - len(noisy.measurement_held)
+    _say_how_long(time.perf_counter() - began, d, n_samples=int(plan.own.sum()),
+                  verbose=verbose)
+    with Progress("fit_mode='filter'", verbose).bar(None, "pass", "filter") as step:
+        theta, q, r, info = fit_filter(plan, numbers.system_for, theta0, process0,
+                                       measurement0, noisy=noisy,
+                                       bounds=(numbers.low, numbers.high),
+                                       typical=numbers.typical, max_iterations=iterations,
+                                       step=step)
     states = list(plan.states)
     duration = max(float(e.t[-1] - e.t[0]) for e in problem.experiments)
     _warn_at_range_ends(states, q, noisy, list(plan.measured), r,
@@ -163,6 +174,28 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100) -
     if covariance is not None:
         attributes["covariance_"] = covariance
     return replace(result, attributes=attributes)
+
+
+#: passes of the filter a search typically takes (its iterations and the curvature's)
+TYPICAL_PASSES = 45
+#: a filter fit expected to take longer than this (seconds) says so at its start
+LONG_FIT = 60.0
+
+
+def _say_how_long(grid_seconds: float, d: int, *, n_samples: int, verbose: int) -> None:
+    """Warn, unless ``verbose``, where the search will take minutes.
+
+    The grid of noises filtered :data:`GRID_VARIANTS` variants side by
+    side in ``grid_seconds``; each of the search's passes filters ``2 d +
+    1`` (a number's central differences), about :data:`TYPICAL_PASSES` of
+    them.
+    """
+    expected = grid_seconds * (2 * d + 1) / GRID_VARIANTS * TYPICAL_PASSES
+    if expected > LONG_FIT and not verbose:
+        warnings.warn(f"the filter's fit of {n_samples:,} samples and {d} numbers will take "
+                      f"about {duration(expected)} (one pass of the filter through the record "
+                      f"per step of its search); verbose=1 shows its progress",
+                      UserWarning, stacklevel=4)
 
 
 def _noise_errors(layout: NoiseLayout, q: np.ndarray, r: np.ndarray, covariance,

@@ -29,6 +29,7 @@ import numpy as np
 from joblib import Parallel, delayed, effective_n_jobs
 
 from ..._utils.blocks import MIN_EXPERIMENTS, block_length, draw_blocks, segments
+from ..._utils.progress import duration
 from ...measurements.columns import FitData
 from ...measurements.experiments import Experiment
 from ..problem import FitResult, Problem
@@ -208,7 +209,7 @@ def run_refits(calls: list, n_jobs, prefer: str, *, verbose: bool = False
     if rest and expected > LONG_REFITS and not verbose:
         warnings.warn(
             f"{len(calls):,} refits on resamples: the first took {each:.2g} s each, so the "
-            f"other {len(rest):,} take about {_duration(expected)} on {workers} worker(s). "
+            f"other {len(rest):,} take about {duration(expected)} on {workers} worker(s). "
             "Fewer refits finish sooner (n_bootstrap=200 sets a standard error to within "
             "about 5 %), as do more processes (n_jobs)", UserWarning, stacklevel=6)
     bar = _progress(len(calls), len(timed)) if verbose and rest else None
@@ -230,12 +231,3 @@ def _progress(total: int, done: int):
     from tqdm.auto import tqdm
 
     return tqdm(total=total, initial=done, unit="refit", desc="n_bootstrap")
-
-
-def _duration(seconds: float) -> str:
-    """A duration in words: seconds, minutes or hours."""
-    if seconds < 120:
-        return f"{seconds:.0f} s"
-    if seconds < 7200:
-        return f"{seconds / 60:.0f} min"
-    return f"{seconds / 3600:.1f} h"
