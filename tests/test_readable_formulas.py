@@ -1,13 +1,12 @@
 """Formulas from the symbolic engine are readable: capped nesting, ties to the simpler."""
 
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 import sympy
 
-from sklearn_pycc import PolyCCRegressor, SymbolicCCRegressor, diagnose, from_tables
+from sklearn_pycc import SymbolicCCRegressor, from_tables
 from sklearn_pycc.backends.symbolic.curves import VARIABLE, SymbolicCurve, Template
 from sklearn_pycc.backends.symbolic.engines import Candidate
 from sklearn_pycc.backends.symbolic.readable import (
@@ -35,7 +34,6 @@ x = VARIABLE
 TANGLE = F(0.0805) * sympy.sin(sympy.exp(F(0.0071) * x) * sympy.tanh(
     sympy.cos(F(0.0227) * x))) - F(0.0183)
 SATURATING = F(0.3) * x + F(0.5) * sympy.tanh(F(8.0) * x)
-REAL = Path(__file__).resolve().parents[2] / "shared" / "real-data"
 
 
 def front(*entries):
@@ -214,20 +212,3 @@ def test_the_regressor_chooses_within_its_nesting_cap():
     assert nesting(model.expressions_["f1"]) == 0
     with pytest.raises(ValueError, match="max_nesting"):
         SymbolicCCRegressor(**settings, max_nesting=-1).fit(X, y)
-
-
-# -- (c) the real record that once proposed sin(exp(..) tanh(cos(..))) -----------------------
-@pytest.mark.slow  # a whole diagnosis: about 10 s
-@pytest.mark.skipif(not REAL.is_dir(), reason="the real records are absent")
-def test_the_real_oscillator_gets_a_readable_formula():
-    pytest.importorskip("pyoperon")
-    frame = pd.read_csv(REAL / "real_linear_oscillator.csv")
-    X = frame[["t", "x"]].rename(columns={"x": "x1"})
-    model = PolyCCRegressor(equations=["x1_dot = x2", "x2_dot = - a1 x2 - a2 x1"]).fit(X)
-    report = diagnose(model, X)
-    formulas = [p.formula for p in report.open_curves if p.formula is not None]
-    if not formulas:
-        pytest.skip("no free curve was confirmed on this record: no formula to read")
-    for text in formulas:
-        node = parse_expression(text, kind="term")
-        assert nesting(to_sympy(node, {}, {})) <= 1, text

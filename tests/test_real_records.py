@@ -42,9 +42,13 @@ def test_real_pendulum_lacks_a_softening_spring():
 
 
 @pytest.mark.slow
-def test_real_linear_oscillator_lacks_nothing_big():
+def test_real_linear_oscillator_lacks_nothing():
+    # a free damping curve once passed held-out checks here: it changes the simulated
+    # position by a tenth of the encoder's step, a third of its noise level
     X = _positions("real_linear_oscillator.csv", "x")
     model = PolyCCRegressor(equations=LINEAR).fit(X)
     report = diagnose(model, X)
     assert np.isfinite(report.simulation_rmse)
-    assert report.best is None or report.best.error_removed < 0.5
+    assert report.best is None
+    notes = report.ranking.set_index("effect").note
+    assert "below its noise level" in notes["free_damping_curve"]

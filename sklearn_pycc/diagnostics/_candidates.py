@@ -95,6 +95,8 @@ class Candidate:
     note: str = ""
     shifts: dict[int, np.ndarray] = field(default_factory=dict)
     simulation_rmse: float = math.nan
+    #: each state's simulation RMSE over the horizon (the leaders' only)
+    state_rmse: np.ndarray | None = None
     # held-out comparison with the model without the effect (HeldOut), when checked
     held_out: object = None
     # a removal judged by the filter's held-out likelihood (LikelihoodJudgement), when it was

@@ -42,7 +42,7 @@ from ._decide import (
     simulates_better,
     suggestion_for,
 )
-from ._detection import detection_limits
+from ._detection import above_the_noise, detection_limits
 from ._failures import (
     ResidualMap,
     explaining_variables,
@@ -362,6 +362,8 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
                      if not run_simulation or not math.isfinite(simulation_rmse)
                      or c.simulation_rmse <= (1 - open_gain(c, model, X, cache))
                      * simulation_rmse]
+        if run_simulation and promising:
+            promising = above_the_noise(promising, X, states, trajectory_table)
         chosen = decide_open(promising, model, data, judge, failing, steps=steps,
                               held_out=held_out, n_jobs=n_jobs,
                               cache=cache, record=X)
@@ -523,6 +525,8 @@ def _simulate_leaders(refitted: list[Candidate], data: Record, measured: np.ndar
         simulated, divergences, _ = simulate_against(candidate.refit, data, horizon,
                                                      max_steps=steps)
         candidate.simulation_rmse = rmse(measured, simulated)
+        with np.errstate(all="ignore"):
+            candidate.state_rmse = np.sqrt(np.nanmean((simulated - measured) ** 2, axis=0))
         if divergences and not base_divergences:
             candidate.plausible = False
             candidate.note = f"the refitted model's simulation fails: {divergences[0]}"
