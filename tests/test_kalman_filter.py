@@ -563,3 +563,16 @@ def test_a_noise_the_search_leaves_at_its_floor_is_said_not_to_be_trusted(push):
             model.params_interval()
     else:
         assert model.process_noise_["x2"] == pytest.approx(push, rel=0.3) and not said
+
+
+def test_a_quantised_sensor_is_never_read_finer_than_it_rounds():
+    # position counts of an encoder (step 0.05), nothing else on them: left free, the filter
+    # read their noise at 0.0140, below the 0.0144 that rounding alone makes
+    X, states = _pushed_oscillator(2000, seed=3, truth=True)
+    step = 0.05
+    X["x1"] = np.round(states[:, 0] / step) * step
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=OSCILLATOR, fit_mode="filter").fit(X)
+    assert model.measurement_noise_["x1"] >= step / np.sqrt(12) * (1 - 1e-9)
+    assert model.process_noise_["x2"] == pytest.approx(Q, rel=0.3)

@@ -357,13 +357,11 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
         # a curve that does not simulate the record itself clearly better (by what it must
         # lower the whole record's error) will not do so on data it has not seen: spare
         # the whole record's fit and the held-out fits
-        promising = [c for c in eligible_candidates(opened, min_improvement, bic_threshold,
-                                          simulation_rmse)
-                     if not run_simulation or not math.isfinite(simulation_rmse)
-                     or c.simulation_rmse <= (1 - open_gain(c, model, X, cache))
-                     * simulation_rmse]
-        if run_simulation and promising:
-            promising = above_the_noise(promising, X, states, trajectory_table)
+        promising = eligible_candidates(opened, min_improvement, bic_threshold, simulation_rmse)
+        if run_simulation and math.isfinite(simulation_rmse):
+            promising = _clearly_better(promising, model, X, cache,
+                                        simulation_rmse=simulation_rmse, states=states,
+                                        trajectories=trajectory_table)
         chosen = decide_open(promising, model, data, judge, failing, steps=steps,
                               held_out=held_out, n_jobs=n_jobs,
                               cache=cache, record=X)
@@ -392,6 +390,20 @@ def diagnose(model, X, y=None, *, n_refit: int = 5, min_improvement: float = 0.1
                      maps, ranking, best, simulation_rmse, notes, window, implausible,
                      units, measured, tried, candidates, data,
                      variables, stability, len(X) - data.n_samples, detection)
+
+
+def _clearly_better(opened: list[Candidate], model, X, cache: dict, *, simulation_rmse: float,
+                    states: list[str], trajectories: pd.DataFrame) -> list[Candidate]:
+    """The free curves worth their held-out fits.
+
+    Each must simulate the record itself better by what it must lower the
+    whole record's error (:func:`open_gain`: it will not do so on data it has
+    not seen otherwise), and change a measured state's simulation by its
+    noise level (:func:`above_the_noise`).
+    """
+    better = [c for c in opened
+              if c.simulation_rmse <= (1 - open_gain(c, model, X, cache)) * simulation_rmse]
+    return above_the_noise(better, X, states, trajectories) if better else better
 
 
 def _push_memory(model, residuals: np.ndarray) -> np.ndarray | None:

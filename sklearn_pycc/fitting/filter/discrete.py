@@ -62,7 +62,7 @@ def step_noise(A: np.ndarray, q2: np.ndarray, h: np.ndarray, F: np.ndarray) -> n
     its first end correction (Euler-Maclaurin) over the integrand
     ``g(s) = exp(A s) Q exp(A' s)``, whose ends are ``Q`` and ``F Q F'``
     and whose slopes are ``A g + g A'``: a relative error below
-    ``(2 |A h|)^4 / 720`` (2e-6), at the cost of two matrix products.
+    ``(2 |A h|)^4 / 720`` (1e-5), at the cost of two matrix products.
     Otherwise a step with ``|A h| <= 1`` is summed as its series,
     ``Q_h = sum_k h^(k+1) / (k+1)! T_k`` with ``T_0 = diag(q^2)`` and
     ``T_k = A T_(k-1) + T_(k-1) A'``, to as many terms as the batch's
@@ -105,10 +105,10 @@ def step_noise(A: np.ndarray, q2: np.ndarray, h: np.ndarray, F: np.ndarray) -> n
 
 
 #: relative error the series of :func:`step_noise` stops at
-SERIES_TOLERANCE = 1e-10
+SERIES_TOLERANCE = 1e-8
 #: the longest step (``|A h|``, 1-norm) :func:`step_noise` integrates by the corrected
 #: trapezoid rule
-SHORT_REACH = 0.1
+SHORT_REACH = 0.15
 
 
 def _corrected_trapezoid(A: np.ndarray, q2: np.ndarray, h: np.ndarray,

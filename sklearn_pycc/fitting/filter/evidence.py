@@ -10,9 +10,10 @@ predicted states; a random push leaves them white and unrelated to them.
 The evidence costs a few passes of the filter, not a fit of the model: the
 process noise tried over a grid of intensities (and the measurement noise
 about the level the differentiation's smoothing took off the record), side
-by side; where a push helps, the noises alone searched from the likeliest
-(a few iterations, the model's numbers held); and that pass read again for
-its predicted states.
+by side, the likeliest pass read again for its predicted states; and where a
+push helps and leaves errors that last yet depend on no state, the noises
+alone searched from the likeliest (a few iterations, the model's numbers
+held) and that pass read too.
 """
 
 from __future__ import annotations
@@ -122,24 +123,35 @@ def process_noise_evidence(problem: Problem, system: CompiledSystem) -> ProcessN
     plan = filter_plan(problem, system, whole=bool(problem.hidden))
     layout = noisy_states(problem)
     q, r, gain = likeliest_noises(plan, system, layout, smoothing_level(problem, plan))
-    noises = [(q, r)]
-    if gain >= LEAST_GAIN and layout.n_fitted:
+    read = [_errors_read(plan, system, q, r)]
+    white_p, depends, dependence_p, state = _judged(read)
+    if gain >= LEAST_GAIN and layout.n_fitted and white_p < ALPHA and not depends:
         # the grid moves every intensity by one factor: where the states' pushes stand in
         # another ratio its gains are off, and a filter with wrong gains leaves errors that
         # last from one sample to the next; the noises alone are searched from there
-        noises.append(fit_filter(plan, lambda _: system, np.zeros(0), q, r, noisy=layout,
-                                 max_iterations=NOISE_ITERATIONS, curvature=False)[1:3])
-    # white where either pass leaves white errors; dependent where either shows a state
-    # (a filter tuned to a skeleton short of an effect follows it better, and hides it)
-    read = [_errors_read(plan, system, *pair) for pair in noises]
-    white_p = max(white for white, _ in read)
-    tests = [test for _, tests in read for test in tests]
-    dependence_p, state = min(tests) if tests else (1.0, None)
-    depends = dependence_p < ALPHA_DEPENDENCE / max(len(tests), 1)
+        q, r = fit_filter(plan, lambda _: system, np.zeros(0), q, r, noisy=layout,
+                          max_iterations=NOISE_ITERATIONS, curvature=False)[1:3]
+        # white where either pass leaves white errors; dependent where either shows a state
+        # (a filter tuned to a skeleton short of an effect follows it better, and hides it)
+        read.append(_errors_read(plan, system, q, r))
+        white_p, depends, dependence_p, state = _judged(read)
     return ProcessNoiseEvidence(
         recognised=bool(gain >= LEAST_GAIN and white_p >= ALPHA and not depends),
         gain=gain, white_p=float(white_p), dependence_p=float(dependence_p),
         depends_on=state if depends else None)
+
+
+def _judged(read: list) -> tuple[float, bool, float, str | None]:
+    """Whiteness and dependence over the passes read: the whitest, and the most dependent.
+
+    Returns the largest whiteness p-value, whether a dependence passes the
+    shared significance, its p-value and its state.
+    """
+    white_p = max(white for white, _ in read)
+    tests = [test for _, tests in read for test in tests]
+    dependence_p, state = min(tests) if tests else (1.0, None)
+    return white_p, bool(dependence_p < ALPHA_DEPENDENCE / max(len(tests), 1)), \
+        dependence_p, state
 
 
 def _errors_read(plan, system: CompiledSystem, q: np.ndarray, r: np.ndarray):

@@ -567,7 +567,8 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
                process0: np.ndarray, measurement0: np.ndarray, *, noisy, bounds=None,
                typical: np.ndarray | None = None, max_iterations: int = 100,
                curvature: bool = True,
-               step: Callable[[], object] | None = None
+               step: Callable[[], object] | None = None,
+               measurement_floor: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """Maximise the filter's likelihood over the parameters and the noise intensities.
 
@@ -600,6 +601,9 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
         covariances are None).
     step : callable, optional
         Called after each pass of the search (a progress bar's step).
+    measurement_floor : ndarray of shape (n_measured,), optional
+        The least each measurement noise may be (a quantised sensor's
+        rounding, ``step / sqrt(12)``; 0: none).
 
     Returns
     -------
@@ -623,6 +627,10 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
     if bounds is not None:
         low[:p], high[:p] = bounds
     low[p:], high[p:] = NOISE_LOG_RANGE  # noise intensities from 1e-13 to 2e4
+    if measurement_floor is not None:  # no sensor reads finer than it rounds
+        floor = layout.measurement_fitted_of(measurement_floor)
+        with np.errstate(divide="ignore"):
+            low[p + layout.n_fitted:] = np.maximum(low[p + layout.n_fitted:], np.log(floor))
 
     z0 = np.clip(z0, low, high)
     # searched in units of a tenth of each parameter (half a factor e of each noise): the

@@ -30,7 +30,8 @@ from ..problem import FitResult, Problem
 from .kalman import GRID_VARIANTS, NOISE_LOG_RANGE, fit_filter, likeliest_noises
 from .noises import NoiseLayout, check_measurement_noise, check_process_noise
 
-__all__ = ["WINDOW", "filter_plan", "filter_stage", "noisy_states", "smoothing_level"]
+__all__ = ["WINDOW", "filter_plan", "filter_stage", "noisy_states", "rounding_floor",
+           "smoothing_level"]
 
 #: samples per filtered segment: long against the states' memory under the process noise
 WINDOW = 200
@@ -104,6 +105,27 @@ def filter_plan(problem: Problem, system, *, whole: bool):
     return plan
 
 
+def rounding_floor(problem: Problem, measured: list[str]) -> np.ndarray:
+    """Per measured state, the noise its rounding alone makes: ``step / sqrt(12)``, or 0.
+
+    A quantised sensor (an encoder's counts, an ADC's least bit) reads no
+    finer than its step; the filter's measurement noise is searched no
+    lower (left free, it can fall orders of magnitude below, the filter
+    then following every sample). Missing samples are left out of the
+    reading.
+    """
+    from ...measurements.spectral import find_quantum
+
+    floors = []
+    for state in measured:
+        values = problem.measured[state]
+        if state in problem.missing:
+            values = values[~problem.missing[state]]
+        quantum = find_quantum(values)
+        floors.append(0.0 if quantum is None else quantum.step / np.sqrt(12.0))
+    return np.array(floors)
+
+
 def smoothing_level(problem: Problem, plan) -> np.ndarray:
     """Per measured state, what the differentiation's smoothing took off the record.
 
@@ -139,8 +161,9 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100,
     # smoothing took off the record (the output error would also hold the disturbances'
     # wander: another basin)
     began = time.perf_counter()
-    process0, measurement0, _ = likeliest_noises(plan, start, noisy,
-                                                 smoothing_level(problem, plan))
+    floor = rounding_floor(problem, list(plan.measured))
+    process0, measurement0, _ = likeliest_noises(
+        plan, start, noisy, np.maximum(smoothing_level(problem, plan), floor))
     d = len(theta0) + noisy.n_fitted + len(mi) - len(noisy.measurement_held)
     _say_how_long(time.perf_counter() - began, d, n_samples=int(plan.own.sum()),
                   verbose=verbose)
@@ -149,7 +172,7 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100,
                                        measurement0, noisy=noisy,
                                        bounds=(numbers.low, numbers.high),
                                        typical=numbers.typical, max_iterations=iterations,
-                                       step=step)
+                                       step=step, measurement_floor=floor)
     states = list(plan.states)
     duration = max(float(e.t[-1] - e.t[0]) for e in problem.experiments)
     _warn_at_range_ends(states, q, noisy, list(plan.measured), r,
