@@ -232,3 +232,20 @@ def test_a_signal_with_a_missing_sample_is_read_on_its_longest_stretch():
     gappy = Measurement(noisy.assign(x1=noisy["x1"].mask(noisy.index == 100))).noise
     assert "x1" in gappy  # it was left out without a word
     assert gappy["x1"].level == pytest.approx(whole, rel=0.1)
+
+
+@pytest.mark.parametrize("clock", ["jittered", "random", "two_rates"])
+def test_an_unevenly_sampled_record_has_its_noise_read_from_its_samples(clock):
+    # resampled on an even grid the noise was smoothed or folded: read 13 % low on a
+    # jittered clock, 30 times too high (and coloured) on a random one
+    rng = np.random.default_rng(0)
+    n = 3000
+    steps = {"jittered": rng.uniform(0.005, 0.015, n), "random": rng.exponential(0.01, n),
+             "two_rates": np.where(np.arange(n) % 2 == 0, 0.005, 0.015)}[clock]
+    t = np.cumsum(steps)
+    signal = np.sin(13 * t) + 0.5 * np.sin(4 * t)
+    X = pd.DataFrame({"t": t, "x1": signal + 0.05 * rng.standard_normal(n)})
+    reading = Measurement(X).noise["x1"]
+    assert reading.level == pytest.approx(0.05, rel=0.1)
+    assert not reading.coloured and reading.snr_db == pytest.approx(
+        20 * np.log10(np.std(signal) / 0.05), abs=1.5)

@@ -29,9 +29,15 @@ from scipy import ndimage, optimize, signal
 
 from .spectral import CLEAN_RATIO, FLOOR_BAND
 
-__all__ = ["NoiseReading", "SignalNoise", "multitaper_density", "read_noise",
-           "second_difference_level",
-           "slow_memory"]
+__all__ = [
+    "NoiseReading",
+    "SignalNoise",
+    "multitaper_density",
+    "read_noise",
+    "second_difference_level",
+    "slow_memory",
+    "uneven_level",
+]
 
 #: a coloured reading this many times quieter than the signal (in power, 80 dB) is the
 #: tapers' own leakage from a noise-free signal
@@ -573,7 +579,16 @@ class NoiseReading(Mapping):
 
 
 def read_frame_noise(frame, columns) -> dict[str, SignalNoise]:
-    """The noise of some columns of a record with ``t``, each read on its longest experiment."""
+    """The noise of some columns of a record with ``t``, each read on its longest experiment.
+
+    A record sampled on no even grid (a logger's irregular clock), or on
+    one it fills more than :data:`FILLED_SHARE` of (bursts of samples with
+    long pauses between them), is interpolated for the spectrum, which
+    smooths or folds its noise: read there, a level can come out far too
+    low (zero) or too high. Its level is then
+    read from the samples themselves (:func:`uneven_level`), as white noise:
+    the colour of a noise sampled so unevenly is not read.
+    """
     from .._utils.bandlimited import even_grid
     from .experiments import TIME, TRAJECTORY, split_experiments
     from .spectral import find_quantum
@@ -590,9 +605,57 @@ def read_frame_noise(frame, columns) -> dict[str, SignalNoise]:
             continue
         times, values = t[longest.rows][run], values[run]
         grid = even_grid(times)
-        out[str(name)] = read_noise(grid.fill(times, values), grid.step, name=str(name),
-                                    quantum=find_quantum(values))
+        reading = read_noise(grid.fill(times, values), grid.step, name=str(name),
+                             quantum=find_quantum(values))
+        if grid.resampled or grid.dropped > FILLED_SHARE * len(times):
+            reading = _white_at(reading, uneven_level(times, values), times, values)
+        out[str(name)] = reading
     return out
+
+
+#: the share of a record's samples an even grid may have to fill for its noise to be read there
+FILLED_SHARE = 0.25
+
+
+def uneven_level(t: np.ndarray, x: np.ndarray) -> float:
+    """The level of a signal's white noise from samples at uneven times, robustly.
+
+    Each sample is compared with the cubic through its two neighbours on
+    either side (Lagrange weights ``w`` at its time): for white noise of
+    level sigma the difference has spread ``sigma sqrt(1 + sum w^2)``, by
+    which it is divided, and the median absolute value is read (a kink
+    here and there does not count). The signal's bend and its third
+    derivative cancel: only its fourth derivative is left, small wherever
+    the samples are close against the signal's changes.
+    """
+    t, x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
+    if len(t) < 5:
+        return float("nan")
+    centre = t[2:-2]
+    others = [t[j:len(t) - 4 + j] for j in (0, 1, 3, 4)]
+    values = [x[j:len(x) - 4 + j] for j in (0, 1, 3, 4)]
+    weights = []
+    with np.errstate(all="ignore"):
+        for i, ti in enumerate(others):
+            w = np.ones_like(centre)
+            for k, tk in enumerate(others):
+                if k != i:
+                    w = w * (centre - tk) / (ti - tk)
+            weights.append(w)
+        predicted = sum(w * v for w, v in zip(weights, values))
+        residual = (x[2:-2] - predicted) / np.sqrt(1.0 + sum(w * w for w in weights))
+    residual = residual[np.isfinite(residual)]
+    return 1.4826 * float(np.median(np.abs(residual))) if residual.size else float("nan")
+
+
+def _white_at(reading: SignalNoise, level: float, t: np.ndarray, x: np.ndarray) -> SignalNoise:
+    """``reading`` as white noise of ``level``, its signal's spread read again beside it."""
+    if not np.isfinite(level):
+        return reading
+    trend = np.polyval(np.polyfit(t - t[0], x, 1), t - t[0])
+    spread = float(np.std(x - trend))
+    return replace(reading, level=level, ar=(), innovation=0.0, white=level,
+                   signal_std=float(np.sqrt(max(spread**2 - level**2, 0.0))))
 
 
 def _longest_finite_run(values: np.ndarray) -> slice:
