@@ -84,7 +84,7 @@ def test_a_given_linear_model_has_the_exact_discrete_likelihood(h, missing):
     assert not hasattr(model, "params_")  # evaluated, not fitted
 
 
-@pytest.mark.parametrize("missing", [0, 100])
+@pytest.mark.parametrize("missing", [pytest.param(0, marks=pytest.mark.slow), 100])
 def test_a_fitted_linear_model_has_the_exact_discrete_likelihood(missing):
     X = _record(600, 0.3, seed=2, missing=missing)
     with warnings.catch_warnings():
