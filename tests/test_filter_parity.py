@@ -221,3 +221,38 @@ def test_a_filtered_model_that_simulates_worse_than_its_start_is_said_to():
         warnings.simplefilter("error")  # as good as its start, or better: nothing to say
         _warn_worse_simulation(problem, plan, (off, right), q=q, r=r, level=np.array([R, R]))
         _warn_worse_simulation(problem, plan, (right, right), q=q, r=r, level=np.array([R, R]))
+
+
+def test_a_measurement_is_filtered_as_its_frame_is():
+    from sklearn_pycc.measurements import Measurement
+
+    X = _record(300, 0.3, seed=12)
+    y = pd.DataFrame({f"{s}_dot": np.gradient(X[s].to_numpy(), X.t.to_numpy())
+                      for s in ("x1", "x2")})  # a Measurement that carries derivatives too
+    model = _given(initial_state=START)
+    assert model.log_likelihood(Measurement(X, y)) == pytest.approx(model.log_likelihood(X))
+    with pytest.raises(ValueError, match=r"measurement_noise names 'x2', which X does not "
+                       r"measure"):
+        PolyCCRegressor(equations=FREE, fit_mode="filter", measurement_noise={"x2": 0.1}).fit(
+            X.drop(columns="x2"))
+
+
+def test_the_noise_a_step_adds_is_the_exact_integral_for_short_and_long_steps_alike():
+    from sklearn_pycc.fitting.filter.discrete import step_noise
+
+    rng = np.random.default_rng(0)
+    # steps short (corrected trapezoid), middling (series) and long (Van Loan) in one batch,
+    # a non-normal flow among them, and a diverged variant
+    scales = np.array([0.01, 0.05, 0.3, 0.9, 4.0, 20.0])
+    A = rng.standard_normal((len(scales), 2, 2)) * scales[:, None, None]
+    A[2] = [[0.0, 25.0], [0.0, -0.5]]
+    q2, h = rng.uniform(0.1, 1.0, (len(scales), 2)), np.full(len(scales), 0.1)
+    F = np.array([expm(a * 0.1) for a in A])
+    A[-1, 0, 0] = np.nan
+    noise = step_noise(A, q2, h, F)
+    for k in range(len(scales) - 1):
+        block = expm(np.block([[-A[k], np.diag(q2[k])], [np.zeros((2, 2)), A[k].T]]) * 0.1)
+        exact = block[2:, 2:].T @ block[:2, 2:]
+        assert np.allclose(noise[k], exact, rtol=1e-4, atol=1e-12 * np.abs(exact).max())
+    assert not np.isfinite(noise[-1]).all()
+    assert np.all(step_noise(A[:2], q2[:2], np.zeros(2), F[:2]) == 0.0)  # padding adds none

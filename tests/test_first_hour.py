@@ -72,7 +72,8 @@ def test_later_rounds_say_whose_horizon_they_keep_and_runners_up_are_compared():
 
 
 def test_a_verbose_fit_says_its_stages_and_a_quiet_one_nothing(capsys):
-    frame = datasets.make_oscillator(disturbance=0.08, noise=40.0, noise_columns=["x1"],
+    frame = datasets.make_oscillator(hidden=[], disturbance=0.08, noise=40.0,
+                                     noise_columns=["x1"],
                                      n_samples=600, random_state=0)[["t", "x1", "F_ext"]]
     equations = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
     with warnings.catch_warnings():

@@ -33,7 +33,8 @@ class FilterFit:
     def setup(self, n_samples):
         self._limits = threadpool_limits(limits=1)
         warnings.simplefilter("ignore")
-        self.X = datasets.make_oscillator(disturbance=0.08, noise=40.0, noise_columns=["x1"],
+        self.X = datasets.make_oscillator(hidden=[], disturbance=0.08, noise=40.0,
+                                          noise_columns=["x1"],
                                           n_samples=n_samples, t_span=(0.0, n_samples / 100),
                                           random_state=0)[["t", "x1", "F_ext"]]
 

@@ -216,7 +216,9 @@ class FilteringMixin:
         experiment of ``X``; its one-step predictions give each sample's
         probability. On a record the model was not fitted on, the larger
         the better: it judges candidate skeletons where disturbances make
-        their simulations wander.
+        their simulations wander. An unfitted model whose every number is
+        given (in the equations, ``process_noise`` and ``measurement_noise``)
+        is evaluated as it stands, nothing fitted.
 
         Parameters
         ----------
@@ -233,6 +235,8 @@ class FilteringMixin:
         ------
         ValueError
             When the model was not fitted with ``fit_mode="filter"``.
+        NotFittedError
+            When it is not fitted and some number is not given (each named).
         """
         _, run = self._filtered(X, "log_likelihood", keep=False)
         return -float(run.nll[0])

@@ -263,8 +263,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         For ``fit_mode="filter"``: state -> where every experiment starts, a
         number (known) or a pair ``(mean, variance)``. A state not given
         starts at the record's first sample (an unmeasured one where the
-        output-error model simulates it) with the states' spread over the
-        record as its variance. Output-error fits do not read it (they fit
+        output-error model simulates it) with the measured samples' mean
+        square as its variance. Output-error fits do not read it (they fit
         each experiment's start) and say so.
 
     Attributes
@@ -479,6 +479,9 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                              who=type(self).__name__, trim=False,
                              hidden_ok=self.fit_mode != "equation")
         _warn_crossed_limits(skeleton, record)
+        # a held sensor noise of a state X does not measure: said now, not after the fit
+        check_measurement_noise(getattr(self, "measurement_noise", None), skeleton.states,
+                                [s for s in skeleton.states if s in record.measured])
         if record.hidden:  # every limit is then fitted by output error
             _check_hidden(skeleton, record.hidden, backend)
             constraints, gauge = hidden_level_gauge(skeleton, record.hidden, constraints, gauge)
@@ -654,7 +657,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
     def _filter_settings_given(self) -> list[str]:
         """The settings only the filter reads that this estimator was given."""
         return [name for name in ("process_noise", "measurement_noise", "initial_state")
-                if getattr(self, name, None) is not None]
+                if getattr(self, name, None)]
 
     def _check_filter_settings(self, skeleton: Skeleton) -> None:
         """Check the filter's settings against the skeleton; warn where the mode ignores them."""
@@ -1033,11 +1036,11 @@ def _across_gaps(X, y, skeleton: Skeleton):
     ``missing`` says where they were. A record without such gaps comes back
     as it was.
     """
-    frame, y, _ = unwrap(X, y)
+    frame, inner_y, _ = unwrap(X, y)
     missing = missing_samples(frame, skeleton.states)
     if not missing:
-        return X, y, {}
-    return filled_across_gaps(frame, missing), y, missing
+        return X, y, {}  # as given: a Measurement keeps its derivatives
+    return filled_across_gaps(frame, missing), inner_y, missing
 
 
 def _measured_limits(skeleton, record) -> dict[str, float]:

@@ -673,8 +673,9 @@ class PolyCCRegressor(CCRegressor):
         Processes for the refits on resamples (joblib; None is one, -1
         every core). The result does not depend on it.
     verbose : int, default=0
-        1: a fit (and its refits on resamples) over a few seconds says each
-        stage as it starts, and the filter's search shows its passes.
+        1: a fit says each stage as it starts (with the seconds since it
+        began), the filter's search shows its passes and the refits on
+        resamples their count.
     random_state : int, RandomState or None
         Seeds the multi-start search when there are three or more nonlinear
         parameters.

@@ -161,7 +161,7 @@ class Problem:
     initial_state : dict
         State -> (mean, variance) of its value at the start of every
         experiment (:func:`~sklearn_pycc.fitting.initial_state.check_initial_state`):
-        the filter starts there; an output-error fit holds the mean.
+        the filter starts there (output-error fits do not read it).
     missing : dict
         Measured state -> a mask of the record's rows where its sample is
         missing (the filter updates without it; the record's other

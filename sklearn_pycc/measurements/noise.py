@@ -605,10 +605,14 @@ def read_frame_noise(frame, columns) -> dict[str, SignalNoise]:
             continue
         times, values = t[longest.rows][run], values[run]
         grid = even_grid(times)
+        quantum = find_quantum(values)
         reading = read_noise(grid.fill(times, values), grid.step, name=str(name),
-                             quantum=find_quantum(values))
+                             quantum=quantum)
         if grid.resampled or grid.dropped > FILLED_SHARE * len(times):
-            reading = _white_at(reading, uneven_level(times, values), times, values)
+            # no sensor reads finer than it rounds
+            rounding = 0.0 if quantum is None else float(np.sqrt(quantum.noise_variance))
+            reading = _white_at(reading, max(uneven_level(times, values), rounding), times,
+                                values)
         out[str(name)] = reading
     return out
 

@@ -91,7 +91,10 @@ def step_noise(A: np.ndarray, q2: np.ndarray, h: np.ndarray, F: np.ndarray) -> n
         # a bound of every row's |A h| first (two calls), the rows' own where it is not short
         if batch and n * np.abs(A).max() * np.abs(h).max() <= SHORT_REACH:
             return _corrected_trapezoid(A, q2, h, F)  # NaN fails the test: the long way
-        reach = np.abs(A).sum(axis=-2).max(axis=-1) * np.abs(h)
+        # T A' is bounded by the infinity norm, A T by the one norm: the larger of the two
+        size = np.abs(A)
+        reach = np.maximum(size.sum(axis=-2).max(axis=-1), size.sum(axis=-1).max(axis=-1)) * \
+            np.abs(h)
         if batch and reach.max() <= SHORT_REACH:
             return _corrected_trapezoid(A, q2, h, F)
     short = reach <= 1.0  # NaN (a diverged variant) goes the long way, and stays NaN

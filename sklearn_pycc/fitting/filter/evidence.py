@@ -27,7 +27,7 @@ from scipy.stats import f as f_law
 from ...skeleton.system import CompiledSystem
 from ..problem import Problem
 from .kalman import fit_filter, kalman_pass, likeliest_noises
-from .stage import filter_plan, noisy_states, smoothing_level
+from .stage import filter_plan, noisy_states, rounding_floor, smoothing_level
 
 __all__ = ["ProcessNoiseEvidence", "dependence", "ljung_box", "portmanteau",
            "process_noise_evidence"]
@@ -121,8 +121,11 @@ def process_noise_evidence(problem: Problem, system: CompiledSystem) -> ProcessN
     ProcessNoiseEvidence
     """
     plan = filter_plan(problem, system, whole=bool(problem.hidden))
-    layout = noisy_states(problem)
-    q, r, gain = likeliest_noises(plan, system, layout, smoothing_level(problem, plan))
+    # the noises as the filter's fit would hold and bound them
+    layout = noisy_states(problem, list(plan.measured))
+    floor = rounding_floor(problem, list(plan.measured))
+    q, r, gain = likeliest_noises(plan, system, layout,
+                                  np.maximum(smoothing_level(problem, plan), floor))
     read = [_errors_read(plan, system, q, r)]
     white_p, depends, dependence_p, state = _judged(read)
     if gain >= LEAST_GAIN and layout.n_fitted and white_p < ALPHA and not depends:
@@ -130,7 +133,8 @@ def process_noise_evidence(problem: Problem, system: CompiledSystem) -> ProcessN
         # another ratio its gains are off, and a filter with wrong gains leaves errors that
         # last from one sample to the next; the noises alone are searched from there
         q, r = fit_filter(plan, lambda _: system, np.zeros(0), q, r, noisy=layout,
-                          max_iterations=NOISE_ITERATIONS, curvature=False)[1:3]
+                          max_iterations=NOISE_ITERATIONS, curvature=False,
+                          measurement_floor=floor)[1:3]
         # white where either pass leaves white errors; dependent where either shows a state
         # (a filter tuned to a skeleton short of an effect follows it better, and hides it)
         read.append(_errors_read(plan, system, q, r))

@@ -87,7 +87,7 @@ def filter_plan(problem: Problem, system, *, whole: bool):
             plan.targets[..., j][problem.missing[state][plan.rows]] = np.nan
     # each experiment starts at its first sample as measured (not as smoothed) with the
     # spread of the measured samples (their mean square), or where the user said
-    first = np.flatnonzero(np.r_[True, ~plan.successor[:-1]])
+    first = experiment_starts(plan)
     plan.start_variance = np.tile(np.asarray(plan.scale, dtype=float) ** 2,
                                   (plan.n_segments, 1))
     for j, state in zip(plan.measured_index, plan.measured):
@@ -103,6 +103,11 @@ def filter_plan(problem: Problem, system, *, whole: bool):
             plan.initial[first, j] = mean
             plan.start_variance[first, j] = variance
     return plan
+
+
+def experiment_starts(plan) -> np.ndarray:
+    """The segments of ``plan`` that start an experiment (each one's first)."""
+    return np.flatnonzero(np.r_[True, ~plan.successor[:-1]])
 
 
 def rounding_floor(problem: Problem, measured: list[str]) -> np.ndarray:
@@ -122,7 +127,7 @@ def rounding_floor(problem: Problem, measured: list[str]) -> np.ndarray:
         if state in problem.missing:
             values = values[~problem.missing[state]]
         quantum = find_quantum(values)
-        floors.append(0.0 if quantum is None else quantum.step / np.sqrt(12.0))
+        floors.append(0.0 if quantum is None else float(np.sqrt(quantum.noise_variance)))
     return np.array(floors)
 
 
@@ -162,8 +167,8 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100,
     # wander: another basin)
     began = time.perf_counter()
     floor = rounding_floor(problem, list(plan.measured))
-    process0, measurement0, _ = likeliest_noises(
-        plan, start, noisy, np.maximum(smoothing_level(problem, plan), floor))
+    level = smoothing_level(problem, plan)
+    process0, measurement0, _ = likeliest_noises(plan, start, noisy, np.maximum(level, floor))
     d = len(theta0) + noisy.n_fitted + len(mi) - len(noisy.measurement_held)
     _say_how_long(time.perf_counter() - began, d, n_samples=int(plan.own.sum()),
                   verbose=verbose)
@@ -174,12 +179,12 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100,
                                        typical=numbers.typical, max_iterations=iterations,
                                        step=step, measurement_floor=floor)
     states = list(plan.states)
-    duration = max(float(e.t[-1] - e.t[0]) for e in problem.experiments)
+    longest = max(float(e.t[-1] - e.t[0]) for e in problem.experiments)
     _warn_at_range_ends(states, q, noisy, list(plan.measured), r,
-                        scale=np.asarray(plan.scale, dtype=float), duration=duration,
+                        scale=np.asarray(plan.scale, dtype=float), duration=longest,
                         measured_index=list(mi))
     _warn_worse_simulation(problem, plan, (start, numbers.system_for(theta)),
-                           q=q, r=r, level=smoothing_level(problem, plan))
+                           q=q, r=r, level=level)
     result = numbers.result_for(theta)
     attributes = {k: v for k, v in result.attributes.items() if k != "covariance_"}
     q_std, r_std = _noise_errors(noisy, q, r, info["search_covariance"], len(theta))
@@ -259,7 +264,7 @@ def simulation_error(problem: Problem, plan, system) -> float:
     from ..output_error.whole_record import WholeRecord
 
     whole = WholeRecord(problem)
-    first = np.asarray(plan.initial, dtype=float)[np.r_[True, ~plan.successor[:-1]]]
+    first = np.asarray(plan.initial, dtype=float)[experiment_starts(plan)]
     whole.choose_substeps(system, first)
     errors = whole.errors(system, first).reshape(-1, len(whole.index) + len(whole.outputs))
     rows = whole.windows.rows[whole.windows.valid]
