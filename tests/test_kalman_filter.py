@@ -231,20 +231,30 @@ def test_a_neural_curve_is_refitted_by_the_filter():
     assert 0.9 <= inside <= 0.99
 
 
-def test_the_user_holds_or_shares_the_process_noises(record):
-    settings = {"equations": OSCILLATOR, "fit_mode": "filter"}
+def _filtered_with(record, **process_noise):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        free = PolyCCRegressor(**settings).fit(record)
-        held = PolyCCRegressor(process_noise={"x2": Q}, **settings).fit(record)
-        shared = PolyCCRegressor(process_noise={"x1": "push", "x2": "push"}, **settings).fit(
+        return PolyCCRegressor(equations=OSCILLATOR, fit_mode="filter", **process_noise).fit(
             record)
-        calm = PolyCCRegressor(process_noise={"x2": 0}, **settings).fit(record)
+
+
+@pytest.fixture(scope="module")
+def free(record):
+    return _filtered_with(record)
+
+
+def test_the_user_holds_the_process_noise(record, free):
+    held = _filtered_with(record, process_noise={"x2": Q})
     assert free.process_noise_ == {"x1": 0.0, "x2": pytest.approx(Q, rel=0.1)}
     assert held.process_noise_ == {"x1": 0.0, "x2": Q}  # held exactly, the rest refitted
     for name, value in {"a1": A1, "a2": A2}.items():
         assert abs(held.params_[name] - value) < 3 * held.params_std_[name]
     assert held.filter_["nll"] == pytest.approx(free.filter_["nll"], abs=2.0)
+
+
+def test_the_user_shares_or_removes_the_process_noise(record, free):
+    shared = _filtered_with(record, process_noise={"x1": "push", "x2": "push"})
+    calm = _filtered_with(record, process_noise={"x2": 0})
     # one intensity for both states: a worse account of a push that enters one
     assert shared.process_noise_["x1"] == shared.process_noise_["x2"] > 0
     assert shared.filter_["nll"] > free.filter_["nll"] + 10

@@ -98,6 +98,7 @@ def pushed_cubic():
     return read_measurements(_fit(LINEAR, X).skeleton_, X, None)
 
 
+@pytest.mark.slow  # six filter fits (two skeletons, three folds): 9 s on a quiet machine
 def test_the_held_out_likelihood_confirms_a_real_effect(pushed_cubic):
     real = likelihood_check(PolyCCRegressor(equations=LINEAR), PolyCCRegressor(equations=CUBIC),
                             pushed_cubic, n_added=1, n_jobs=2)
