@@ -12,6 +12,7 @@ per step.
 from __future__ import annotations
 
 import contextlib
+import copy
 import math
 import warnings
 from collections.abc import Mapping, Sequence
@@ -151,6 +152,25 @@ class Windows:
         #: the fine signals of a window as lists of floats, for the float path
         self._floats: dict[tuple, list] = {}
         self.substeps = 1
+
+    #: the attributes that hold one entry per segment
+    PER_SEGMENT = ("rows", "times", "valid", "h", "steps", "successor", "segment_experiment",
+                   "initial")
+
+    def segments(self, keep: np.ndarray):
+        """A copy holding only the segments ``keep`` (indices, in order).
+
+        Each kept segment keeps its samples, its start and its inputs (read
+        again from the whole experiment); the segment that followed it in
+        the record no longer does (``successor`` still says whether one did).
+        """
+        keep = np.asarray(keep, dtype=int)
+        part = copy.copy(self)
+        for name in self.PER_SEGMENT:
+            setattr(part, name, getattr(self, name)[keep])
+        part.n_segments = len(keep)
+        part._fine, part._floats = {}, {}
+        return part
 
     @property
     def substeps(self) -> int:

@@ -26,7 +26,8 @@ from scipy.stats import f as f_law
 
 from ...skeleton.system import CompiledSystem
 from ..problem import Problem
-from .kalman import fit_filter, kalman_pass, likeliest_noises
+from .kalman import kalman_pass
+from .search import fit_filter, likeliest_noises
 from .stage import filter_plan, noisy_states, rounding_floor, smoothing_level
 
 __all__ = ["ProcessNoiseEvidence", "dependence", "ljung_box", "portmanteau",

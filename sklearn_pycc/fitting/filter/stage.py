@@ -27,11 +27,11 @@ from ..._utils.progress import Progress, duration
 from ...skeleton.nodes import Symbol
 from ..numbers import Numbers
 from ..problem import FitResult, Problem
-from .kalman import GRID_VARIANTS, NOISE_LOG_RANGE, fit_filter, likeliest_noises
 from .noises import NoiseLayout, check_measurement_noise, check_process_noise
+from .search import GRID_VARIANTS, NOISE_LOG_RANGE, fit_filter, likeliest_noises
 
 __all__ = ["WINDOW", "filter_plan", "filter_stage", "noisy_states", "rounding_floor",
-           "smoothing_level"]
+           "search_segments", "smoothing_level"]
 
 #: samples per filtered segment: long against the states' memory under the process noise
 WINDOW = 200
@@ -105,6 +105,33 @@ def filter_plan(problem: Problem, system, *, whole: bool):
     return plan
 
 
+#: a record of more samples than this, filtered in segments, is searched over a share of them
+SEARCH_SHARE_ABOVE = 150_000
+#: about how many samples that share holds
+SEARCH_SHARE = 50_000
+
+
+def search_segments(plan) -> np.ndarray | None:
+    """The segments a long record's search runs over, or None (the whole record).
+
+    A record filtered in segments (:data:`WINDOW` samples each) whose
+    segments hold over :data:`SEARCH_SHARE_ABOVE` samples is searched over
+    segments spread evenly through it, about :data:`SEARCH_SHARE` samples
+    in all: every experiment's first segment, and every k-th of the rest.
+    Its optimum is within a few of the whole record's standard errors of
+    the whole record's, which one Newton step on the whole record then
+    closes (:func:`~sklearn_pycc.fitting.filter.search.fit_filter`).
+    """
+    used = int(plan.own.sum())
+    if used <= SEARCH_SHARE_ABOVE or plan.n_segments < 2:
+        return None
+    every = max(round(used / SEARCH_SHARE), 2)
+    keep = set(experiment_starts(plan).tolist()) | set(range(0, plan.n_segments, every))
+    if 2 * len(keep) > plan.n_segments:  # hardly a share: the whole record is searched
+        return None
+    return np.array(sorted(keep))
+
+
 def experiment_starts(plan) -> np.ndarray:
     """The segments of ``plan`` that start an experiment (each one's first)."""
     return np.flatnonzero(np.r_[True, ~plan.successor[:-1]])
@@ -153,8 +180,12 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100,
     ``process_noise_std_`` and ``measurement_noise_std_``, ``covariance_`` (of the labelled
     numbers, from the likelihood's curvature; absent where it is not
     positive definite) and ``filter_`` (``nll``, ``iterations``,
-    ``converged``, ``window``, ``segments``, ``held``: the
-    curves kept as the start drew them). ``verbose`` shows the search's
+    ``converged``, ``window``, ``segments``, ``searched_segments``: those
+    the search ran over, ``held``: the curves kept as the start drew them).
+    On a long record (over :data:`SEARCH_SHARE_ABOVE` samples in segments)
+    the grid and the search run over an even share of the segments
+    (:func:`search_segments`), and the whole record then gives one Newton
+    step and the curvature. ``verbose`` shows the search's
     passes; a search that will take minutes says so at its start.
     """
     theta0 = np.clip(numbers.theta0, numbers.low, numbers.high)
@@ -168,16 +199,21 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100,
     began = time.perf_counter()
     floor = rounding_floor(problem, list(plan.measured))
     level = smoothing_level(problem, plan)
-    process0, measurement0, _ = likeliest_noises(plan, start, noisy, np.maximum(level, floor))
+    share = search_segments(plan)
+    searched = plan if share is None else plan.segments(share)
+    process0, measurement0, _ = likeliest_noises(searched, start, noisy,
+                                                 np.maximum(level, floor))
     d = len(theta0) + noisy.n_fitted + len(mi) - len(noisy.measurement_held)
     _say_how_long(time.perf_counter() - began, d, n_samples=int(plan.own.sum()),
+                  share=float(searched.own.sum()) / max(float(plan.own.sum()), 1.0),
                   verbose=verbose)
     with Progress("fit_mode='filter'", verbose).bar(None, "pass", "filter") as step:
-        theta, q, r, info = fit_filter(plan, numbers.system_for, theta0, process0,
+        theta, q, r, info = fit_filter(searched, numbers.system_for, theta0, process0,
                                        measurement0, noisy=noisy,
                                        bounds=(numbers.low, numbers.high),
                                        typical=numbers.typical, max_iterations=iterations,
-                                       step=step, measurement_floor=floor)
+                                       step=step, measurement_floor=floor,
+                                       whole=None if share is None else plan)
     states = list(plan.states)
     longest = max(float(e.t[-1] - e.t[0]) for e in problem.experiments)
     _warn_at_range_ends(states, q, noisy, list(plan.measured), r,
@@ -196,6 +232,7 @@ def filter_stage(problem: Problem, numbers: Numbers, *, iterations: int = 100,
         "filter_": {"nll": info["nll"], "iterations": info["iterations"],
                     "converged": info["converged"], "window": plan.window,
                     "segments": plan.n_segments,
+                    "searched_segments": searched.n_segments,
                     "held": list(numbers.held)},
     })
     covariance = numbers.covariance(info["covariance"])
@@ -210,15 +247,20 @@ TYPICAL_PASSES = 45
 LONG_FIT = 60.0
 
 
-def _say_how_long(grid_seconds: float, d: int, *, n_samples: int, verbose: int) -> None:
+def _say_how_long(grid_seconds: float, d: int, *, n_samples: int, share: float,
+                  verbose: int) -> None:
     """Warn, unless ``verbose``, where the search will take minutes.
 
     The grid of noises filtered :data:`GRID_VARIANTS` variants side by
-    side in ``grid_seconds``; each of the search's passes filters ``2 d +
-    1`` (a number's central differences), about :data:`TYPICAL_PASSES` of
-    them.
+    side in ``grid_seconds`` over a ``share`` of the record; each of the
+    search's passes filters ``2 d + 1`` (a number's central differences),
+    about :data:`TYPICAL_PASSES` of them, and where the share is not the
+    whole record, the whole record's curvature filters ``2 d^2 + 1`` more.
     """
-    expected = grid_seconds * (2 * d + 1) / GRID_VARIANTS * TYPICAL_PASSES
+    variant = grid_seconds / GRID_VARIANTS
+    expected = variant * (2 * d + 1) * TYPICAL_PASSES
+    if share < 1.0:
+        expected += variant / share * (2 * d * d + 1)
     if expected > LONG_FIT and not verbose:
         warnings.warn(f"the filter's fit of {n_samples:,} samples and {d} numbers will take "
                       f"about {duration(expected)} (one pass of the filter through the record "

@@ -106,6 +106,20 @@ class ShootingPlan(Windows):
             self.whitening = whitening_matrix([taps[s] for s in self.measured],
                                               self.segment_experiment[segment])
 
+    def segments(self, keep: np.ndarray) -> ShootingPlan:
+        """A copy holding only the segments ``keep``, their samples and targets.
+
+        The whitening (a filter over the whole record's residuals) is not
+        carried over: the copy has none.
+        """
+        part = super().segments(keep)
+        for name in ("own", "targets", "start_variance"):
+            value = getattr(self, name)
+            if value is not None:
+                setattr(part, name, value[np.asarray(keep, dtype=int)])
+        part.whitening = None
+        return part
+
     def columns(self) -> dict[str, np.ndarray]:
         """Every state (measured, smoothed or guessed), input and ``t`` on every row."""
         return {**self._starts, **self._inputs, TIME: self._times}
