@@ -179,7 +179,10 @@ class _Compiler:
             curve = self.functions[node.name]
             fn, c = self.compile(node.arg)
             if self.scalar:  # the float -> float fast path of ODE right-hand sides
-                fast = as_curve(curve).scalar
+                fast = as_curve(curve).float_path()
+                if isinstance(node.arg, Symbol):
+                    i = self.slots[node.arg.name]
+                    return (lambda env: fast(env[i])), None
                 return (lambda env: fast(fn(env))), None
             return (lambda env: curve(fn(env))), None
         if isinstance(node, BinOp):

@@ -39,6 +39,14 @@ class Curve:
         """The curve at one float: the fast path of ODE right-hand sides."""
         return float(self(x))
 
+    def float_path(self) -> Callable[[float], float]:
+        """A float -> float callable the compiled right-hand sides call (``scalar`` by default).
+
+        Asked once per compiled system; a kind may return a closure over
+        its tables, ready for the thousands of calls an integration makes.
+        """
+        return self.scalar
+
     def text(self, variable: str, precision: int = 6) -> str:
         """The curve written as a function of ``variable``."""
         return f"<{type(self).__name__}>"

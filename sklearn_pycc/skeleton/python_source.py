@@ -101,7 +101,7 @@ class ExpressionWriter:
             return f"{self.bind(scalar, 'F')}({inner})", None
         if isinstance(node, Unknown):
             inner, _ = self.write(node.arg)
-            fast = as_curve(self.functions[node.name]).scalar
+            fast = as_curve(self.functions[node.name]).float_path()
             return f"{self.bind(fast, 'F')}({inner})", None
         if isinstance(node, BinOp):
             return self._binop(node)

@@ -328,9 +328,13 @@ class CompiledSystem:
         """Return ``rhs(t, y)`` for a SciPy solver; inputs come from ``input_at(t)``.
 
         With ``list_states`` the state ``y`` is a list of floats (the
-        project's own integrators), otherwise a numpy array.
+        project's own integrators), otherwise a numpy array, read as a list
+        by the same function.
         """
-        to_list = list if list_states else np.ndarray.tolist
+        if not list_states:
+            on_lists = self.make_rhs(input_at, list_states=True)
+            return lambda t, y: on_lists(t, y.tolist())
+        to_list = list
         plan = self._plan_scalar
         outputs = self._output_slots
         pick = itemgetter(*outputs) if len(outputs) > 1 else (lambda env: (env[outputs[0]],))

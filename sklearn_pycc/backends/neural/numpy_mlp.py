@@ -384,6 +384,30 @@ class NumpyCurve(Curve):
         s = (x - nodes[k]) * inverse[k]
         return c0[k] + s * (c1[k] + s * (c2[k] + s * c3[k]))
 
+    def float_path(self):
+        """:meth:`scalar` as a closure over the table, for a compiled right-hand side.
+
+        Inside the domain, the table's piece read directly (no attribute
+        looked up per call); beyond it, or without a table, :meth:`scalar`.
+        """
+        table = self._table
+        if table is None:
+            return self.scalar
+        nodes, inverse, c0, c1, c2, c3 = table
+        lo, hi = self.domain
+        outside = self.scalar
+
+        def value(x: float) -> float:
+            if not lo <= x <= hi:
+                return outside(x)
+            k = bisect_right(nodes, x) - 1
+            if k < 0:
+                k = 0
+            s = (x - nodes[k]) * inverse[k]
+            return c0[k] + s * (c1[k] + s * (c2[k] + s * c3[k]))
+
+        return value
+
     def __repr__(self) -> str:
         sizes = [w.shape[0] for w, _ in self.layers[:-1]]
         return (f"NumpyCurve({self.name!r}, hidden={sizes}, activation={self.activation!r}, "
