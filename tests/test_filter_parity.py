@@ -179,8 +179,8 @@ def test_the_filters_settings_are_checked_naming_the_culprit(settings, match):
 
 def test_settings_only_the_filter_reads_are_said_to_be_unused_elsewhere():
     X = _record(200, 0.3, seed=8)
-    with pytest.warns(UserWarning, match=r"measurement_noise and initial_state are read by "
-                      r"the filter.*does not use them"):
+    with pytest.warns(UserWarning, match=r"measurement_noise is read by "
+                      r"the filter.*does not use it"):
         PolyCCRegressor(equations=FREE, fit_mode="simulation", measurement_noise={"x1": R},
                         initial_state={"x1": 1.0}).fit(X)
 

@@ -260,12 +260,15 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         every number given (in the equations, ``process_noise`` and here)
         :meth:`log_likelihood` evaluates that model without a fit.
     initial_state : dict or None, default=None
-        For ``fit_mode="filter"``: state -> where every experiment starts, a
-        number (known) or a pair ``(mean, variance)``. A state not given
-        starts at the record's first sample (an unmeasured one where the
-        output-error model simulates it) with the measured samples' mean
-        square as its variance. Output-error fits do not read it (they fit
-        each experiment's start) and say so.
+        State -> where every experiment starts, a number (known) or a pair
+        ``(mean, variance)``. The filter starts there with that variance;
+        output error (``fit_mode="simulation"``) holds the mean as every
+        experiment's start instead of fitting it (``initial_states_`` then
+        gives it). A state not given starts at the record's first sample (an
+        unmeasured one where the output-error model simulates it), for the
+        filter with the measured samples' mean square as its variance, and
+        output error fits it. The equation-error fit does not read it and
+        says so.
 
     Attributes
     ----------
@@ -637,7 +640,7 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
             facts = {**facts, **self._bootstrap(problem, result, n_bootstrap, backend)}
         self._store(problem, result, {**facts, "backend_": backend})
         progress.stage(f"fitted by {_MODE_WORDS[self.fit_mode_]}")
-        given = self._filter_settings_given()
+        given = self._filter_settings_given(self.fit_mode_)
         if self.fit_mode == "auto" and given and self.fit_mode_ != "filter":
             looked = facts["process_noise_evidence_"] is not None
             warnings.warn(
@@ -654,10 +657,15 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
             _warn_coarse_sampling(problem, self._system())
         return self
 
-    def _filter_settings_given(self) -> list[str]:
-        """The settings only the filter reads that this estimator was given."""
+    def _filter_settings_given(self, mode: str) -> list[str]:
+        """The filter's settings this estimator was given that ``mode`` does not read.
+
+        Output error reads ``initial_state`` (each experiment's start, held);
+        the noises only the filter reads.
+        """
+        read = ("initial_state",) if mode == "simulation" else ()
         return [name for name in ("process_noise", "measurement_noise", "initial_state")
-                if getattr(self, name, None)]
+                if getattr(self, name, None) and name not in read]
 
     def _check_filter_settings(self, skeleton: Skeleton) -> None:
         """Check the filter's settings against the skeleton; warn where the mode ignores them."""
@@ -665,11 +673,13 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
             check_process_noise(self.process_noise, skeleton.states, [])
         check_measurement_noise(getattr(self, "measurement_noise", None), skeleton.states)
         check_initial_state(getattr(self, "initial_state", None), skeleton.states)
-        given = self._filter_settings_given()
+        given = self._filter_settings_given(self.fit_mode)
         if given and self.fit_mode in ("equation", "simulation"):
+            also = (" (initial_state by output error too, fit_mode='simulation')"
+                    if "initial_state" in given else "")
             warnings.warn(f"{' and '.join(given)} {'is' if len(given) == 1 else 'are'} read by "
                           f"the filter (fit_mode='filter', or 'auto' where it recognises a "
-                          f"push); fit_mode={self.fit_mode!r} does not use "
+                          f"push){also}; fit_mode={self.fit_mode!r} does not use "
                           f"{'it' if len(given) == 1 else 'them'}", UserWarning, stacklevel=3)
 
     def _recognised(self, problem: Problem, result, facts: dict, backend: Backend):

@@ -94,6 +94,9 @@ def shoot_module(plan: ShootingPlan, problem, module, iterations: int,
     integrate = _Integrator(plan, problem, module, like)
     K = plan.n_segments
     start = torch.nn.Parameter(_tensor(plan.initial, like))
+    # a start the user gave is held: read from the plan, so no gradient moves it
+    held = torch.as_tensor(plan.held_start, device=like.device)
+    given = _tensor(plan.initial, like)
     targets = _tensor(plan.targets, like)
     own = torch.as_tensor(plan.own, device=like.device)
     scale = _tensor(plan.scale, like)
@@ -103,11 +106,12 @@ def shoot_module(plan: ShootingPlan, problem, module, iterations: int,
     n_terms = int(plan.own.sum()) * len(measured)
 
     def loss_parts():
-        states = integrate(start)
+        begin = torch.where(held, given, start)
+        states = integrate(begin)
         sim = states[:, :, measured]
         err = ((sim - targets) / scale[measured])[own]
         ends = states[torch.arange(K, device=like.device), steps]
-        defects = CONTINUITY_WEIGHT * (ends[links] - start[links + 1]) / scale
+        defects = CONTINUITY_WEIGHT * (ends[links] - begin[links + 1]) / scale
         return (err.pow(2).sum() + defects.pow(2).sum()) / n_terms, states, defects
 
     variables = [*module.parameters(), start]

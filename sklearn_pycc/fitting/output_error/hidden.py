@@ -362,7 +362,7 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     whole.windows.substeps = int(substeps)
     names, residuals, low, high = whole.unknowns(first.shape)
     p = len(names)
-    z0 = np.clip(np.r_[[float(params[a]) for a in names], first.ravel()], low, high)
+    z0 = np.clip(whole.packed([float(params[a]) for a in names], first), low, high)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         # each unknown bumped by a share of itself (diff_step), the same in any unit
@@ -376,14 +376,16 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     # a start beyond a fitted limit (x1(0) above a rim a5) simulates as one at it: say so
     fitted = problem.skeleton.compile(zero_curves(problem),
                                       {**problem.fixed_params, **dict(zip(names, z[:p]))})
-    z = np.r_[z[:p], within_limits(fitted, z[p:].reshape(first.shape)).ravel()]
+    z = whole.packed(z[:p], within_limits(fitted, whole.first_of(z[p:], first.shape)))
     error = residuals(z)
+    free = whole.free(first.shape)
     labels = names + [f"{s}(0)" if first.shape[0] == 1 else f"{s}(0) of experiment {e}"
-                      for e in range(first.shape[0]) for s in whole.states]
+                      for e in range(first.shape[0]) for q, s in enumerate(whole.states)
+                      if free[e, q]]
     # where the model escapes, the errors are held at a cap that no unknown moves
     escaped = bool(np.any(error == ESCAPED))
     unseen = [] if escaped else unseen_directions(solution.jac, z, labels, problem.hidden)
-    return (dict(zip(names, z[:p].tolist())), z[p:].reshape(first.shape),
+    return (dict(zip(names, z[:p].tolist())), whole.first_of(z[p:], first.shape),
             float(np.sqrt(np.mean(error ** 2))), unseen)
 
 
@@ -550,7 +552,7 @@ def whole_record_covariance(problem: Problem, params: Mapping[str, float], first
     whole.windows.substeps = int(substeps)
     names, residuals, low, high = whole.unknowns(first.shape)
     p = len(names)
-    z = np.r_[[float(params[a]) for a in names], np.asarray(first, dtype=float).ravel()]
+    z = whole.packed([float(params[a]) for a in names], first)
     steps = COVARIANCE_STEP * np.where(z != 0, np.abs(z), 1.0)
     # an unknown a step from its bound is held there (the fit could not move it across)
     held = [np.eye(z.size)[j] for j in range(z.size)

@@ -325,15 +325,14 @@ def whitened_polish(problem, result, noise: NoiseModel, steps: int = 4):
     p = len(names)
     whole, _, first = _whole_record(problem, result)
     bounds = problem.bounds
-    low = np.r_[[bounds.get(a, (-np.inf, np.inf))[0] for a in names], np.full(first.size,
-                                                                                -np.inf)]
-    high = np.r_[[bounds.get(a, (-np.inf, np.inf))[1] for a in names], np.full(first.size,
-                                                                                 np.inf)]
+    starts = int(whole.free(first.shape).sum())  # the starts the user gave are held
+    low = np.r_[[bounds.get(a, (-np.inf, np.inf))[0] for a in names], np.full(starts, -np.inf)]
+    high = np.r_[[bounds.get(a, (-np.inf, np.inf))[1] for a in names], np.full(starts, np.inf)]
 
     def errors(z: np.ndarray) -> np.ndarray:
         values = {**problem.fixed_params, **dict(zip(names, z[:p]))}
         return whole.errors(problem.skeleton.compile(result.functions, values),
-                            z[p:].reshape(first.shape))
+                            whole.first_of(z[p:], first.shape))
 
     windows = whole.windows
     segment = np.broadcast_to(np.arange(windows.n_segments)[:, None], windows.valid.shape)
@@ -350,7 +349,7 @@ def whitened_polish(problem, result, noise: NoiseModel, steps: int = 4):
             J[:, k] = (errors(bumped) - base) / step
         return W @ J
 
-    z = np.r_[[float(result.params[a]) for a in names], first.ravel()]
+    z = whole.packed([float(result.params[a]) for a in names], first)
     base = errors(z)
     if not np.all(np.isfinite(base)) or len(base) != W.shape[0]:
         return None
@@ -382,5 +381,5 @@ def whitened_polish(problem, result, noise: NoiseModel, steps: int = 4):
     if not np.all(np.isfinite(covariance)):
         return None
     params = dict(zip(names, z[:p].tolist()))
-    return params, z[p:].reshape(first.shape), pd.DataFrame(covariance, index=names,
-                                                            columns=names)
+    return params, whole.first_of(z[p:], first.shape), pd.DataFrame(covariance, index=names,
+                                                                     columns=names)

@@ -98,6 +98,14 @@ class ShootingPlan(Windows):
                                 axis=-1)
         #: each segment's start variance per state, for the filter (None: the states' spread)
         self.start_variance = None
+        #: the starts the user gave (``problem.initial_state``): every experiment's first
+        #: segment starts there, and output error holds them (``(K, n_states)``)
+        self.held_start = np.zeros(self.initial.shape, dtype=bool)
+        first = np.flatnonzero(np.r_[True, ~self.successor[:-1]])
+        for state, (mean, _) in getattr(problem, "initial_state", {}).items():
+            j = self.states.index(state)
+            self.initial[first, j] = mean
+            self.held_start[first, j] = True
         #: the filter that whitens the measurement residuals (``problem.whitening``), or None
         self.whitening = None
         taps = getattr(problem, "whitening", None)
@@ -113,7 +121,7 @@ class ShootingPlan(Windows):
         carried over: the copy has none.
         """
         part = super().segments(keep)
-        for name in ("own", "targets", "start_variance"):
+        for name in ("own", "targets", "start_variance", "held_start"):
             value = getattr(self, name)
             if value is not None:
                 setattr(part, name, value[np.asarray(keep, dtype=int)])
@@ -259,10 +267,13 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
     """
     p, K, n = len(theta0), plan.n_segments, len(plan.states)
     start0 = plan.initial.copy()
+    free = ~plan.held_start  # a start the user gave is held
     cache: dict = {}
 
     def unpack(z):
-        return z[:p], z[p:].reshape(K, n)
+        start = start0.copy()
+        start[free] = z[p:]
+        return z[:p], start
 
     def run(z):
         key = z.tobytes()
@@ -300,18 +311,19 @@ def fit_shooting(plan: ShootingPlan, system_for: Callable[[np.ndarray], Compiled
                                           for s, x0 in zip(systems[1:], starts[1:])]
         base = trajectories[0]
         sens = [(bumped - base) / step for bumped, step in zip(trajectories[1:], steps)]
-        return plan.jacobian(sens[:p], sens[p:])
+        J = plan.jacobian(sens[:p], sens[p:])
+        return J if free.all() else J[:, np.r_[np.arange(p), p + np.flatnonzero(free.ravel())]]
 
     # a window starts within the states' hard limits (a tank holds no more than its rim)
     low_s, high_s = plan.limits
     start0 = np.clip(start0, low_s, high_s)
     if not limit_starts:
         low_s, high_s = np.full(n, -np.inf), np.full(n, np.inf)
-    z0 = np.concatenate([np.asarray(theta0, dtype=float), start0.ravel()])
+    z0 = np.concatenate([np.asarray(theta0, dtype=float), start0[free]])
     if bounds is None:
         bounds = (np.full(p, -np.inf), np.full(p, np.inf))
-    z_bounds = (np.concatenate([bounds[0], np.tile(low_s, K)]),
-                np.concatenate([bounds[1], np.tile(high_s, K)]))
+    z_bounds = (np.concatenate([bounds[0], np.broadcast_to(low_s, (K, n))[free]]),
+                np.concatenate([bounds[1], np.broadcast_to(high_s, (K, n))[free]]))
     before_states, _ = run(z0)
     before = plan.output_nrmse(before_states)
     residuals0 = plan.residuals(before_states, start0)

@@ -115,13 +115,42 @@ class WholeRecord:
         self.n_rows, self.times = n, times
         self.drive = {name: problem.signals[name][rows] for name in self.inputs}
         self.drive["t"] = times[rows]
+        #: state index -> the start the user gave it (``problem.initial_state``): every
+        #: experiment starts there, and no fit moves it
+        self.held = {self.states.index(state): mean
+                     for state, (mean, _) in getattr(problem, "initial_state", {}).items()}
+
+    def given(self, first: np.ndarray) -> np.ndarray:
+        """``first`` (each experiment's initial state) with the starts the user gave (a copy)."""
+        first = np.array(first, dtype=float)
+        for q, mean in self.held.items():
+            first[..., q] = mean
+        return first
+
+    def free(self, first_shape: tuple[int, int]) -> np.ndarray:
+        """Which entries of each experiment's initial state a fit moves (not given)."""
+        free = np.ones(first_shape, dtype=bool)
+        free[:, list(self.held)] = False
+        return free
+
+    def packed(self, values, first: np.ndarray) -> np.ndarray:
+        """The unknowns of :meth:`unknowns`: ``values`` (the free parameters), the free starts."""
+        first = np.asarray(first, dtype=float)
+        return np.r_[np.asarray(values, dtype=float), first[self.free(first.shape)]]
+
+    def first_of(self, tail: np.ndarray, first_shape: tuple[int, int]) -> np.ndarray:
+        """Each experiment's initial state from the unknowns' free starts ``tail``."""
+        first = self.given(np.zeros(first_shape))
+        first[self.free(first_shape)] = tail
+        return first
 
     def errors(self, system, first: np.ndarray, skip: float = 0.0) -> np.ndarray:
         """Scaled errors of what was measured on every row (large where the model escapes).
 
-        ``skip`` leaves out that share of each experiment's first rows.
+        ``skip`` leaves out that share of each experiment's first rows. A
+        start the user gave stands for ``first``'s.
         """
-        first = within_limits(system, first)
+        first = within_limits(system, self.given(first))
         with np.errstate(all="ignore"):
             simulated, _ = self.windows.simulate(system, first)
             compared = simulated[:, :, self.index]
@@ -140,7 +169,7 @@ class WholeRecord:
 
         A row no experiment simulates is NaN.
         """
-        first = within_limits(system, first)
+        first = within_limits(system, self.given(first))
         with np.errstate(all="ignore"):
             simulated, _ = self.windows.simulate(system, first)
         windows = self.windows
@@ -159,9 +188,9 @@ class WholeRecord:
         """``(names, residuals, low, high)`` of a fit of the free parameters and initial states.
 
         ``residuals(z)`` are the scaled errors (:meth:`errors`) with ``z``
-        the free parameters then each experiment's initial state; ``low``
-        and ``high`` bound ``z`` (an experiment starts within the states'
-        hard limits).
+        the free parameters then each experiment's initial state but the
+        starts the user gave (:meth:`packed`); ``low`` and ``high`` bound
+        ``z`` (an experiment starts within the states' hard limits).
         """
         problem = self.problem
         names = list(problem.free_params)
@@ -171,14 +200,15 @@ class WholeRecord:
         def residuals(z: np.ndarray) -> np.ndarray:
             values = {**problem.fixed_params, **dict(zip(names, z[:p]))}
             return self.errors(problem.skeleton.compile(functions, values),
-                               z[p:].reshape(first_shape))
+                               self.first_of(z[p:], first_shape))
 
         bounds = problem.bounds
         low_s, high_s = state_bounds(problem.skeleton)
+        free = self.free(first_shape)
         low = np.r_[[bounds.get(a, (-np.inf, np.inf))[0] for a in names],
-                    np.tile(low_s, first_shape[0])]
+                    np.broadcast_to(low_s, first_shape)[free]]
         high = np.r_[[bounds.get(a, (-np.inf, np.inf))[1] for a in names],
-                     np.tile(high_s, first_shape[0])]
+                     np.broadcast_to(high_s, first_shape)[free]]
         return names, residuals, low, high
 
     def outputs_of(self, system, simulated: np.ndarray) -> np.ndarray:
@@ -198,7 +228,10 @@ class WholeRecord:
             point = {s: problem.smoothed[s][row] for s in self.states if s in problem.smoothed}
             point.update({name: problem.signals[name][row] for name in self.inputs})
             point["t"] = float(experiment.t[0])
-            point.update(equilibrium(system, list(problem.hidden), point))
+            given = {self.states[q]: mean for q, mean in self.held.items()}
+            point.update(given)
+            point.update(equilibrium(system, [s for s in problem.hidden if s not in given],
+                                     point))
             first[e] = [point[s] for s in self.states]
         return within_limits(system, np.clip(first, *state_bounds(problem.skeleton)))
 

@@ -50,7 +50,7 @@ class NoiseResampler:
         whole = WholeRecord(problem)
         whole.windows.substeps = int(substeps)
         names, residuals, _, _ = whole.unknowns(first.shape)
-        z = np.r_[[float(params[a]) for a in names], np.asarray(first, dtype=float).ravel()]
+        z = whole.packed([float(params[a]) for a in names], first)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             scaled = residuals(z)
