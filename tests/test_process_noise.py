@@ -120,7 +120,7 @@ def test_the_held_out_likelihood_does_not_confirm_a_spurious_effect():
 
 
 def test_the_loop_says_it_judged_a_pushed_record_by_the_likelihood():
-    X = _record(["cubic_stiffness"], 0.05, seed=1)
+    X = _record(["cubic_stiffness"], 0.05, seed=2, n=2000)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         loop = HypothesisLoop(PolyCCRegressor(equations=LINEAR), X).run(max_rounds=3)
