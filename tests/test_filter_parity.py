@@ -185,11 +185,19 @@ def test_settings_only_the_filter_reads_are_said_to_be_unused_elsewhere():
                         initial_state={"x1": 1.0}).fit(X)
 
 
-def test_a_missing_sample_is_refused_outside_the_filter_naming_it():
+def test_a_missing_sample_splits_the_experiment_outside_the_filter_and_says_so():
     X = _record(200, 0.3, seed=9)
+    whole = PolyCCRegressor(equations=FREE, fit_mode="simulation").fit(X)
     X.loc[50, "x2"] = np.nan
-    with pytest.raises(ValueError, match=r"'x2' contains NaN at row 50.*fit_mode='filter'"):
-        PolyCCRegressor(equations=FREE, fit_mode="simulation").fit(X)
+    with pytest.warns(UserWarning, match=r"x2 misses 1 sample\(s\) \(NaN\): "
+                      r"fit_mode='simulation' splits the record there into 2 experiments.*"
+                      r"fit_mode='filter' reads across"):
+        split = PolyCCRegressor(equations=FREE, fit_mode="simulation").fit(X)
+    for name, value in whole.params_.items():
+        assert split.params_[name] == pytest.approx(value, rel=0.05)
+    assert list(split.feature_names_in_) == list(X.columns)  # as the user gave them
+    course = split.simulate(X["t"], y0=[1.0, 1.0], inputs={"u": X["u"].to_numpy()})
+    assert np.isfinite(course["x1"]).all()
 
 
 def _filter_problem(X):

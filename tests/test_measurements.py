@@ -142,8 +142,8 @@ def _set(frame, column, row, value):
 @pytest.mark.parametrize("mutate, message", [
     (lambda f: _set(f, "t", 250, 0.0), r"at row 250 in experiment 1 t=0 goes back"),
     (lambda f: _set(f, "t", 51, f["t"].iloc[50]), r"at row 51 in experiment 0 t=.* repeats"),
-    (lambda f: f.assign(x1=np.where(np.arange(len(f)) == 310, np.nan, f["x1"])),
-     r"X column 'x1' contains NaN at row 310 \(experiment 1\)"),
+    (lambda f: f.assign(F_ext=np.where(np.arange(len(f)) == 310, np.nan, f["F_ext"])),
+     r"X column 'F_ext' contains NaN at row 310 \(experiment 1\)"),
 ])
 def test_bad_time_grids_name_the_experiment(mutate, message):
     frame = datasets.make_experiments(datasets.make_duffing, 2, n_samples=200, t_span=(0, 10))

@@ -567,8 +567,11 @@ def test_cuda_without_a_gpu_is_a_clear_error(small_stick_slip):
 def test_nan_in_the_data_names_column_and_row(small_stick_slip):
     frame, _ = small_stick_slip
     X = frame[X_COLUMNS].copy()
-    X.loc[X.index[17], "x2"] = np.nan
+    X.loc[X.index[17], "x2"] = np.inf
     with pytest.raises(ValueError, match=r"x2.*17|17.*x2"):
+        quick_model().fit(X, frame[Y_COLUMNS])
+    X.loc[X.index[17], "x2"] = np.nan  # a missing sample: the record is split there
+    with pytest.warns(UserWarning, match=r"x2 misses 1 sample.*splits the record there into 2"):
         quick_model().fit(X, frame[Y_COLUMNS])
     y = frame[Y_COLUMNS].copy()
     y.loc[y.index[4], "x2_dot"] = np.inf

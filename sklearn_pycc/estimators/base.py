@@ -14,7 +14,7 @@ import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context, clone
 from sklearn.metrics import r2_score
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 from .._utils.progress import Progress
 from .._utils.randomness import seeds
@@ -45,8 +45,8 @@ from ..measurements.differentiation import (
     Differentiator,
     resolve_differentiation,
 )
-from ..measurements.experiments import TIME
-from ..measurements.gaps import filled_across_gaps, missing_samples
+from ..measurements.experiments import TIME, TRAJECTORY
+from ..measurements.gaps import filled_across_gaps, missing_samples, split_at_gaps
 from ..measurements.measurement import Measurement, unwrap
 from ..measurements.reconstruct import kinematic_chains
 from ..measurements.record import MEASURED, STATIC, targets_in_y
@@ -360,7 +360,9 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
     through by ``fit_mode="filter"`` and its methods (:meth:`smooth`,
     :meth:`log_likelihood`, ...): the update uses the signals present. The
     output-error fit the filter starts from reads it on the straight line
-    between its neighbours. The other fit modes refuse it, naming the row.
+    between its neighbours. The other fit modes split the experiment there
+    (each stretch between gaps its own experiment, a sample alone between
+    two gaps left out) and say so.
     """
 
     equations = _EquationsParameter()
@@ -456,14 +458,16 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
         the delays does. ``filtering`` (default: ``fit_mode="filter"``)
         reads a measured state's missing samples as missing (the problem's
         ``missing``), across which the record's other readers see straight
-        lines; otherwise a missing sample is refused.
+        lines; otherwise each experiment is split at its missing samples.
         """
         backend = self._make_backend() if backend is None else backend
         skeleton = build_skeleton(self.__dict__.get("equations"), self.constraints)
+        given = None  # the record as given, where the split at its gaps changed its columns
         if self.fit_mode == "filter" if filtering is None else filtering:
             X, y, missing = _across_gaps(X, y, skeleton)
         else:
             missing = {}
+            X, y, given = _split_at_gaps(X, y, skeleton, self.fit_mode)
         if skeleton.delay_params:
             if delays is None:
                 delays = getattr(self, "delays_", None)
@@ -481,6 +485,8 @@ class CCRegressor(ReadingMixin, SimulationMixin, FilteringMixin, IntervalsMixin,
                                         if self.fit_mode in ("simulation", "filter") else None),
                              who=type(self).__name__, trim=False,
                              hidden_ok=self.fit_mode != "equation")
+        if given is not None:  # the model learns the columns the user gave
+            validate_data(self, given, reset=True, skip_check_array=True)
         _warn_crossed_limits(skeleton, record)
         # a held sensor noise of a state X does not measure: said now, not after the fit
         check_measurement_noise(getattr(self, "measurement_noise", None), skeleton.states,
@@ -1051,6 +1057,37 @@ def _across_gaps(X, y, skeleton: Skeleton):
     if not missing:
         return X, y, {}  # as given: a Measurement keeps its derivatives
     return filled_across_gaps(frame, missing), inner_y, missing
+
+
+def _split_at_gaps(X, y, skeleton: Skeleton, mode: str):
+    """``(X, y, given)``: ``X`` split into experiments at its measured states' missing samples.
+
+    Every fit mode but the filter splits an experiment where a measured
+    state misses a sample (:func:`~sklearn_pycc.measurements.gaps.split_at_gaps`)
+    and says so; ``given`` is the frame as given where the split added a
+    ``trajectory`` column to it (else None). A record without gaps comes
+    back as it was.
+    """
+    frame, inner_y, _ = unwrap(X, y)
+    missing = missing_samples(frame, skeleton.states)
+    if not missing:
+        return X, y, None
+    split = split_at_gaps(frame, inner_y, missing)
+    alone = (f", leaving out {split.alone} sample(s) with no neighbour between gaps"
+             if split.alone else "")
+    lengths = split.X[TRAJECTORY].value_counts().to_numpy()
+    short = (f"; each stretch's derivatives are estimated on its own, noisy on short ones "
+             f"(median {int(np.median(lengths))} samples here: see params_std_), where "
+             "fit_mode='simulation' reads the stretches by simulating them"
+             if mode == "equation" and len(lengths) else "")
+    warnings.warn(f"{', '.join(missing)} miss{'es' if len(missing) == 1 else ''} "
+                  f"{split.missing} sample(s) (NaN): fit_mode={mode!r} splits the record there "
+                  f"into {split.pieces} experiments{alone}{short}; fit_mode='filter' reads "
+                  "across missing samples", UserWarning, stacklevel=4)
+    if not split.pieces:
+        raise ValueError(f"X's column {next(iter(missing))!r} leaves no two neighbouring "
+                         "samples between its missing ones: nothing to fit")
+    return split.X, split.y, None if TRAJECTORY in frame.columns else frame
 
 
 def _measured_limits(skeleton, record) -> dict[str, float]:

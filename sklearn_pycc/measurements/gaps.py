@@ -5,12 +5,14 @@ A NaN in a state's column is a sample the sensor did not give. The filter
 through the others; what reads the record before it (the smoothing that
 starts each segment, the output-error start) reads a missing sample on the
 straight line between its neighbours in time, and the filter is told which
-samples those are (:func:`missing_samples`).
+samples those are (:func:`missing_samples`). The other fit modes split an
+experiment at its gaps (:func:`split_at_gaps`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -18,7 +20,7 @@ import pandas as pd
 from .columns import time_values
 from .experiments import TIME, TRAJECTORY
 
-__all__ = ["filled_across_gaps", "missing_samples"]
+__all__ = ["Split", "filled_across_gaps", "missing_samples", "split_at_gaps"]
 
 
 def missing_samples(X, states: Sequence[str]) -> dict[str, np.ndarray]:
@@ -71,3 +73,66 @@ def filled_across_gaps(X: pd.DataFrame, missing: dict[str, np.ndarray]) -> pd.Da
             values[lost] = np.interp(position[lost], position[have], values[have])
         X[state] = values
     return X
+
+
+@dataclass(frozen=True)
+class Split:
+    """A record split at its missing samples (:func:`split_at_gaps`).
+
+    Attributes
+    ----------
+    X, y
+        The rows kept (``y`` None where it was), each stretch between gaps
+        its own experiment (``trajectory``).
+    missing : int
+        Rows left out for a missing sample.
+    pieces : int
+        Experiments the record's experiments became.
+    alone : int
+        Rows left out because no neighbour was kept beside them (a sample
+        alone between two gaps tells no rate).
+    """
+
+    X: pd.DataFrame
+    y: object
+    missing: int
+    pieces: int
+    alone: int
+
+
+def split_at_gaps(X: pd.DataFrame, y, missing: dict[str, np.ndarray]) -> Split:
+    """``X`` (and ``y``) without the rows a state misses, each experiment split there.
+
+    Every stretch of rows between missing samples becomes its own
+    experiment: labelled by its position when ``X`` has no ``trajectory``,
+    else ``"<label>, part <k>"`` where its experiment was split. A stretch
+    of one row is left out too. ``t`` keeps its values, so a stretch's
+    times are the record's.
+    """
+    gone = np.any(np.column_stack(list(missing.values())), axis=1)
+    has_labels = TRAJECTORY in X.columns
+    labels = X[TRAJECTORY].to_numpy() if has_labels else np.zeros(len(X), dtype=int)
+    codes, uniques = pd.factorize(labels, sort=False)
+    piece = np.full(len(X), -1)
+    names: list = []
+    for k, label in enumerate(uniques):
+        rows = np.flatnonzero(codes == k)
+        lost = gone[rows]
+        stretch = np.cumsum(~lost & np.r_[True, lost[:-1]])  # a kept row after a gap starts one
+        parts = [rows[~lost & (stretch == j)] for j in np.unique(stretch[~lost])]
+        parts = [mine for mine in parts if len(mine) >= 2]
+        for j, mine in enumerate(parts):
+            piece[mine] = len(names)
+            if not has_labels:
+                names.append(len(names))
+            else:
+                names.append(f"{label}, part {j + 1}" if len(parts) > 1 else label)
+    keep = piece >= 0
+    out = X.iloc[keep].copy()
+    out[TRAJECTORY] = [names[p] for p in piece[keep]]
+    kept_y = None
+    if y is not None:
+        kept_y = y.iloc[keep] if isinstance(y, (pd.DataFrame, pd.Series)) else \
+            np.asarray(y)[keep]
+    return Split(out, kept_y, missing=int(gone.sum()), pieces=len(names),
+                 alone=int((~gone & ~keep).sum()))

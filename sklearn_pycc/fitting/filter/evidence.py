@@ -28,7 +28,13 @@ from ...skeleton.system import CompiledSystem
 from ..problem import Problem
 from .kalman import kalman_pass
 from .search import fit_filter, likeliest_noises
-from .stage import filter_plan, noisy_states, rounding_floor, smoothing_level
+from .stage import (
+    filter_plan,
+    noisy_states,
+    rounding_floor,
+    search_segments,
+    smoothing_level,
+)
 
 __all__ = ["ProcessNoiseEvidence", "dependence", "ljung_box", "portmanteau",
            "process_noise_evidence"]
@@ -120,8 +126,16 @@ def process_noise_evidence(problem: Problem, system: CompiledSystem) -> ProcessN
     Returns
     -------
     ProcessNoiseEvidence
+
+    Notes
+    -----
+    A record long enough for the filter's fit to search a share of its
+    segments (:func:`~sklearn_pycc.fitting.filter.stage.search_segments`)
+    is read over the same share.
     """
     plan = filter_plan(problem, system, whole=bool(problem.hidden))
+    share = search_segments(plan)  # a long record is read over a share of its segments
+    plan = plan if share is None else plan.segments(share)
     # the noises as the filter's fit would hold and bound them
     layout = noisy_states(problem, list(plan.measured))
     floor = rounding_floor(problem, list(plan.measured))
