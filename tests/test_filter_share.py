@@ -100,3 +100,20 @@ def test_the_share_holds_every_experiments_start_and_is_a_share(record, monkeypa
     # a short record is searched whole
     monkeypatch.setattr(stage, "SEARCH_SHARE_ABOVE", 10**9)
     assert stage.search_segments(plan) is None
+
+
+def test_auto_mode_recognises_the_push_on_a_share_as_on_the_whole(record, monkeypatch):
+    import sklearn_pycc.fitting.filter.evidence as evidence
+
+    seen = []
+    original = evidence.search_segments
+    monkeypatch.setattr(evidence, "search_segments",
+                        lambda plan: seen.append(original(plan)) or seen[-1])
+    monkeypatch.setattr(stage, "SEARCH_SHARE_ABOVE", 2_000)
+    monkeypatch.setattr(stage, "SEARCH_SHARE", 1_000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = PolyCCRegressor(equations=OSCILLATOR).fit(record)
+    assert seen and seen[0] is not None  # the evidence read a share
+    assert model.process_noise_evidence_.recognised and model.fit_mode_ == "filter"
+    assert model.filter_["searched_segments"] < model.filter_["segments"]
