@@ -249,3 +249,18 @@ def test_a_saved_model_carries_its_covariance_table_not_what_makes_it():
     pd.testing.assert_frame_equal(saved.covariance_, model.covariance_)
     assert model.covariance_ is model.covariance_  # worked out once
     assert saved.params_std_ == model.params_std_
+
+
+def test_standard_errors_an_output_error_fit_lacks_are_said_to_be_missing():
+    X = datasets.make_oscillator(hidden=[], n_samples=600, noise=40.0, noise_columns=["x1"],
+                                 random_state=0)[["t", "x1", "F_ext"]]
+    equations = ["x1_dot = x2", "x2_dot = F_ext - a1 x2 - a2 x1"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        simulated = PolyCCRegressor(equations=equations, fit_mode="simulation").fit(X)
+        by_equations = PolyCCRegressor(equations=equations, fit_mode="equation").fit(X)
+    with pytest.warns(UserWarning, match=r"params_std_ is NaN: .*n_bootstrap=100"):
+        assert all(np.isnan(v) for v in simulated.params_std_.values())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert all(np.isfinite(v) for v in by_equations.params_std_.values())

@@ -124,6 +124,9 @@ class IntervalsMixin:
                 out[name] = math.sqrt(max(float(cov.loc[name, name]), 0.0))
             else:  # pinned by the gauge: known exactly
                 out[name] = 0.0
+        if cov is None and out:  # NaN, said with what would give an estimate
+            warnings.warn(f"params_std_ is NaN: {self._no_uncertainty('parameters')}",
+                          UserWarning, stacklevel=2)
         return out
 
     def params_interval(self, level: float = 0.95) -> dict[str, tuple[float, float]]:
@@ -148,7 +151,9 @@ class IntervalsMixin:
         """
         members = self._members()
         z = _quantile(check_level(level), None if members is None else len(members))
-        std = self.params_std_
+        with warnings.catch_warnings():  # a missing estimate is refused below, in words
+            warnings.simplefilter("ignore", UserWarning)
+            std = self.params_std_
         if any(math.isnan(v) for v in std.values()):
             raise self._no_uncertainty("parameters")
         bounds = self.skeleton_.bounds
