@@ -365,9 +365,11 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     z0 = np.clip(whole.packed([float(params[a]) for a in names], first), low, high)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        # each unknown bumped by a share of itself (diff_step), the same in any unit
-        solution = least_squares(residuals, z0, bounds=(low, high), x_scale="jac",
-                                 diff_step=1.5e-8,
+        # each unknown bumped by a share of itself, the same in any unit; a start near 0 by
+        # a share of its state's size along the record (a share of 1e-19 moves nothing)
+        sizes = _state_sizes(whole, problem, params, first)
+        fun, jac = _bumped_by_shares(residuals, np.r_[np.zeros(p), whole.packed([], sizes)])
+        solution = least_squares(fun, z0, jac=jac, bounds=(low, high), x_scale="jac",
                                  max_nfev=(int(max_iterations) * (len(z0) + 1)
                                            if max_evaluations is None
                                            else int(max_evaluations)),
@@ -387,6 +389,52 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     unseen = [] if escaped else unseen_directions(solution.jac, z, labels, problem.hidden)
     return (dict(zip(names, z[:p].tolist())), whole.first_of(z[p:], first.shape),
             float(np.sqrt(np.mean(error ** 2))), unseen)
+
+
+def _state_sizes(whole: WholeRecord, problem: Problem, params: Mapping[str, float],
+                 first: np.ndarray) -> np.ndarray:
+    """Each state's RMS along the record simulated from ``first``, per experiment's start.
+
+    Shaped like ``first``; 0 where the simulation gives no finite value.
+    """
+    system = problem.skeleton.compile(zero_curves(problem), {**problem.fixed_params, **params})
+    try:
+        with np.errstate(all="ignore"):
+            course = whole.course(system, np.asarray(first, dtype=float))
+    except (ValueError, ArithmeticError):
+        return np.zeros(np.shape(first))
+    sizes = [float(np.sqrt(np.nanmean(np.asarray(course[s], dtype=float) ** 2)))
+             for s in whole.states]
+    sizes = np.where(np.isfinite(sizes), sizes, 0.0)
+    return np.broadcast_to(sizes, np.shape(first)).copy()
+
+
+def _bumped_by_shares(residuals, floors: np.ndarray):
+    """``(fun, jac)`` for least squares: forward differences, each unknown bumped by its share.
+
+    Unknown ``j`` is bumped by ``1.5e-8`` of ``max(|z_j|, floors[j])`` (of 1
+    where both are 0): a share of itself, the same in any unit, and for one
+    near 0 a share of its typical size. ``jac`` reuses the residuals
+    ``fun`` last computed at the same point.
+    """
+    last: dict = {}
+
+    def fun(z: np.ndarray) -> np.ndarray:
+        last["z"], last["r"] = z.copy(), residuals(z)
+        return last["r"]
+
+    def jac(z: np.ndarray) -> np.ndarray:
+        r0 = last["r"] if "z" in last and np.array_equal(last["z"], z) else residuals(z)
+        size = np.maximum(np.abs(z), floors)
+        steps = 1.5e-8 * np.where(size > 0, size, 1.0)
+        columns = []
+        for j, h in enumerate(steps):
+            bumped = z.copy()
+            bumped[j] += h
+            columns.append((residuals(bumped) - r0) / h)
+        return np.column_stack(columns)
+
+    return fun, jac
 
 
 #: shares of the record an unmeasured state below its known limit is moved, along its
