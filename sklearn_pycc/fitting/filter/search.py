@@ -129,7 +129,8 @@ def fit_filter(plan, system_for: Callable[[np.ndarray], CompiledSystem], theta0:
         rounding, ``step / sqrt(12)``; 0: none).
     whole : ShootingPlan, optional
         The whole record's plan, where ``plan`` holds an even share of its
-        segments (:func:`search_segments`): the search runs on ``plan``,
+        segments (:func:`~sklearn_pycc.fitting.filter.stage.search_segments`):
+        the search runs on ``plan``,
         then the whole record's likelihood gives its gradient and curvature
         at the result, takes one Newton step from there and is searched
         whole only where that step does not do what the curvature promised.

@@ -255,12 +255,12 @@ def _say_how_long(grid_seconds: float, d: int, *, n_samples: int, share: float,
     side in ``grid_seconds`` over a ``share`` of the record; each of the
     search's passes filters ``2 d + 1`` (a number's central differences),
     about :data:`TYPICAL_PASSES` of them, and where the share is not the
-    whole record, the whole record's curvature filters ``2 d^2 + 1`` more.
+    whole record, the whole record's Newton step filters ``2 d + 2`` more.
     """
     variant = grid_seconds / GRID_VARIANTS
     expected = variant * (2 * d + 1) * TYPICAL_PASSES
     if share < 1.0:
-        expected += variant / share * (2 * d * d + 1)
+        expected += variant / share * (2 * d + 2)
     if expected > LONG_FIT and not verbose:
         warnings.warn(f"the filter's fit of {n_samples:,} samples and {d} numbers will take "
                       f"about {duration(expected)} (one pass of the filter through the record "
