@@ -363,13 +363,15 @@ def single_shooting(problem: Problem, params: Mapping[str, float], first: np.nda
     names, residuals, low, high = whole.unknowns(first.shape)
     p = len(names)
     z0 = np.clip(whole.packed([float(params[a]) for a in names], first), low, high)
+    # least squares bumps each unknown by a share of itself (diff_step), the same in any
+    # unit, and one at 0 by a share of 1; a start a hair from 0 (a state guessed at rest,
+    # 1e-19) would be bumped by nothing the record can see, and stay there: it starts at 0
+    sizes = np.r_[np.zeros(p), whole.packed([], _state_sizes(whole, problem, params, first))]
+    z0 = np.where(np.abs(z0) < 1e-9 * sizes, 0.0, z0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        # each unknown bumped by a share of itself, the same in any unit; a start near 0 by
-        # a share of its state's size along the record (a share of 1e-19 moves nothing)
-        sizes = _state_sizes(whole, problem, params, first)
-        fun, jac = _bumped_by_shares(residuals, np.r_[np.zeros(p), whole.packed([], sizes)])
-        solution = least_squares(fun, z0, jac=jac, bounds=(low, high), x_scale="jac",
+        solution = least_squares(residuals, z0, bounds=(low, high), x_scale="jac",
+                                 diff_step=1.5e-8,
                                  max_nfev=(int(max_iterations) * (len(z0) + 1)
                                            if max_evaluations is None
                                            else int(max_evaluations)),
@@ -407,34 +409,6 @@ def _state_sizes(whole: WholeRecord, problem: Problem, params: Mapping[str, floa
              for s in whole.states]
     sizes = np.where(np.isfinite(sizes), sizes, 0.0)
     return np.broadcast_to(sizes, np.shape(first)).copy()
-
-
-def _bumped_by_shares(residuals, floors: np.ndarray):
-    """``(fun, jac)`` for least squares: forward differences, each unknown bumped by its share.
-
-    Unknown ``j`` is bumped by ``1.5e-8`` of ``max(|z_j|, floors[j])`` (of 1
-    where both are 0): a share of itself, the same in any unit, and for one
-    near 0 a share of its typical size. ``jac`` reuses the residuals
-    ``fun`` last computed at the same point.
-    """
-    last: dict = {}
-
-    def fun(z: np.ndarray) -> np.ndarray:
-        last["z"], last["r"] = z.copy(), residuals(z)
-        return last["r"]
-
-    def jac(z: np.ndarray) -> np.ndarray:
-        r0 = last["r"] if "z" in last and np.array_equal(last["z"], z) else residuals(z)
-        size = np.maximum(np.abs(z), floors)
-        steps = 1.5e-8 * np.where(size > 0, size, 1.0)
-        columns = []
-        for j, h in enumerate(steps):
-            bumped = z.copy()
-            bumped[j] += h
-            columns.append((residuals(bumped) - r0) / h)
-        return np.column_stack(columns)
-
-    return fun, jac
 
 
 #: shares of the record an unmeasured state below its known limit is moved, along its
