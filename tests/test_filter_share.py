@@ -91,7 +91,7 @@ def test_the_share_holds_every_experiments_start_and_is_a_share(record, monkeypa
     plan = stage.filter_plan(problem, problem.skeleton.compile({}, {"a1": 0.1, "a2": 1.0}),
                              whole=False)
     share = stage.search_segments(plan)
-    assert set(stage.experiment_starts(plan)) <= set(share)
+    assert set(plan.first_segments()) <= set(share)
     assert 2 * len(share) <= plan.n_segments
     part = plan.segments(share)
     np.testing.assert_array_equal(part.targets, plan.targets[share])

@@ -1073,6 +1073,9 @@ def _split_at_gaps(X, y, skeleton: Skeleton, mode: str):
     if not missing:
         return X, y, None
     split = split_at_gaps(frame, inner_y, missing)
+    if not split.pieces:
+        raise ValueError(f"X's column {next(iter(missing))!r} leaves no two neighbouring "
+                         "samples between its missing ones: nothing to fit")
     alone = (f", leaving out {split.alone} sample(s) with no neighbour between gaps"
              if split.alone else "")
     lengths = split.X[TRAJECTORY].value_counts().to_numpy()
@@ -1084,9 +1087,6 @@ def _split_at_gaps(X, y, skeleton: Skeleton, mode: str):
                   f"{split.missing} sample(s) (NaN): fit_mode={mode!r} splits the record there "
                   f"into {split.pieces} experiments{alone}{short}; fit_mode='filter' reads "
                   "across missing samples", UserWarning, stacklevel=4)
-    if not split.pieces:
-        raise ValueError(f"X's column {next(iter(missing))!r} leaves no two neighbouring "
-                         "samples between its missing ones: nothing to fit")
     return split.X, split.y, None if TRAJECTORY in frame.columns else frame
 
 

@@ -157,6 +157,10 @@ class Windows:
     PER_SEGMENT = ("rows", "times", "valid", "h", "steps", "successor", "segment_experiment",
                    "initial")
 
+    def first_segments(self) -> np.ndarray:
+        """The segments that start an experiment (each experiment's first)."""
+        return np.flatnonzero(np.r_[True, ~self.successor[:-1]])
+
     def segments(self, keep: np.ndarray):
         """A copy holding only the segments ``keep`` (indices, in order).
 

@@ -86,22 +86,21 @@ def filter_plan(problem: Problem, system, *, whole: bool):
         if state in problem.missing:
             plan.targets[..., j][problem.missing[state][plan.rows]] = np.nan
     # each experiment starts at its first sample as measured (not as smoothed) with the
-    # spread of the measured samples (their mean square), or where the user said
-    first = experiment_starts(plan)
+    # spread of the measured samples (their mean square), or where the user said (the plan
+    # holds the mean: ShootingPlan.held_start)
+    first = plan.first_segments()
     plan.start_variance = np.tile(np.asarray(plan.scale, dtype=float) ** 2,
                                   (plan.n_segments, 1))
     for j, state in zip(plan.measured_index, plan.measured):
         values = problem.measured[state]
-        plan.initial[first, j] = values[plan.rows[first, 0]]
+        if not plan.held_start[first[0], j]:
+            plan.initial[first, j] = values[plan.rows[first, 0]]
         seen = values[~problem.missing[state]] if state in problem.missing else values
         spread = float(np.mean(seen**2))
         if spread > 0:  # a state at 0 throughout keeps a unit spread (the plan's scale)
             plan.start_variance[first, j] = spread
-    if problem.initial_state:
-        for state, (mean, variance) in problem.initial_state.items():
-            j = plan.states.index(state)
-            plan.initial[first, j] = mean
-            plan.start_variance[first, j] = variance
+    for state, (_, variance) in problem.initial_state.items():
+        plan.start_variance[first, plan.states.index(state)] = variance
     return plan
 
 
@@ -126,15 +125,10 @@ def search_segments(plan) -> np.ndarray | None:
     if used <= SEARCH_SHARE_ABOVE or plan.n_segments < 2:
         return None
     every = max(round(used / SEARCH_SHARE), 2)
-    keep = set(experiment_starts(plan).tolist()) | set(range(0, plan.n_segments, every))
+    keep = set(plan.first_segments().tolist()) | set(range(0, plan.n_segments, every))
     if 2 * len(keep) > plan.n_segments:  # hardly a share: the whole record is searched
         return None
     return np.array(sorted(keep))
-
-
-def experiment_starts(plan) -> np.ndarray:
-    """The segments of ``plan`` that start an experiment (each one's first)."""
-    return np.flatnonzero(np.r_[True, ~plan.successor[:-1]])
 
 
 def rounding_floor(problem: Problem, measured: list[str]) -> np.ndarray:
@@ -306,7 +300,7 @@ def simulation_error(problem: Problem, plan, system) -> float:
     from ..output_error.whole_record import WholeRecord
 
     whole = WholeRecord(problem)
-    first = np.asarray(plan.initial, dtype=float)[experiment_starts(plan)]
+    first = np.asarray(plan.initial, dtype=float)[plan.first_segments()]
     whole.choose_substeps(system, first)
     errors = whole.errors(system, first).reshape(-1, len(whole.index) + len(whole.outputs))
     rows = whole.windows.rows[whole.windows.valid]

@@ -101,7 +101,7 @@ class ShootingPlan(Windows):
         #: the starts the user gave (``problem.initial_state``): every experiment's first
         #: segment starts there, and output error holds them (``(K, n_states)``)
         self.held_start = np.zeros(self.initial.shape, dtype=bool)
-        first = np.flatnonzero(np.r_[True, ~self.successor[:-1]])
+        first = self.first_segments()
         for state, (mean, _) in getattr(problem, "initial_state", {}).items():
             j = self.states.index(state)
             self.initial[first, j] = mean
